@@ -1,0 +1,185 @@
+"""Behavioral finite state machine (PedVR §4.3, as in Menge).
+
+The BFSM maps (time, simulator state) to a state id and a goal per agent:
+``B_i : t × S → ID × R²``. States come from the scene; each names a goal
+selector (:mod:`pedvr.behavior.goals`) and transitions out of it:
+
+* ``arrival``: the agent is within the state's ``arrive_dist`` of its goal
+  (or, in a ``sequence`` state, has walked its whole goal sequence);
+* ``timer``: ``after`` seconds (drawn uniformly from ``[lo, hi]`` on entry)
+  have passed since entering the state;
+* ``probability``: a Poisson event with ``rate`` per second, tested at each
+  decision tick.
+
+Transitions are tested in the order the scene lists them; the first that
+fires wins. With several targets, the next state is drawn by ``weights``.
+Entering a ``final`` state marks the agent for removal (it has left the
+scene; SteerSuite agents leave at their last goal).
+
+Event checks are vectorised over agents; only agents whose transition fires
+run Python. All draws use the simulation's one rng, in row order, so a run
+is reproducible.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from pedvr.behavior.goals import GoalContext, Walkable, selectors
+from pedvr.scene.config import BehaviorConfig, SequenceGoal, StateConfig
+
+NO_STATE = -1
+
+
+@dataclass
+class BehaviorState:
+    """Per-row BFSM state; rows align with :class:`pedvr.crowd.state.CrowdState`.
+
+    ``state`` is -1 for the user row. ``goal`` is NaN where there is no goal.
+    """
+
+    state: np.ndarray  # (N,) int32 state id, index into BFSM.names
+    entered_at: np.ndarray  # (N,) float64 s
+    timer_end: np.ndarray  # (N,) float64 s, +inf when the state has no timer
+    goal: np.ndarray  # (N, 2) float64 m, NaN for none
+    speed_scale: np.ndarray  # (N,) float64
+    seq_index: np.ndarray  # (N,) int64 position in the goal sequence
+    seq_until: np.ndarray  # (N,) float64 s: an idle/flow sequence entry ends then
+    arrivals: np.ndarray  # (N,) int64 goals reached so far
+
+    @classmethod
+    def rows(cls, n: int) -> BehaviorState:
+        return cls(
+            state=np.full(n, NO_STATE, np.int32),
+            entered_at=np.zeros(n),
+            timer_end=np.full(n, np.inf),
+            goal=np.full((n, 2), np.nan),
+            speed_scale=np.ones(n),
+            seq_index=np.zeros(n, np.int64),
+            seq_until=np.full(n, np.inf),
+            arrivals=np.zeros(n, np.int64),
+        )
+
+    def append(self, other: BehaviorState) -> None:
+        for f in fields(self):
+            setattr(self, f.name, np.concatenate([getattr(self, f.name), getattr(other, f.name)]))
+
+    def keep(self, mask: np.ndarray) -> None:
+        for f in fields(self):
+            setattr(self, f.name, np.ascontiguousarray(getattr(self, f.name)[mask]))
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What a decision tick changed: rows whose goal changed, rows to remove."""
+
+    goal_changed: np.ndarray  # (N,) bool
+    leaving: np.ndarray  # (N,) bool
+    arrived: int  # goals reached in this tick
+
+
+class BFSM:
+    """The state machine of one scene. Holds no per-agent data itself."""
+
+    def __init__(self, config: BehaviorConfig, walkable: Walkable) -> None:
+        self.config = config
+        self.walkable = walkable
+        self.names: tuple[str, ...] = tuple(config.states)
+        self.ids = {n: i for i, n in enumerate(self.names)}
+        self._states: tuple[StateConfig, ...] = tuple(config.states[n] for n in self.names)
+        self._arrive = np.array([s.arrive_dist for s in self._states])
+        self._has_prob = np.array([any(tr.on == "probability" for tr in s.transitions)
+                                   for s in self._states], np.bool_)
+        # A state without a goal "arrives" at once: only worth a look if it listens for arrival.
+        self._idle_arrival = np.array([s.goal is None and any(tr.on == "arrival" for tr in s.transitions)
+                                       for s in self._states], np.bool_)
+
+    def enter(self, b: BehaviorState, row: int, state_name: str, *, t: float, pos: np.ndarray,
+              rng: np.random.Generator, sequence: tuple[SequenceGoal, ...]) -> bool:
+        """Put ``row`` into a state: draw its timer and goal. Returns True if final."""
+        sid = self.ids[state_name]
+        s = self._states[sid]
+        b.state[row] = sid
+        b.entered_at[row] = t
+        b.speed_scale[row] = s.speed_scale
+        timers = [tr for tr in s.transitions if tr.on == "timer"]
+        if timers:
+            lo, hi = timers[0].after
+            b.timer_end[row] = t + (lo if hi <= lo else float(rng.uniform(lo, hi)))
+        else:
+            b.timer_end[row] = np.inf
+        if s.goal is not None and s.goal.kind == "sequence":
+            b.seq_index[row] = 0
+        self._select_goal(b, row, s, t=t, pos=pos, rng=rng, sequence=sequence)
+        return s.final
+
+    def _select_goal(self, b: BehaviorState, row: int, s: StateConfig, *, t: float, pos: np.ndarray,
+                     rng: np.random.Generator, sequence: tuple[SequenceGoal, ...]) -> None:
+        b.seq_until[row] = np.inf
+        if s.goal is None:
+            b.goal[row] = np.nan
+            return
+        cur = None if np.isnan(b.goal[row, 0]) else (float(b.goal[row, 0]), float(b.goal[row, 1]))
+        ctx = GoalContext(rng=rng, pos=(float(pos[0]), float(pos[1])), walkable=self.walkable,
+                          goal_sets=self.config.goal_sets, current_goal=cur, sequence=sequence,
+                          sequence_index=int(b.seq_index[row]))
+        g = selectors[s.goal.kind](s.goal.params, ctx)
+        b.goal[row] = np.nan if g is None else g
+        if s.goal.kind == "sequence" and b.seq_index[row] < len(sequence):
+            entry = sequence[int(b.seq_index[row])]
+            if entry.kind in ("idle", "flow", "flee") and math.isfinite(entry.duration) \
+                    and entry.duration > 0:
+                b.seq_until[row] = t + entry.duration
+            if entry.kind == "seek":
+                b.speed_scale[row] = s.speed_scale
+
+    def decide(self, b: BehaviorState, *, t: float, dt: float, pos: np.ndarray,
+               rng: np.random.Generator, sequences: list[tuple[SequenceGoal, ...]]) -> Decision:
+        """One decision tick at time ``t`` (``dt`` since the last tick)."""
+        n = b.state.shape[0]
+        goal_changed = np.zeros(n, np.bool_)
+        leaving = np.zeros(n, np.bool_)
+        active = b.state >= 0
+        if not active.any():
+            return Decision(goal_changed, leaving, 0)
+        sid = np.where(active, b.state, 0)
+        has_goal = ~np.isnan(b.goal[:, 0])
+        dist = np.where(has_goal, np.linalg.norm(np.nan_to_num(b.goal) - pos, axis=1), 0.0)
+        at_goal = active & has_goal & (dist < self._arrive[sid])
+        # An idle/flow/flee sequence entry ends by time instead of distance.
+        at_goal |= active & (t >= b.seq_until)
+        timer = active & (t >= b.timer_end)
+        candidates = np.flatnonzero(
+            at_goal | timer | (active & ~has_goal & self._idle_arrival[sid]) | (active & self._has_prob[sid]))
+        arrived = 0
+        for row in candidates:
+            s = self._states[sid[row]]
+            seq = sequences[row]
+            if at_goal[row]:
+                arrived += int(has_goal[row])
+                b.arrivals[row] += int(has_goal[row])
+                if s.goal is not None and s.goal.kind == "sequence" and b.seq_index[row] + 1 < len(seq):
+                    b.seq_index[row] += 1
+                    self._select_goal(b, row, s, t=t, pos=pos[row], rng=rng, sequence=seq)
+                    goal_changed[row] = True
+                    continue
+            for tr in s.transitions:
+                fire = (
+                    (tr.on == "arrival" and (at_goal[row] or (not has_goal[row] and s.goal is None)))
+                    or (tr.on == "timer" and timer[row])
+                    or (tr.on == "probability" and rng.random() < 1.0 - math.exp(-tr.rate * dt))
+                )
+                if not fire:
+                    continue
+                if len(tr.to) == 1:
+                    nxt = tr.to[0]
+                else:
+                    w = np.asarray(tr.weights or [1.0] * len(tr.to))
+                    nxt = tr.to[int(rng.choice(len(tr.to), p=w / w.sum()))]
+                leaving[row] = self.enter(b, row, nxt, t=t, pos=pos[row], rng=rng, sequence=seq)
+                goal_changed[row] = True
+                break
+        return Decision(goal_changed, leaving, arrived)

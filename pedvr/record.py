@@ -1,0 +1,156 @@
+"""The ``record`` phase: trajectories and the run's metrics.
+
+The recording keeps, per step, every agent's and the user's position,
+velocity and heading by stable id; it is saved as one ``.npz`` with the seed
+and the scene's content hash. Metrics are accumulated as the run goes, so a
+run can report them without keeping the trajectory.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from pedvr.crowd.state import CrowdState
+
+OVERLAP_TOLERANCE = 0.01  # m: the quality bar (DESIGN.md)
+
+
+def point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distances (N, M) from points ``p`` (N,2) to segments ``a``–``b`` (M,2)."""
+    ab = b - a
+    denom = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18)
+    ap = p[:, None, :] - a[None, :, :]
+    s = np.clip(np.einsum("nmj,mj->nm", ap, ab) / denom, 0.0, 1.0)
+    closest = a[None] + s[..., None] * ab[None]
+    return np.linalg.norm(p[:, None, :] - closest, axis=2)
+
+
+@dataclass
+class Metrics:
+    """Running metrics of one run; :meth:`summary` gives the JSON keys."""
+
+    seg_a: np.ndarray
+    seg_b: np.ndarray
+    inside: object  # callable: (N,2) -> (N,) bool, True where a point is inside an obstacle
+    steps: int = 0
+    agent_ids: set[int] = field(default_factory=set)
+    max_overlap: float = 0.0
+    overlap_pairs: set[tuple[int, int]] = field(default_factory=set)
+    min_user_distance: float = float("inf")
+    speed_sum: float = 0.0
+    speed_count: int = 0
+    max_accel: float = 0.0
+    max_turn_rate: float = 0.0
+    arrivals: int = 0
+    step_ms: list[float] = field(default_factory=list)
+    phase_ms: dict[str, float] = field(default_factory=dict)
+
+    def observe(self, crowd: CrowdState, *, prev_vel: np.ndarray, prev_heading: np.ndarray,
+                dt: float) -> None:
+        """Account one committed step (``prev_*`` are the rows' values before it)."""
+        self.steps += 1
+        virt = ~crowd.is_user
+        self.agent_ids.update(int(i) for i in crowd.ids[virt])
+        if virt.any():
+            speed = np.linalg.norm(crowd.vel[virt], axis=1)
+            self.speed_sum += float(speed.sum())
+            self.speed_count += int(speed.size)
+            acc = np.linalg.norm(crowd.vel[virt] - prev_vel[virt], axis=1) / dt
+            self.max_accel = max(self.max_accel, float(acc.max()))
+            dh = np.abs((crowd.heading[virt] - prev_heading[virt] + np.pi) % (2 * np.pi) - np.pi) / dt
+            self.max_turn_rate = max(self.max_turn_rate, float(dh.max()))
+        self._overlaps(crowd)
+
+    def _overlaps(self, crowd: CrowdState) -> None:
+        n = len(crowd)
+        if n == 0:
+            return
+        pos, rad = crowd.pos, crowd.radius
+        if n > 1:
+            pairs = cKDTree(pos).query_pairs(r=2.0 * float(rad.max()), output_type="ndarray")
+            if pairs.size:
+                i, j = pairs[:, 0], pairs[:, 1]
+                d = np.linalg.norm(pos[i] - pos[j], axis=1)
+                ov = rad[i] + rad[j] - d
+                self.max_overlap = max(self.max_overlap, float(ov.max()))
+                for k in np.flatnonzero(ov > OVERLAP_TOLERANCE):
+                    a, b = int(crowd.ids[i[k]]), int(crowd.ids[j[k]])
+                    self.overlap_pairs.add((min(a, b), max(a, b)))
+                user = np.flatnonzero(crowd.is_user)
+                if user.size:
+                    u = user[0]
+                    others = np.flatnonzero(~crowd.is_user)
+                    if others.size:
+                        du = np.linalg.norm(pos[others] - pos[u], axis=1)
+                        self.min_user_distance = min(self.min_user_distance, float(du.min()))
+        if self.seg_a.shape[0]:
+            d = point_segment_distance(pos, self.seg_a, self.seg_b).min(axis=1)
+            inside = self.inside(pos)  # type: ignore[operator]
+            ov = np.where(inside, rad + d, rad - d)
+            ov = np.where(crowd.is_user, -np.inf, ov)  # the user is not steered, only measured
+            self.max_overlap = max(self.max_overlap, float(ov.max()))
+            for k in np.flatnonzero(ov > OVERLAP_TOLERANCE):
+                self.overlap_pairs.add((int(crowd.ids[k]), -1))
+
+    def summary(self) -> dict[str, object]:
+        ms = np.asarray(self.step_ms) if self.step_ms else np.zeros(1)
+        return {
+            "steps": self.steps,
+            "agents": len(self.agent_ids),
+            "max_overlap_m": round(max(self.max_overlap, 0.0), 6),
+            "overlaps_over_1cm": len(self.overlap_pairs),
+            "min_user_distance_m": None if not np.isfinite(self.min_user_distance)
+            else round(self.min_user_distance, 6),
+            "arrivals": self.arrivals,
+            "mean_speed_mps": round(self.speed_sum / max(self.speed_count, 1), 6),
+            "max_accel_mps2": round(self.max_accel, 6),
+            "max_turn_rate_radps": round(self.max_turn_rate, 6),
+            "step_ms_p50": round(float(np.percentile(ms, 50)), 4),
+            "step_ms_p95": round(float(np.percentile(ms, 95)), 4),
+            "phase_ms_mean": {k: round(v / max(self.steps, 1), 5) for k, v in self.phase_ms.items()},
+        }
+
+
+@dataclass
+class Recording:
+    """Per-step rows by id, assembled into dense arrays when saved."""
+
+    times: list[float] = field(default_factory=list)
+    frames: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(
+        default_factory=list)
+
+    def add(self, t: float, crowd: CrowdState) -> None:
+        self.times.append(t)
+        self.frames.append((crowd.ids.copy(), crowd.pos.copy(), crowd.vel.copy(),
+                            crowd.heading.copy(), crowd.is_user.copy()))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """``t (S,)``, ``ids (A,)``, ``is_user (A,)``, ``pos/vel (S,A,2)``, ``heading (S,A)``.
+
+        Agents absent at a step (not yet spawned, or gone) are NaN there.
+        """
+        ids = np.unique(np.concatenate([f[0] for f in self.frames])) if self.frames else np.zeros(0, np.int64)
+        col = {int(i): k for k, i in enumerate(ids)}
+        s, a = len(self.frames), ids.shape[0]
+        pos = np.full((s, a, 2), np.nan)
+        vel = np.full((s, a, 2), np.nan)
+        heading = np.full((s, a), np.nan)
+        is_user = np.zeros(a, np.bool_)
+        for k, (fid, p, v, h, u) in enumerate(self.frames):
+            cols = np.fromiter((col[int(i)] for i in fid), np.int64, fid.shape[0])
+            pos[k, cols] = p
+            vel[k, cols] = v
+            heading[k, cols] = h
+            is_user[cols] |= u
+        return {"t": np.asarray(self.times), "ids": ids, "is_user": is_user, "pos": pos, "vel": vel,
+                "heading": heading}
+
+    def save(self, path: str | Path, meta: dict[str, object]) -> None:
+        arrays = self.arrays()
+        with open(path, "wb") as fh:
+            np.savez_compressed(fh, meta=np.array(json.dumps(meta, sort_keys=True)), **arrays)

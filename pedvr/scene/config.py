@@ -1,0 +1,229 @@
+"""Frozen, validated scene configuration.
+
+A scene file (TOML, or a SteerSuite XML case) is loaded into these types by
+:mod:`pedvr.scene.loader` or :mod:`pedvr.scene.steersuite`; everything below
+them (world, crowd, behavior, sim) reads only these types, never the file.
+
+Units are SI (metres, seconds, radians). The ground plane is 2D ``(x, y)``;
+in 3D (Y up) a ground point ``(x, y)`` sits at ``(x, 0, y)``, which is also
+SteerSuite's x–z plane. Headings are measured counter-clockwise from +x.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+Vec2 = tuple[float, float]
+
+CONDITIONS = ("decoupled", "pedvr", "pedvr+g")
+Condition = Literal["decoupled", "pedvr", "pedvr+g"]
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A static obstacle: a simple polygon, vertices counter-clockwise.
+
+    ``kind`` says what it is for the renderer (``wall``, ``box``, ``table``,
+    ``booth``, ``shop``, ``pillar``, ``polygon``); the simulation treats all
+    kinds alike. ``height`` is only for drawing and occlusion in 3D.
+    """
+
+    vertices: tuple[Vec2, ...]
+    kind: str = "polygon"
+    height: float = 1.0
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """The static world: a rectangular walkable area and obstacles inside it.
+
+    ``bounds`` is ``((xmin, ymin), (xmax, ymax))``; its border acts as a wall.
+    """
+
+    bounds: tuple[Vec2, Vec2]
+    obstacles: tuple[Obstacle, ...] = ()
+
+
+@dataclass(frozen=True)
+class MotionLimits:
+    """What a walking body can do, as used by coupled steering (PedVR §4.1).
+
+    The turn-rate limit falls linearly with speed, from ``turn_rate_standing``
+    at rest to ``turn_rate_walking`` at ``pref_speed`` and beyond: people
+    pivot on the spot quickly but turn slowly at a walk.
+    """
+
+    max_accel: float = 1.5  # m/s^2, speeding up
+    max_decel: float = 2.5  # m/s^2, slowing down
+    turn_rate_standing: float = 3.0  # rad/s
+    turn_rate_walking: float = 1.6  # rad/s
+    max_backward_speed: float = 0.5  # m/s, stepping back
+    max_sideways_speed: float = 0.6  # m/s, side-stepping
+
+
+@dataclass(frozen=True)
+class AgentProfile:
+    """Per-agent physical and steering parameters (PedVR §3.1: the disc)."""
+
+    name: str
+    radius: float = 0.25
+    pref_speed: float = 1.3
+    max_speed: float = 1.6
+    limits: MotionLimits = field(default_factory=MotionLimits)
+
+
+@dataclass(frozen=True)
+class SteeringParams:
+    """ORCA parameters shared by every agent (van den Berg et al. 2011)."""
+
+    neighbor_dist: float = 5.0
+    max_neighbors: int = 10
+    time_horizon: float = 2.0
+    time_horizon_obst: float = 1.0
+    user_responsibility: float = 1.0  # share ρ a virtual agent takes toward the user
+
+
+@dataclass(frozen=True)
+class GoalSelector:
+    """How a BFSM state picks a goal (PedVR §4.3; Menge's goal selectors).
+
+    ``kind`` names a registered selector (see :mod:`pedvr.behavior.goals`);
+    ``params`` are its validated parameters.
+    """
+
+    kind: str
+    params: dict[str, object] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Transition:
+    """A BFSM transition: ``on`` is ``arrival``, ``timer`` or ``probability``.
+
+    ``timer`` fires ``after`` seconds (a number or a ``[lo, hi]`` uniform range)
+    after entering the state; ``probability`` is checked at each decision tick
+    with the given per-second rate; ``arrival`` fires when the agent is within
+    ``arrive_dist`` of its goal. When several targets are listed with
+    ``weights``, the next state is drawn from them.
+    """
+
+    on: str
+    to: tuple[str, ...]
+    weights: tuple[float, ...] = ()
+    after: tuple[float, float] = (0.0, 0.0)
+    rate: float = 0.0
+
+
+@dataclass(frozen=True)
+class StateConfig:
+    """One BFSM state: a goal (or none: stand still), and transitions out."""
+
+    name: str
+    goal: GoalSelector | None
+    transitions: tuple[Transition, ...] = ()
+    speed_scale: float = 1.0
+    arrive_dist: float = 0.3
+    final: bool = False  # entering a final state removes the agent (it has left)
+
+
+@dataclass(frozen=True)
+class GoalSet:
+    """Named points with weights, for the ``set`` goal selector."""
+
+    name: str
+    points: tuple[Vec2, ...]
+    weights: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class BehaviorConfig:
+    states: dict[str, StateConfig]
+    goal_sets: dict[str, GoalSet] = field(default_factory=dict)
+    decision_hz: float = 30.0
+
+
+@dataclass(frozen=True)
+class SequenceGoal:
+    """One entry of a per-agent goal sequence (SteerSuite's ``goalSequence``).
+
+    ``kind`` is ``seek`` (walk to ``target``), ``flee`` (walk away from
+    ``target``), ``idle`` (stand for ``duration`` s) or ``flow`` (walk along the
+    direction ``target`` for ``duration`` s). ``speed`` is the desired speed.
+    """
+
+    kind: str
+    target: Vec2 = (0.0, 0.0)
+    speed: float = 1.3
+    duration: float = 0.0
+
+
+@dataclass(frozen=True)
+class Spawn:
+    """Agents placed at the start: explicit positions or ``count`` in a region.
+
+    ``region`` is ``("box", (xmin, ymin, xmax, ymax))`` or
+    ``("circle", (cx, cy, r))`` (points on the circle) or
+    ``("disc", (cx, cy, r))`` (points inside it). Positions drawn from a
+    region are drawn with the run's rng and kept apart by their radii.
+    ``facing`` is a heading in radians, or None to face the first goal.
+    """
+
+    profile: str
+    state: str
+    positions: tuple[Vec2, ...] = ()
+    count: int = 0
+    region: tuple[str, tuple[float, ...]] | None = None
+    facing: float | None = None
+    goal_sequence: tuple[SequenceGoal, ...] = ()  # for the "sequence" goal selector
+
+
+@dataclass(frozen=True)
+class UserConfig:
+    """The user agent: where it starts and the red-sphere route it follows.
+
+    In headless runs a scripted user walks the route along the navigation
+    mesh at ``speed``; interactive backends feed the same interface.
+    """
+
+    start: Vec2
+    heading: float = 0.0
+    radius: float = 0.25
+    speed: float = 1.3
+    route: tuple[Vec2, ...] = ()
+    sphere_radius: float = 0.5
+    enabled: bool = True
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """A whole scene, validated. ``source`` is the file it came from."""
+
+    name: str
+    source: str
+    seed: int
+    dt: float
+    duration: float
+    world: WorldConfig
+    profiles: dict[str, AgentProfile]
+    spawns: tuple[Spawn, ...]
+    behavior: BehaviorConfig
+    user: UserConfig
+    steering: SteeringParams = field(default_factory=SteeringParams)
+    gaze_distance: float = 4.0  # D1 of PedVR eq. 3, metres
+    gaze_speed: float = 2.0  # D2 of PedVR eq. 3, m/s
+    description: str = ""
+    content_hash: str = ""
+
+    @property
+    def decision_every(self) -> int:
+        """Steps between behavior decisions (30 Hz at the default 90 Hz step)."""
+        return max(1, round(1.0 / (self.behavior.decision_hz * self.dt)))
+
+
+def default_dt() -> float:
+    return 1.0 / 90.0
+
+
+def heading_of(v: Vec2) -> float:
+    return math.atan2(v[1], v[0])

@@ -1,0 +1,652 @@
+"""Load and validate TOML scene files into :class:`SceneConfig`.
+
+Every problem in a file is collected and reported at once, one line each:
+``scenes/x.toml: agents.profiles.child.radius = -0.2: must be > 0``.
+Required keys never default silently; optional keys have the defaults written
+in :mod:`pedvr.scene.config` and in ``scenes/README.md``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import tomllib
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from shapely.geometry import Point, Polygon, box
+
+from pedvr.behavior.goals import selectors, validate_params
+from pedvr.errors import SceneError
+from pedvr.scene.config import (
+    AgentProfile,
+    BehaviorConfig,
+    GoalSelector,
+    GoalSet,
+    MotionLimits,
+    Obstacle,
+    SceneConfig,
+    Spawn,
+    StateConfig,
+    SteeringParams,
+    Transition,
+    UserConfig,
+    Vec2,
+    WorldConfig,
+    default_dt,
+)
+
+OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter")
+TRANSITION_EVENTS = ("arrival", "timer", "probability")
+_MISSING = object()
+
+
+def _fmt(v: object) -> str:
+    if v is _MISSING:
+        return "<missing>"
+    if isinstance(v, str):
+        return repr(v)
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, dict):
+        return "{...}"
+    return str(v).replace("'", '"')
+
+
+def _is_num(v: object) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(float(v))
+
+
+class _Checker:
+    """Collects problems; each accessor returns a usable value or None."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+        self.problems: list[str] = []
+
+    def bad(self, key: str, value: object, why: str) -> None:
+        self.problems.append(f"{self.source}: {key} = {_fmt(value)}: {why}")
+
+    def table(self, d: dict[str, Any], key: str, path: str, *, required: bool) -> dict[str, Any] | None:
+        v = d.get(key, _MISSING)
+        if v is _MISSING:
+            if required:
+                self.bad(path, v, "required table")
+            return None
+        if not isinstance(v, dict):
+            self.bad(path, v, "expected a table")
+            return None
+        return v
+
+    def known(self, d: dict[str, Any], path: str, allowed: tuple[str, ...]) -> None:
+        for k in d:
+            if k not in allowed:
+                self.bad(f"{path}.{k}" if path else k, d[k],
+                         f"unknown key; allowed: {', '.join(allowed)}")
+
+    def number(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
+               default: float | None = None, check: Callable[[float], bool] | None = None,
+               expect: str = "") -> float | None:
+        v = d.get(key, _MISSING)
+        if v is _MISSING:
+            if required:
+                self.bad(path, v, "required" + (f" ({expect})" if expect else ""))
+            return default
+        if not _is_num(v):
+            self.bad(path, v, "expected a number" + (f" {expect}" if expect else ""))
+            return default
+        f = float(v)
+        if check is not None and not check(f):
+            self.bad(path, v, f"must be {expect}")
+            return default
+        return f
+
+    def integer(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
+                default: int | None = None, minimum: int = 0) -> int | None:
+        v = d.get(key, _MISSING)
+        if v is _MISSING:
+            if required:
+                self.bad(path, v, "required")
+            return default
+        if not isinstance(v, int) or isinstance(v, bool) or v < minimum:
+            self.bad(path, v, f"expected an integer >= {minimum}")
+            return default
+        return v
+
+    def string(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
+               default: str | None = None, choices: tuple[str, ...] = ()) -> str | None:
+        v = d.get(key, _MISSING)
+        if v is _MISSING:
+            if required:
+                self.bad(path, v, "required" + (f"; one of {', '.join(choices)}" if choices else ""))
+            return default
+        if not isinstance(v, str) or not v:
+            self.bad(path, v, "expected a non-empty string")
+            return default
+        if choices and v not in choices:
+            self.bad(path, v, f"expected one of {', '.join(choices)}")
+            return default
+        return v
+
+    def boolean(self, d: dict[str, Any], key: str, path: str, default: bool) -> bool:
+        v = d.get(key, _MISSING)
+        if v is _MISSING:
+            return default
+        if not isinstance(v, bool):
+            self.bad(path, v, "expected true or false")
+            return default
+        return v
+
+    def point(self, v: object, path: str) -> Vec2 | None:
+        if isinstance(v, list) and len(v) == 2 and all(_is_num(x) for x in v):
+            return (float(v[0]), float(v[1]))
+        self.bad(path, v, "expected [x, y] in metres")
+        return None
+
+    def points(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
+               minimum: int = 1) -> tuple[Vec2, ...] | None:
+        v = d.get(key, _MISSING)
+        if v is _MISSING:
+            if required:
+                self.bad(path, v, f"required list of at least {minimum} [x, y] points")
+            return None
+        if not isinstance(v, list) or len(v) < minimum:
+            self.bad(path, v, f"expected a list of at least {minimum} [x, y] points")
+            return None
+        out = [self.point(p, f"{path}[{i}]") for i, p in enumerate(v)]
+        if any(p is None for p in out):
+            return None
+        return tuple(p for p in out if p is not None)
+
+    def floats(self, v: object, path: str, n: int, expect: str) -> tuple[float, ...] | None:
+        if isinstance(v, list) and len(v) == n and all(_is_num(x) for x in v):
+            return tuple(float(x) for x in v)
+        self.bad(path, v, f"expected {expect}")
+        return None
+
+
+def load_scene(path: str | Path, *, display_path: str | None = None) -> SceneConfig:
+    """Load a scene: a ``.toml`` pedvr scene or a SteerSuite ``.xml`` case.
+
+    Raises :class:`SceneError` listing every problem. SteerSuite cases are
+    loaded with seed 0 here; pass a seed through :func:`load_any` to expand
+    their ``<random>`` elements differently.
+    """
+    return load_any(path, seed=None, display_path=display_path)
+
+
+def load_any(path: str | Path, *, seed: int | None, display_path: str | None = None) -> SceneConfig:
+    p = Path(path)
+    shown = display_path or str(path)
+    if not p.is_file():
+        raise SceneError([f"{shown}: no such scene file"])
+    if p.suffix.lower() == ".xml":
+        from pedvr.scene.steersuite import load_steersuite
+
+        return load_steersuite(p, seed=0 if seed is None else seed)
+    if p.suffix.lower() != ".toml":
+        raise SceneError([f"{shown}: unknown scene format {p.suffix!r}; expected .toml or .xml"])
+    raw = p.read_bytes()
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SceneError([f"{shown}: not valid TOML: {exc}"]) from None
+    cfg = parse_scene(data, source=shown, content_hash=hashlib.sha256(raw).hexdigest()[:16])
+    if seed is not None:
+        from dataclasses import replace
+
+        cfg = replace(cfg, seed=seed)
+    return cfg
+
+
+def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") -> SceneConfig:
+    """Validate a parsed TOML document; raise one SceneError with all problems."""
+    c = _Checker(source)
+    c.known(data, "", ("scene", "world", "steering", "gaze", "agents", "behavior", "user"))
+
+    scene = c.table(data, "scene", "scene", required=True) or {}
+    c.known(scene, "scene", ("name", "description", "seed", "duration", "dt"))
+    name = c.string(scene, "name", "scene.name")
+    description = c.string(scene, "description", "scene.description", required=False, default="")
+    seed = c.integer(scene, "seed", "scene.seed")
+    duration = c.number(scene, "duration", "scene.duration", check=lambda x: x > 0, expect="> 0 s")
+    dt = c.number(scene, "dt", "scene.dt", required=False, default=default_dt(),
+                  check=lambda x: 0 < x <= 0.1, expect="in (0, 0.1] s")
+
+    world = _world(c, c.table(data, "world", "world", required=True) or {})
+    steering = _steering(c, c.table(data, "steering", "steering", required=False) or {})
+    gaze = c.table(data, "gaze", "gaze", required=False) or {}
+    c.known(gaze, "gaze", ("distance", "speed"))
+    gaze_distance = c.number(gaze, "distance", "gaze.distance", required=False, default=4.0,
+                             check=lambda x: x > 0, expect="> 0 m")
+    gaze_speed = c.number(gaze, "speed", "gaze.speed", required=False, default=2.0,
+                          check=lambda x: x > 0, expect="> 0 m/s")
+
+    behavior = _behavior(c, c.table(data, "behavior", "behavior", required=True) or {})
+    agents = c.table(data, "agents", "agents", required=True) or {}
+    c.known(agents, "agents", ("profiles", "spawns"))
+    profiles = _profiles(c, c.table(agents, "profiles", "agents.profiles", required=True) or {})
+    spawns = _spawns(c, agents.get("spawns", _MISSING), profiles, behavior, world)
+    user = _user(c, c.table(data, "user", "user", required=True) or {}, world)
+
+    if c.problems:
+        raise SceneError(c.problems)
+    assert name is not None and seed is not None and duration is not None and dt is not None
+    assert world is not None and behavior is not None and user is not None
+    assert gaze_distance is not None and gaze_speed is not None and description is not None
+    return SceneConfig(name=name, source=source, seed=seed, dt=dt, duration=duration, world=world,
+                       profiles=profiles, spawns=spawns, behavior=behavior, user=user,
+                       steering=steering, gaze_distance=gaze_distance, gaze_speed=gaze_speed,
+                       description=description, content_hash=content_hash)
+
+
+def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
+    c.known(w, "world", ("bounds", "obstacles"))
+    bounds = None
+    b = w.get("bounds", _MISSING)
+    if b is _MISSING:
+        c.bad("world.bounds", b, "required [[xmin, ymin], [xmax, ymax]]")
+    else:
+        pts = c.points(w, "bounds", "world.bounds", minimum=2)
+        if pts is not None:
+            if len(pts) != 2 or not (pts[0][0] < pts[1][0] and pts[0][1] < pts[1][1]):
+                c.bad("world.bounds", b, "expected [[xmin, ymin], [xmax, ymax]] with min < max")
+            else:
+                bounds = (pts[0], pts[1])
+    obstacles: list[Obstacle] = []
+    raw = w.get("obstacles", [])
+    if not isinstance(raw, list):
+        c.bad("world.obstacles", raw, "expected an array of tables [[world.obstacles]]")
+        raw = []
+    for i, o in enumerate(raw):
+        path = f"world.obstacles[{i}]"
+        if not isinstance(o, dict):
+            c.bad(path, o, "expected a table")
+            continue
+        ob = _obstacle(c, o, path)
+        if ob is not None:
+            if bounds is not None and not box(*bounds[0], *bounds[1]).intersects(Polygon(ob.vertices)):
+                c.bad(path, "{...}", "lies outside world.bounds")
+            obstacles.append(ob)
+    return WorldConfig(bounds=bounds, obstacles=tuple(obstacles)) if bounds else None
+
+
+def _obstacle(c: _Checker, o: dict[str, Any], path: str) -> Obstacle | None:
+    shapes = ("box", "polygon", "wall", "circle")
+    c.known(o, path, ("kind", "height", "thickness", *shapes))
+    given = [s for s in shapes if s in o]
+    if len(given) != 1:
+        c.bad(path, "{...}", f"expected exactly one shape key of {', '.join(shapes)}")
+        return None
+    kind = c.string(o, "kind", f"{path}.kind", required=False, default=given[0] if given[0] in
+                    OBSTACLE_KINDS else "polygon", choices=OBSTACLE_KINDS)
+    height = c.number(o, "height", f"{path}.height", required=False, default=1.0,
+                      check=lambda x: x > 0, expect="> 0 m")
+    shape = given[0]
+    verts: list[Vec2] | None = None
+    if shape == "box":
+        v = c.floats(o["box"], f"{path}.box", 4, "[xmin, ymin, xmax, ymax]")
+        if v is not None:
+            if not (v[0] < v[2] and v[1] < v[3]):
+                c.bad(f"{path}.box", o["box"], "expected xmin < xmax and ymin < ymax")
+            else:
+                verts = [(v[0], v[1]), (v[2], v[1]), (v[2], v[3]), (v[0], v[3])]
+    elif shape == "polygon":
+        pts = c.points(o, "polygon", f"{path}.polygon", minimum=3)
+        if pts is not None:
+            poly = Polygon(pts)
+            if not poly.is_valid or poly.area <= 1e-9:
+                c.bad(f"{path}.polygon", o["polygon"], "expected a simple polygon with area > 0")
+            else:
+                verts = list(pts) if poly.exterior.is_ccw else list(reversed(pts))
+    elif shape == "wall":
+        pts = c.points(o, "wall", f"{path}.wall", minimum=2)
+        thickness = c.number(o, "thickness", f"{path}.thickness", required=False, default=0.2,
+                             check=lambda x: x > 0, expect="> 0 m")
+        if pts is not None and thickness is not None:
+            from shapely.geometry import LineString
+
+            if len(pts) != 2 or math.dist(pts[0], pts[1]) <= 1e-9:
+                c.bad(f"{path}.wall", o["wall"], "expected two distinct points [[x0, y0], [x1, y1]]")
+            else:
+                poly = LineString(pts).buffer(thickness / 2, cap_style="flat")
+                verts = [tuple(p) for p in poly.exterior.coords[:-1]]  # type: ignore[misc]
+                if not poly.exterior.is_ccw:
+                    verts.reverse()
+    else:
+        v = c.floats(o["circle"], f"{path}.circle", 3, "[cx, cy, radius]")
+        if v is not None:
+            if v[2] <= 0:
+                c.bad(f"{path}.circle", o["circle"], "radius must be > 0")
+            else:
+                # 16 sides circumscribing the circle, so the true circle is inside.
+                r = v[2] / math.cos(math.pi / 16)
+                verts = [(v[0] + r * math.cos(2 * math.pi * (k + 0.5) / 16),
+                          v[1] + r * math.sin(2 * math.pi * (k + 0.5) / 16)) for k in range(16)]
+    if verts is None or kind is None or height is None:
+        return None
+    return Obstacle(vertices=tuple(verts), kind=kind, height=height)
+
+
+def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
+    d = SteeringParams()
+    c.known(s, "steering", ("neighbor_dist", "max_neighbors", "time_horizon", "time_horizon_obst",
+                            "user_responsibility"))
+    pos = lambda x: x > 0  # noqa: E731
+    return SteeringParams(
+        neighbor_dist=c.number(s, "neighbor_dist", "steering.neighbor_dist", required=False,
+                               default=d.neighbor_dist, check=pos, expect="> 0 m") or d.neighbor_dist,
+        max_neighbors=c.integer(s, "max_neighbors", "steering.max_neighbors", required=False,
+                                default=d.max_neighbors, minimum=1) or d.max_neighbors,
+        time_horizon=c.number(s, "time_horizon", "steering.time_horizon", required=False,
+                              default=d.time_horizon, check=pos, expect="> 0 s") or d.time_horizon,
+        time_horizon_obst=c.number(s, "time_horizon_obst", "steering.time_horizon_obst",
+                                   required=False, default=d.time_horizon_obst, check=pos,
+                                   expect="> 0 s") or d.time_horizon_obst,
+        user_responsibility=_or(c.number(s, "user_responsibility", "steering.user_responsibility",
+                                         required=False, default=d.user_responsibility,
+                                         check=lambda x: 0 <= x <= 1, expect="in [0, 1]"),
+                                d.user_responsibility),
+    )
+
+
+def _or(v: float | None, d: float) -> float:
+    return d if v is None else v
+
+
+_PROFILE_KEYS = ("inherit", "radius", "pref_speed", "max_speed", "limits")
+_LIMIT_KEYS = ("max_accel", "max_decel", "turn_rate_standing", "turn_rate_walking",
+               "max_backward_speed", "max_sideways_speed")
+
+
+def _profiles(c: _Checker, raw: dict[str, Any]) -> dict[str, AgentProfile]:
+    """Resolve ``inherit`` chains (a child overrides its parent key by key)."""
+    resolved: dict[str, dict[str, Any]] = {}
+
+    def resolve(name: str, chain: tuple[str, ...]) -> dict[str, Any] | None:
+        if name in resolved:
+            return resolved[name]
+        body = raw.get(name)
+        path = f"agents.profiles.{name}"
+        if not isinstance(body, dict):
+            c.bad(path, body, "expected a table")
+            return None
+        parent = body.get("inherit")
+        merged: dict[str, Any] = {}
+        if parent is not None:
+            if parent in chain:
+                c.bad(f"{path}.inherit", parent, f"inheritance cycle: {' -> '.join((*chain, parent))}")
+                return None
+            if parent not in raw:
+                c.bad(f"{path}.inherit", parent, f"unknown profile; known: {', '.join(sorted(raw))}")
+                return None
+            base = resolve(parent, (*chain, parent))
+            if base is None:
+                return None
+            merged = {k: v for k, v in base.items() if k != "limits"}
+            merged["limits"] = dict(base.get("limits", {}))
+        for k, v in body.items():
+            if k == "limits" and isinstance(v, dict):
+                merged.setdefault("limits", {}).update(v)
+            elif k != "inherit":
+                merged[k] = v
+        resolved[name] = merged
+        return merged
+
+    out: dict[str, AgentProfile] = {}
+    for name in raw:
+        body = raw[name]
+        if isinstance(body, dict):
+            c.known(body, f"agents.profiles.{name}", _PROFILE_KEYS)
+        m = resolve(name, (name,))
+        if m is None:
+            continue
+        path = f"agents.profiles.{name}"
+        pos = lambda x: x > 0  # noqa: E731
+        radius = c.number(m, "radius", f"{path}.radius", check=pos, expect="> 0")
+        pref = c.number(m, "pref_speed", f"{path}.pref_speed", check=pos, expect="> 0 m/s")
+        mx = c.number(m, "max_speed", f"{path}.max_speed", check=pos, expect="> 0 m/s")
+        if pref is not None and mx is not None and mx < pref:
+            c.bad(f"{path}.max_speed", mx, f"must be >= pref_speed ({pref})")
+        lim_raw = m.get("limits", {})
+        d = MotionLimits()
+        lim = d
+        if not isinstance(lim_raw, dict):
+            c.bad(f"{path}.limits", lim_raw, "expected a table")
+        else:
+            c.known(lim_raw, f"{path}.limits", _LIMIT_KEYS)
+            vals = {k: c.number(lim_raw, k, f"{path}.limits.{k}", required=False,
+                                default=getattr(d, k), check=pos, expect="> 0") for k in _LIMIT_KEYS}
+            lim = MotionLimits(**{k: (v if v is not None else getattr(d, k)) for k, v in vals.items()})
+        if radius is not None and pref is not None and mx is not None:
+            out[name] = AgentProfile(name=name, radius=radius, pref_speed=pref, max_speed=mx,
+                                     limits=lim)
+    return out
+
+
+def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
+    c.known(b, "behavior", ("decision_hz", "goal_sets", "states"))
+    hz = c.number(b, "decision_hz", "behavior.decision_hz", required=False, default=30.0,
+                  check=lambda x: 0 < x <= 1000, expect="in (0, 1000] Hz")
+    goal_sets: dict[str, GoalSet] = {}
+    for gname, g in (c.table(b, "goal_sets", "behavior.goal_sets", required=False) or {}).items():
+        path = f"behavior.goal_sets.{gname}"
+        if not isinstance(g, dict):
+            c.bad(path, g, "expected a table")
+            continue
+        c.known(g, path, ("points", "weights"))
+        pts = c.points(g, "points", f"{path}.points")
+        if pts is None:
+            continue
+        w = g.get("weights", [1.0] * len(pts))
+        if (not isinstance(w, list) or len(w) != len(pts) or not all(_is_num(x) and x >= 0 for x in w)
+                or sum(w) <= 0):
+            c.bad(f"{path}.weights", w, f"expected {len(pts)} numbers >= 0 with a positive sum")
+            continue
+        goal_sets[gname] = GoalSet(gname, pts, tuple(float(x) for x in w))
+
+    states_raw = c.table(b, "states", "behavior.states", required=True) or {}
+    if not states_raw:
+        c.bad("behavior.states", "{}", "expected at least one state")
+    states: dict[str, StateConfig] = {}
+    for sname, s in states_raw.items():
+        path = f"behavior.states.{sname}"
+        if not isinstance(s, dict):
+            c.bad(path, s, "expected a table")
+            continue
+        c.known(s, path, ("goal", "transitions", "speed_scale", "arrive_dist", "final"))
+        goal = _goal(c, s.get("goal", _MISSING), f"{path}.goal", goal_sets)
+        trans = []
+        raw_t = s.get("transitions", [])
+        if not isinstance(raw_t, list):
+            c.bad(f"{path}.transitions", raw_t, "expected an array of tables")
+            raw_t = []
+        for i, t in enumerate(raw_t):
+            tr = _transition(c, t, f"{path}.transitions[{i}]", states_raw)
+            if tr is not None:
+                trans.append(tr)
+        speed_scale = c.number(s, "speed_scale", f"{path}.speed_scale", required=False, default=1.0,
+                               check=lambda x: 0 < x <= 2, expect="in (0, 2]")
+        arrive = c.number(s, "arrive_dist", f"{path}.arrive_dist", required=False, default=0.3,
+                          check=lambda x: x > 0, expect="> 0 m")
+        final = c.boolean(s, "final", f"{path}.final", False)
+        if "goal" in s:
+            states[sname] = StateConfig(name=sname, goal=goal, transitions=tuple(trans),
+                                        speed_scale=speed_scale or 1.0, arrive_dist=arrive or 0.3,
+                                        final=final)
+    return BehaviorConfig(states=states, goal_sets=goal_sets, decision_hz=hz or 30.0)
+
+
+def _goal(c: _Checker, g: object, path: str, goal_sets: dict[str, GoalSet]) -> GoalSelector | None:
+    if g is _MISSING:
+        c.bad(path, g, 'required: a table such as {selector = "point", at = [x, y]}, '
+              'or {selector = "stay"}')
+        return None
+    if not isinstance(g, dict):
+        c.bad(path, g, 'expected a table such as {selector = "point", at = [x, y]}')
+        return None
+    kind = g.get("selector", _MISSING)
+    if kind not in selectors:
+        c.bad(f"{path}.selector", kind, selectors.unknown(kind if kind is not _MISSING else None)
+              .split("; ", 1)[1].replace("known:", "expected one of:"))
+        return None
+    params = {k: v for k, v in g.items() if k != "selector"}
+    for key, value, why in validate_params(str(kind), params):
+        c.bad(f"{path}.{key}", value, why)
+    if kind == "set" and isinstance(params.get("set"), str) and params["set"] not in goal_sets:
+        c.bad(f"{path}.set", params["set"],
+              f"unknown goal set; known: {', '.join(sorted(goal_sets)) or 'none'}")
+    if kind == "stay":
+        return None
+    return GoalSelector(kind=str(kind), params=params)
+
+
+def _transition(c: _Checker, t: object, path: str, states_raw: dict[str, Any]) -> Transition | None:
+    if not isinstance(t, dict):
+        c.bad(path, t, "expected a table")
+        return None
+    c.known(t, path, ("on", "to", "weights", "after", "rate"))
+    on = c.string(t, "on", f"{path}.on", choices=TRANSITION_EVENTS)
+    to_raw = t.get("to", _MISSING)
+    to: tuple[str, ...] | None = None
+    if to_raw is _MISSING:
+        c.bad(f"{path}.to", to_raw, "required: a state name or a list of them")
+    else:
+        names = [to_raw] if isinstance(to_raw, str) else to_raw
+        if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+            c.bad(f"{path}.to", to_raw, "expected a state name or a list of them")
+        else:
+            unknown = [n for n in names if n not in states_raw]
+            if unknown:
+                c.bad(f"{path}.to", to_raw, f"unknown state {unknown[0]!r}; known: "
+                      f"{', '.join(sorted(states_raw))}")
+            else:
+                to = tuple(names)
+    weights: tuple[float, ...] = ()
+    if "weights" in t:
+        w = t["weights"]
+        n = len(to) if to else -1
+        if not isinstance(w, list) or len(w) != n or not all(_is_num(x) and x >= 0 for x in w) \
+                or sum(w) <= 0:
+            c.bad(f"{path}.weights", w, f"expected {max(n, 1)} numbers >= 0 with a positive sum, "
+                  "one per target state")
+        else:
+            weights = tuple(float(x) for x in w)
+    after = (0.0, 0.0)
+    rate = 0.0
+    if on == "timer":
+        a = t.get("after", _MISSING)
+        if _is_num(a) and float(a) >= 0:  # type: ignore[arg-type]
+            after = (float(a), float(a))  # type: ignore[arg-type]
+        elif isinstance(a, list) and len(a) == 2 and all(_is_num(x) for x in a) and 0 <= a[0] <= a[1]:
+            after = (float(a[0]), float(a[1]))
+        else:
+            c.bad(f"{path}.after", a, "required for a timer: seconds >= 0, or [lo, hi] with lo <= hi")
+    elif "after" in t:
+        c.bad(f"{path}.after", t["after"], "only a timer transition takes 'after'")
+    if on == "probability":
+        r = c.number(t, "rate", f"{path}.rate", check=lambda x: x > 0, expect="> 0 per second")
+        rate = r or 0.0
+    elif "rate" in t:
+        c.bad(f"{path}.rate", t["rate"], "only a probability transition takes 'rate'")
+    if on is None or to is None:
+        return None
+    return Transition(on=on, to=to, weights=weights, after=after, rate=rate)
+
+
+def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
+            behavior: BehaviorConfig | None, world: WorldConfig | None) -> tuple[Spawn, ...]:
+    if raw is _MISSING:
+        return ()
+    if not isinstance(raw, list):
+        c.bad("agents.spawns", raw, "expected an array of tables [[agents.spawns]]")
+        return ()
+    out = []
+    blocked = _blocked(world)
+    for i, s in enumerate(raw):
+        path = f"agents.spawns[{i}]"
+        if not isinstance(s, dict):
+            c.bad(path, s, "expected a table")
+            continue
+        c.known(s, path, ("profile", "state", "positions", "count", "region", "facing_deg"))
+        profile = c.string(s, "profile", f"{path}.profile")
+        if profile is not None and profile not in profiles:
+            c.bad(f"{path}.profile", profile, f"unknown profile; known: {', '.join(sorted(profiles))}")
+        state = c.string(s, "state", f"{path}.state")
+        if state is not None and behavior is not None and state not in behavior.states:
+            c.bad(f"{path}.state", state, f"unknown state; known: {', '.join(sorted(behavior.states))}")
+        facing = c.number(s, "facing_deg", f"{path}.facing_deg", required=False, default=None)
+        positions: tuple[Vec2, ...] = ()
+        count = 0
+        region: tuple[str, tuple[float, ...]] | None = None
+        if ("positions" in s) == ("region" in s):
+            c.bad(path, "{...}", "expected exactly one of 'positions' or 'count' with 'region'")
+        elif "positions" in s:
+            positions = c.points(s, "positions", f"{path}.positions") or ()
+            for k, p in enumerate(positions):
+                if blocked is not None and blocked.contains(Point(p)):
+                    c.bad(f"{path}.positions[{k}]", list(p), "lies outside the walkable area")
+        else:
+            count = c.integer(s, "count", f"{path}.count", minimum=1) or 0
+            region = _region(c, s["region"], f"{path}.region")
+        if profile in profiles and state is not None and (positions or count):
+            out.append(Spawn(profile=profile, state=state, positions=positions, count=count,
+                             region=region, facing=None if facing is None else math.radians(facing)))
+    return tuple(out)
+
+
+def _region(c: _Checker, r: object, path: str) -> tuple[str, tuple[float, ...]] | None:
+    kinds = {"box": (4, "[xmin, ymin, xmax, ymax]"), "circle": (3, "[cx, cy, radius]"),
+             "disc": (3, "[cx, cy, radius]")}
+    if not isinstance(r, dict) or len(r) != 1 or next(iter(r)) not in kinds:
+        c.bad(path, r, "expected one of {box = [xmin, ymin, xmax, ymax]}, {circle = [cx, cy, r]}, "
+              "{disc = [cx, cy, r]}")
+        return None
+    kind = next(iter(r))
+    n, expect = kinds[kind]
+    v = c.floats(r[kind], f"{path}.{kind}", n, expect)
+    if v is None:
+        return None
+    if (kind == "box" and not (v[0] < v[2] and v[1] < v[3])) or (kind != "box" and v[2] <= 0):
+        c.bad(f"{path}.{kind}", r[kind], f"expected {expect} with positive size")
+        return None
+    return (kind, v)
+
+
+def _blocked(world: WorldConfig | None) -> Any:
+    """Everything not walkable (outside the bounds or inside an obstacle), or None."""
+    if world is None:
+        return None
+    from shapely.ops import unary_union
+
+    (x0, y0), (x1, y1) = world.bounds
+    outside = box(x0 - 1e6, y0 - 1e6, x1 + 1e6, y1 + 1e6).difference(box(x0, y0, x1, y1))
+    return unary_union([outside, *(Polygon(o.vertices) for o in world.obstacles)])
+
+
+def _user(c: _Checker, u: dict[str, Any], world: WorldConfig | None) -> UserConfig | None:
+    c.known(u, "user", ("start", "heading_deg", "radius", "speed", "route", "sphere_radius",
+                        "enabled"))
+    s = u.get("start", _MISSING)
+    start = c.point(s, "user.start") if s is not _MISSING else None
+    if s is _MISSING:
+        c.bad("user.start", s, "required [x, y]")
+    heading = c.number(u, "heading_deg", "user.heading_deg", required=False, default=0.0)
+    radius = c.number(u, "radius", "user.radius", required=False, default=0.25,
+                      check=lambda x: x > 0, expect="> 0 m")
+    speed = c.number(u, "speed", "user.speed", required=False, default=1.3,
+                     check=lambda x: 0 < x <= 3, expect="in (0, 3] m/s")
+    route = c.points(u, "route", "user.route", required=False) or ()
+    sphere = c.number(u, "sphere_radius", "user.sphere_radius", required=False, default=0.5,
+                      check=lambda x: x > 0, expect="> 0 m")
+    enabled = c.boolean(u, "enabled", "user.enabled", True)
+    blocked = _blocked(world)
+    if blocked is not None:
+        for key, p in [("user.start", start)] + [(f"user.route[{k}]", q) for k, q in enumerate(route)]:
+            if p is not None and blocked.contains(Point(p)):
+                c.bad(key, list(p), "lies outside the walkable area")
+    if start is None or heading is None or radius is None or speed is None or sphere is None:
+        return None
+    return UserConfig(start=start, heading=math.radians(heading), radius=radius, speed=speed,
+                      route=route, sphere_radius=sphere, enabled=enabled)

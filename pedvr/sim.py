@@ -1,0 +1,368 @@
+"""The Simulation: one fixed step made of named, timed phases (DESIGN.md).
+
+``step()`` runs ``sense → decide → plan → avoid → animate → sync → record``.
+Each phase computes into new buffers and commits at its end, so no agent
+reads a half-updated world. One ``numpy.random.Generator``, seeded from the
+scene or the caller, is the only source of randomness: the same seed gives
+the same run, bit for bit. Agents are added (spawn) and removed (on reaching a
+final BFSM state) only between steps.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+
+from pedvr.behavior.bfsm import BFSM, BehaviorState
+from pedvr.body.simple import SimpleBody
+from pedvr.crowd.state import N_LIMITS, CrowdState
+from pedvr.crowd.steering import Steering
+from pedvr.crowd.user import ScriptedUser, StandingUser, UserAgent, UserInput
+from pedvr.errors import NavigationError, SceneError, UsageError
+from pedvr.record import Metrics, Recording
+from pedvr.scene.config import CONDITIONS, AgentProfile, SceneConfig, SequenceGoal, Spawn
+from pedvr.world import NavMesh, Visibility, edges, obstacle_set, walkable_area
+
+PHASES = ("sense", "decide", "plan", "avoid", "animate", "sync", "record")
+SLOWING_DIST = 0.8  # m: agents slow down linearly inside this distance of their final waypoint
+LOOKAHEAD = 8  # waypoints checked for visibility ahead of the current one
+
+
+def _limits_row(p: AgentProfile) -> list[float]:
+    m = p.limits
+    return [m.max_accel, m.max_decel, m.turn_rate_standing, m.turn_rate_walking,
+            m.max_backward_speed, m.max_sideways_speed]
+
+
+class Simulation:
+    """A running scene. Keyword-only options:
+
+    ``seed``: overrides the scene's seed. ``condition``: ``decoupled`` (plain
+    ORCA, no motion limits, the body follows the disc), ``pedvr`` (coupled) or
+    ``pedvr+g`` (coupled, gaze on). ``responsibility``: overrides the scene's
+    share ρ taken toward the user. ``user_input``: the source of the user's
+    pose (default: a scripted walk along the red-sphere route). ``record``:
+    keep the per-step trajectory.
+    """
+
+    def __init__(self, scene: SceneConfig, *, seed: int | None = None, condition: str = "pedvr",
+                 responsibility: float | None = None, user_input: UserInput | None = None,
+                 record: bool = False) -> None:
+        if condition not in CONDITIONS:
+            raise UsageError(f"condition {condition!r}: expected one of {', '.join(CONDITIONS)}")
+        if responsibility is not None and not 0.0 <= responsibility <= 1.0:
+            raise UsageError(f"responsibility {responsibility}: expected a number in [0, 1]")
+        self.scene = scene
+        self.seed = scene.seed if seed is None else int(seed)
+        self.rng = np.random.default_rng(self.seed)
+        self.condition = condition
+        self.coupled = condition != "decoupled"
+        self.gaze_on = condition == "pedvr+g"
+        self.responsibility = (scene.steering.user_responsibility if responsibility is None
+                               else float(responsibility))
+        self.dt = scene.dt
+        self.t = 0.0
+        self.step_index = 0
+
+        self.obstacles = obstacle_set(scene.world)
+        self.visibility = Visibility(scene.world)
+        self._walkable = walkable_area(scene.world)
+        self._navmeshes: dict[float, NavMesh] = {}
+        radii = [p.radius for p in scene.profiles.values()] or [scene.user.radius]
+        self.goal_mesh = self.navmesh_for(max(radii))
+        self.steering = Steering(scene.steering, self.obstacles, coupled=self.coupled)
+        self.bfsm = BFSM(scene.behavior, self.goal_mesh)
+        self.body = SimpleBody()
+
+        self.crowd = CrowdState.empty()
+        self.behavior = BehaviorState.rows(0)
+        self.paths: list[np.ndarray] = []
+        self.cursor = np.zeros(0, np.int64)
+        self.sequences: list[tuple[SequenceGoal, ...]] = []
+        self.stuck_time = np.zeros(0)
+        self._flat: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._next_id = 0
+        self._leaving = np.zeros(0, np.bool_)
+        self._new_vel = np.zeros((0, 2))
+        self._root = np.zeros((0, 2))
+        self._root_heading = np.zeros(0)
+        self.unreachable_goals = 0
+
+        self.user: UserAgent | None = None
+        if scene.user.enabled:
+            self.user = UserAgent(user_input or self._scripted_user(), route=scene.user.route,
+                                  sphere_radius=scene.user.sphere_radius)
+            self._add_rows(1, pos=np.asarray([scene.user.start]), radius=scene.user.radius,
+                           pref_speed=scene.user.speed, max_speed=3.0, limits=[0.0] * N_LIMITS,
+                           is_user=True, heading=np.asarray([scene.user.heading]))
+        for k, spawn in enumerate(scene.spawns):
+            self._spawn(k, spawn)
+
+        seg_a, seg_b = edges(scene.world)
+        self.metrics = Metrics(seg_a=seg_a, seg_b=seg_b, inside=self._inside_obstacle)
+        self.recording = Recording() if record else None
+        self._plan()
+        unset = np.isnan(self.crowd.heading)
+        self.crowd.heading[unset] = self.crowd.pref_heading[unset]
+        if self.recording is not None:
+            self.recording.add(self.t, self.crowd)
+
+    # -- set-up ----------------------------------------------------------------------------
+
+    def navmesh_for(self, radius: float) -> NavMesh:
+        """The navigation mesh shrunk by ``radius`` (built once per distinct radius)."""
+        key = round(radius, 4)
+        if key not in self._navmeshes:
+            self._navmeshes[key] = NavMesh.build(self.scene.world, clearance=key)
+        return self._navmeshes[key]
+
+    def _scripted_user(self) -> UserInput:
+        u = self.scene.user
+        if not u.route:
+            return StandingUser(u.start, u.heading)
+        mesh = self.navmesh_for(u.radius)
+        pts = [np.asarray([u.start])]
+        here = u.start
+        for target in u.route:
+            leg = mesh.find_path(here, target)
+            pts.append(leg[1:])
+            here = target
+        return ScriptedUser(np.concatenate(pts), speed=u.speed, heading=u.heading)
+
+    def _inside_obstacle(self, pts: np.ndarray) -> np.ndarray:
+        import shapely
+
+        return ~shapely.contains_xy(self._walkable, pts[:, 0], pts[:, 1])
+
+    def _add_rows(self, n: int, *, pos: np.ndarray, radius: float, pref_speed: float, max_speed: float,
+                  limits: list[float], is_user: bool, heading: np.ndarray,
+                  state: str | None = None, sequence: tuple[SequenceGoal, ...] = ()) -> None:
+        ids = np.arange(self._next_id, self._next_id + n, dtype=np.int64)
+        self._next_id += n
+        rows = CrowdState(
+            ids=ids, pos=np.asarray(pos, np.float64).reshape(n, 2), vel=np.zeros((n, 2)),
+            pref_vel=np.zeros((n, 2)), heading=np.asarray(heading, np.float64).reshape(n),
+            pref_heading=np.zeros(n), radius=np.full(n, radius), pref_speed=np.full(n, pref_speed),
+            max_speed=np.full(n, max_speed), responsibility=np.full(n, self.responsibility),
+            is_user=np.full(n, is_user), limits=np.tile(np.asarray(limits, np.float64), (n, 1)),
+        )
+        first = len(self.crowd)
+        self.crowd.append(rows)
+        self.behavior.append(BehaviorState.rows(n))
+        self.paths.extend(np.zeros((0, 2)) for _ in range(n))
+        self.cursor = np.concatenate([self.cursor, np.ones(n, np.int64)])
+        self.sequences.extend(sequence for _ in range(n))
+        self.stuck_time = np.concatenate([self.stuck_time, np.zeros(n)])
+        self._flat = None
+        if state is not None:
+            for row in range(first, first + n):
+                self.bfsm.enter(self.behavior, row, state, t=self.t, pos=self.crowd.pos[row],
+                                rng=self.rng, sequence=sequence)
+
+    def _spawn(self, k: int, spawn: Spawn) -> None:
+        prof = self.scene.profiles[spawn.profile]
+        pts = list(spawn.positions) if spawn.positions else self._place(k, spawn, prof.radius)
+        for p in pts:
+            heading = np.nan if spawn.facing is None else spawn.facing
+            self._add_rows(1, pos=np.asarray([p]), radius=prof.radius, pref_speed=prof.pref_speed,
+                           max_speed=prof.max_speed, limits=_limits_row(prof), is_user=False,
+                           heading=np.asarray([heading]), state=spawn.state, sequence=spawn.goal_sequence)
+
+    def _place(self, k: int, spawn: Spawn, radius: float) -> list[tuple[float, float]]:
+        """Draw ``spawn.count`` free positions in the spawn's region with the run's rng."""
+        assert spawn.region is not None
+        kind, v = spawn.region
+        mesh = self.navmesh_for(radius)
+        out: list[tuple[float, float]] = []
+        taken = [(tuple(p), r) for p, r in zip(self.crowd.pos, self.crowd.radius, strict=True)]
+        for _ in range(200 * spawn.count):
+            if len(out) == spawn.count:
+                break
+            if kind == "box":
+                p = (float(self.rng.uniform(v[0], v[2])), float(self.rng.uniform(v[1], v[3])))
+            else:
+                a = float(self.rng.uniform(-math.pi, math.pi))
+                r = v[2] if kind == "circle" else v[2] * math.sqrt(float(self.rng.uniform()))
+                p = (v[0] + r * math.cos(a), v[1] + r * math.sin(a))
+            if not mesh.contains(p):
+                continue
+            if any(math.dist(p, q) < radius + rq + 0.1 for q, rq in taken):
+                continue
+            out.append(p)
+            taken.append((p, radius))
+        if len(out) < spawn.count:
+            raise SceneError([f"{self.scene.source}: agents.spawns[{k}].count = {spawn.count}: only "
+                              f"{len(out)} agents of radius {radius} m fit in region {kind} {list(v)}"])
+        return out
+
+    # -- the step --------------------------------------------------------------------------
+
+    @contextmanager
+    def _timed(self, phase: str) -> Iterator[None]:
+        start = time.perf_counter()
+        yield
+        ms = (time.perf_counter() - start) * 1e3
+        self.metrics.phase_ms[phase] = self.metrics.phase_ms.get(phase, 0.0) + ms
+
+    def step(self) -> None:
+        """Advance one fixed ``dt`` through the named phases."""
+        start = time.perf_counter()
+        prev_vel, prev_heading = self.crowd.vel.copy(), self.crowd.heading.copy()
+        with self._timed("sense"):
+            self._sense()
+        with self._timed("decide"):
+            self._decide()
+        with self._timed("plan"):
+            self._plan()
+        with self._timed("avoid"):
+            self._avoid()
+        with self._timed("animate"):
+            self._animate()
+        with self._timed("sync"):
+            self._sync()
+        with self._timed("record"):
+            self._record(prev_vel, prev_heading)
+        self.metrics.step_ms.append((time.perf_counter() - start) * 1e3)
+        self._remove_leaving()
+
+    def advance_to(self, t: float) -> None:
+        """Step until simulation time reaches ``t`` (the frame loop's entry point)."""
+        while self.t + self.dt <= t + 1e-9:
+            self.step()
+
+    def _sense(self) -> None:
+        """The user agent takes its pose from its input; velocity is filtered."""
+        if self.user is None:
+            return
+        pos, vel, heading = self.user.sense(self.t + self.dt, self.dt)
+        self.crowd.pos[0], self.crowd.vel[0], self.crowd.heading[0] = pos, vel, heading
+
+    def _decide(self) -> None:
+        """The BFSM sets goals at the decision rate (30 Hz by default)."""
+        self._leaving = np.zeros(len(self.crowd), np.bool_)
+        if self.step_index % self.scene.decision_every != 0:
+            return
+        d = self.bfsm.decide(self.behavior, t=self.t, dt=self.dt * self.scene.decision_every,
+                             pos=self.crowd.pos, rng=self.rng, sequences=self.sequences)
+        self.metrics.arrivals += d.arrived
+        for row in np.flatnonzero(d.goal_changed & ~d.leaving):
+            self._replan(int(row))
+        self._leaving = d.leaving
+
+    def _replan(self, row: int) -> None:
+        goal = self.behavior.goal[row]
+        if np.isnan(goal[0]):
+            self.paths[row] = np.zeros((0, 2))
+        else:
+            mesh = self.navmesh_for(float(self.crowd.radius[row]))
+            try:
+                self.paths[row] = mesh.find_path(tuple(self.crowd.pos[row]), (float(goal[0]), float(goal[1])))
+            except NavigationError:
+                self.unreachable_goals += 1
+                self.paths[row] = np.zeros((0, 2))
+        self.cursor[row] = 1
+        self._flat = None
+
+    def _flat_paths(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self._flat is None:
+            lens = np.fromiter((p.shape[0] for p in self.paths), np.int64, len(self.paths))
+            starts = np.concatenate([[0], np.cumsum(lens)[:-1]]).astype(np.int64)
+            pts = np.concatenate(self.paths) if self.paths else np.zeros((0, 2))
+            self._flat = (np.ascontiguousarray(pts, dtype=np.float64), starts, lens)
+        return self._flat
+
+    def _plan(self) -> None:
+        """Preferred velocity toward the furthest visible waypoint, facing it (PedVR §3.2.1)."""
+        if self._flat is None:
+            for row in range(len(self.crowd)):
+                if not self.crowd.is_user[row] and self.paths[row].shape[0] == 0 \
+                        and not np.isnan(self.behavior.goal[row, 0]):
+                    self._replan(row)
+        pts, starts, lens = self._flat_paths()
+        crowd = self.crowd
+        cursor = self.visibility.furthest_visible(crowd.pos, crowd.radius, pts, starts, lens,
+                                                  self.cursor, LOOKAHEAD)
+        has_path = (lens >= 2) & ~crowd.is_user
+        cur = np.minimum(cursor, np.maximum(lens - 1, 0))
+        target = np.where(has_path[:, None], pts[np.minimum(starts + cur, max(len(pts) - 1, 0))]
+                          if len(pts) else crowd.pos, crowd.pos)
+        d = target - crowd.pos
+        dist = np.linalg.norm(d, axis=1)
+        speed = crowd.pref_speed * self.behavior.speed_scale
+        last = cur >= lens - 1
+        speed = np.where(last, speed * np.minimum(1.0, dist / SLOWING_DIST), speed)
+        unit = np.divide(d, dist[:, None], out=np.zeros_like(d), where=dist[:, None] > 1e-9)
+        moving = has_path & (dist > 1e-6)
+        pref_vel = np.where(moving[:, None], unit * speed[:, None], 0.0)
+        pref_heading = np.where(moving, np.arctan2(unit[:, 1], unit[:, 0]), crowd.heading)
+        # commit
+        self.cursor = cursor
+        crowd.pref_vel = np.where(crowd.is_user[:, None], crowd.vel, pref_vel)
+        crowd.pref_heading = np.where(crowd.is_user, crowd.heading, pref_heading)
+
+    def _avoid(self) -> None:
+        """ORCA: reciprocal between agents, asymmetric toward the user, inside the body's limits."""
+        self.body.fill_limits(self.crowd, self.crowd.limits)
+        pref = self.steering.unstick(self.crowd, self.stuck_time, self.dt)
+        crowd = self.crowd
+        saved = crowd.pref_vel
+        crowd.pref_vel = pref
+        self._new_vel = self.steering.compute_velocities(crowd, self.dt)
+        crowd.pref_vel = saved
+
+    def _animate(self) -> None:
+        """The body turns commanded velocities into root motion; contacts are resolved."""
+        root, heading = self.body.animate(self.crowd, self._new_vel, self.dt, coupled=self.coupled)
+        self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user)
+        self._root_heading = heading
+
+    def _sync(self) -> None:
+        """The 2D agent takes the position and heading of its body's root (the body is the truth)."""
+        crowd = self.crowd
+        virt = ~crowd.is_user
+        vel = np.where(virt[:, None], self._new_vel, crowd.vel)
+        crowd.pos = np.where(virt[:, None], self._root, crowd.pos)
+        crowd.vel = vel
+        crowd.heading = self._root_heading
+        self.t = (self.step_index + 1) * self.dt
+        self.step_index += 1
+
+    def _record(self, prev_vel: np.ndarray, prev_heading: np.ndarray) -> None:
+        self.metrics.observe(self.crowd, prev_vel=prev_vel, prev_heading=prev_heading, dt=self.dt)
+        if self.recording is not None:
+            self.recording.add(self.t, self.crowd)
+
+    def _remove_leaving(self) -> None:
+        if not self._leaving.any():
+            return
+        keep = ~self._leaving
+        self.crowd.keep(keep)
+        self.behavior.keep(keep)
+        self.paths = [p for p, k in zip(self.paths, keep, strict=True) if k]
+        self.sequences = [s for s, k in zip(self.sequences, keep, strict=True) if k]
+        self.cursor = self.cursor[keep]
+        self.stuck_time = self.stuck_time[keep]
+        self._flat = None
+        self._leaving = np.zeros(len(self.crowd), np.bool_)
+
+    # -- results ---------------------------------------------------------------------------
+
+    def summary(self) -> dict[str, object]:
+        out = self.metrics.summary()
+        out.update({
+            "scene": self.scene.name,
+            "scene_hash": self.scene.content_hash,
+            "seed": self.seed,
+            "condition": self.condition,
+            "responsibility": self.responsibility,
+            "dt": self.dt,
+            "sim_time_s": round(self.t, 6),
+            "unreachable_goals": self.unreachable_goals,
+            "user_spheres_reached": None if self.user is None else self.user.sphere,
+            "user_spheres_total": None if self.user is None else int(self.user.route.shape[0]),
+        })
+        return out
