@@ -1,0 +1,3 @@
+from pedvr.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,154 @@
+"""Scene validation: every problem at once, each naming file, key, value and expectation."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import tomli_w
+
+from pedvr.errors import SceneError
+from pedvr.scene.loader import load_scene
+from pedvr.scenes import shipped_scenes
+
+GOOD = {
+    "scene": {"name": "t", "seed": 1, "duration": 10.0},
+    "world": {"bounds": [[-5.0, -5.0], [5.0, 5.0]],
+              "obstacles": [{"kind": "box", "box": [1.0, 1.0, 2.0, 2.0]}]},
+    "agents": {
+        "profiles": {"adult": {"radius": 0.25, "pref_speed": 1.3, "max_speed": 1.6},
+                     "child": {"inherit": "adult", "radius": 0.2}},
+        "spawns": [{"profile": "child", "state": "walk", "positions": [[-3.0, 0.0]]}],
+    },
+    "behavior": {"states": {
+        "walk": {"goal": {"selector": "point", "at": [3.0, -3.0]},
+                 "transitions": [{"on": "arrival", "to": "wait"}]},
+        "wait": {"goal": {"selector": "stay"}, "transitions": [{"on": "timer", "after": [1, 2], "to": "walk"}]},
+    }},
+    "user": {"start": [-4.0, -4.0], "route": [[4.0, 4.0]]},
+}
+
+
+def write(tmp_path: Path, data: dict) -> Path:
+    p = tmp_path / "x.toml"
+    p.write_bytes(tomli_w.dumps(data).encode())
+    return p
+
+
+def patched(**changes: object) -> dict:
+    """GOOD with dotted keys replaced (value None deletes the key)."""
+    import copy
+
+    d = copy.deepcopy(GOOD)
+    for dotted, value in changes.items():
+        keys = dotted.split("__")
+        node = d
+        for k in keys[:-1]:
+            node = node[int(k)] if isinstance(node, list) else node[k]
+        if value is None:
+            del node[keys[-1]]
+        elif isinstance(node, list):
+            node[int(keys[-1])] = value
+        else:
+            node[keys[-1]] = value
+    return d
+
+
+def test_good_scene_loads_with_inheritance(tmp_path: Path) -> None:
+    s = load_scene(write(tmp_path, GOOD))
+    assert s.profiles["child"].radius == 0.2
+    assert s.profiles["child"].pref_speed == 1.3  # inherited
+    assert s.behavior.states["walk"].goal is not None
+    assert s.behavior.states["wait"].goal is None
+    assert s.behavior.states["wait"].transitions[0].after == (1.0, 2.0)
+    assert len(s.content_hash) == 16
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"agents__profiles__adult__radius": -0.2},
+     r"x\.toml: agents\.profiles\.adult\.radius = -0\.2: must be > 0$"),
+    ({"scene__seed": None}, r"x\.toml: scene\.seed = <missing>: required"),
+    ({"scene__duration": "long"}, r"scene\.duration = 'long': expected a number"),
+    ({"world__bounds": [[5.0, 5.0], [-5.0, -5.0]]}, r"world\.bounds = .*min < max"),
+    ({"world__obstacles": [{"box": [2.0, 1.0, 1.0, 2.0]}]},
+     r"world\.obstacles\[0\]\.box = \[2\.0, 1\.0, 1\.0, 2\.0\]: expected xmin < xmax"),
+    ({"world__obstacles": [{"box": [1, 1, 2, 2], "circle": [0, 0, 1]}]},
+     r"world\.obstacles\[0\] = .*exactly one shape key"),
+    ({"agents__profiles__child__inherit": "ghost"},
+     r"agents\.profiles\.child\.inherit = 'ghost': unknown profile; known: adult, child"),
+    ({"agents__profiles__adult__inherit": "child"}, r"inheritance cycle"),
+    ({"agents__profiles__adult__max_speed": 1.0}, r"max_speed = 1\.0: must be >= pref_speed"),
+    ({"agents__profiles__adult__colour": "red"}, r"agents\.profiles\.adult\.colour = 'red': unknown key"),
+    ({"agents__spawns__0__state": "run"}, r"agents\.spawns\[0\]\.state = 'run': unknown state; known: wait, walk"),
+    ({"agents__spawns__0__positions": [[1.5, 1.5]]},
+     r"agents\.spawns\[0\]\.positions\[0\] = \[1\.5, 1\.5\]: lies outside the walkable area"),
+    ({"behavior__states__walk__goal": {"selector": "teleport"}},
+     r"behavior\.states\.walk\.goal\.selector = 'teleport': expected one of: circle, point, region"),
+    ({"behavior__states__walk__goal": {"selector": "circle", "center": [0, 0], "radius": -1, "spread": 0.1}},
+     r"behavior\.states\.walk\.goal\.radius = -1: must be a number > 0"),
+    ({"behavior__states__walk__goal": {"selector": "set", "set": "booths"}},
+     r"goal\.set = 'booths': unknown goal set; known: none"),
+    ({"behavior__states__walk__transitions": [{"on": "arrival", "to": "nowhere"}]},
+     r"transitions\[0\]\.to = 'nowhere': unknown state 'nowhere'; known: wait, walk"),
+    ({"behavior__states__walk__transitions": [{"on": "whenever", "to": "wait"}]},
+     r"transitions\[0\]\.on = 'whenever': expected one of arrival, timer, probability"),
+    ({"behavior__states__wait__transitions": [{"on": "timer", "to": "walk"}]},
+     r"transitions\[0\]\.after = <missing>: required for a timer"),
+    ({"behavior__states__walk__goal": None}, r"behavior\.states\.walk\.goal = <missing>: required"),
+    ({"user__start": [1.5, 1.5]}, r"user\.start = \[1\.5, 1\.5\]: lies outside the walkable area"),
+    ({"user__speed": 9}, r"user\.speed = 9: must be in \(0, 3\] m/s"),
+    ({"steering": {"user_responsibility": 1.5}}, r"steering\.user_responsibility = 1\.5: must be in \[0, 1\]"),
+    ({"colour": "blue"}, r"x\.toml: colour = 'blue': unknown key"),
+])
+def test_each_problem_has_its_message(tmp_path: Path, changes: dict, message: str) -> None:
+    with pytest.raises(SceneError, match=message):
+        load_scene(write(tmp_path, patched(**changes)))
+
+
+def test_all_problems_are_reported_at_once(tmp_path: Path) -> None:
+    bad = patched(agents__profiles__adult__radius=-1, scene__seed=None, user__speed=0)
+    with pytest.raises(SceneError) as info:
+        load_scene(write(tmp_path, bad))
+    assert len(info.value.problems) == 3
+    assert all(line.startswith(str(tmp_path / "x.toml")) for line in info.value.problems)
+
+
+def test_malformed_toml_and_missing_file(tmp_path: Path) -> None:
+    p = tmp_path / "broken.toml"
+    p.write_text("[scene\nname = 1\n")
+    with pytest.raises(SceneError, match=r"broken\.toml: not valid TOML: .*line 1"):
+        load_scene(p)
+    with pytest.raises(SceneError, match=r"nope\.toml: no such scene file"):
+        load_scene(tmp_path / "nope.toml")
+
+
+def test_scene_check_cli_prints_problems_and_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from pedvr.cli import main
+
+    p = write(tmp_path, patched(agents__profiles__adult__radius=-0.2))
+    assert main(["scene", "check", str(p)]) == 2
+    out = capsys.readouterr().out
+    assert "agents.profiles.adult.radius = -0.2: must be > 0" in out
+    assert main(["scene", "check", str(write(tmp_path, GOOD))]) == 0
+
+
+def test_circle_obstacle_circumscribes(tmp_path: Path) -> None:
+    s = load_scene(write(tmp_path, patched(world__obstacles=[{"kind": "pillar", "circle": [0.0, 0.0, 1.0]}])))
+    v = s.world.obstacles[0].vertices
+    # every edge's midpoint is at distance >= r: the true circle lies inside
+    for a, b in zip(v, v[1:] + v[:1], strict=True):
+        assert math.hypot((a[0] + b[0]) / 2, (a[1] + b[1]) / 2) >= 1.0 - 1e-9
+
+
+@pytest.mark.parametrize("path", shipped_scenes(), ids=lambda p: p.stem)
+def test_shipped_scenes_load(path: Path) -> None:
+    s = load_scene(path)
+    assert s.user.route, "every shipped scene has a red-sphere route"
+    assert sum(sp.count or len(sp.positions) for sp in s.spawns) >= 1
+
+
+def test_all_six_paper_scenes_are_shipped() -> None:
+    names = {p.stem for p in shipped_scenes()}
+    assert {"antipodal_circle", "bidirectional_flow", "headon_corridor", "shibuya_crossing",
+            "tradeshow", "shopping_mall"} <= names
