@@ -336,10 +336,38 @@ class Simulation:
         if self.recording is not None:
             self.recording.add(self.t, self.crowd)
 
+    def add_agents(self, profile: str, positions: np.ndarray, *, state: str,
+                   facing: float | None = None) -> np.ndarray:
+        """Add agents between steps; returns their new stable ids."""
+        if profile not in self.scene.profiles:
+            raise UsageError(f"profile {profile!r}: unknown; known: {', '.join(sorted(self.scene.profiles))}")
+        if state not in self.bfsm.ids:
+            raise UsageError(f"state {state!r}: unknown; known: {', '.join(self.bfsm.names)}")
+        prof = self.scene.profiles[profile]
+        pts = np.asarray(positions, np.float64).reshape(-1, 2)
+        first = self._next_id
+        for p in pts:
+            heading = np.nan if facing is None else facing
+            self._add_rows(1, pos=p[None], radius=prof.radius, pref_speed=prof.pref_speed,
+                           max_speed=prof.max_speed, limits=_limits_row(prof), is_user=False,
+                           heading=np.asarray([heading]), state=state)
+        self._plan()
+        unset = np.isnan(self.crowd.heading)
+        self.crowd.heading[unset] = self.crowd.pref_heading[unset]
+        return np.arange(first, self._next_id, dtype=np.int64)
+
+    def remove_agents(self, ids: np.ndarray | list[int]) -> None:
+        """Remove virtual agents by id between steps (the user cannot be removed)."""
+        drop = np.isin(self.crowd.ids, np.asarray(ids)) & ~self.crowd.is_user
+        self._drop_rows(drop)
+
     def _remove_leaving(self) -> None:
-        if not self._leaving.any():
+        self._drop_rows(self._leaving)
+
+    def _drop_rows(self, drop: np.ndarray) -> None:
+        if not drop.any():
             return
-        keep = ~self._leaving
+        keep = ~drop
         self.crowd.keep(keep)
         self.behavior.keep(keep)
         self.paths = [p for p, k in zip(self.paths, keep, strict=True) if k]

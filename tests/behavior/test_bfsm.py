@@ -9,8 +9,7 @@ import pytest
 
 from pedvr.behavior.bfsm import BFSM, BehaviorState
 from pedvr.behavior.goals import GoalContext, selectors
-from pedvr.scene.config import (BehaviorConfig, GoalSelector, GoalSet, SequenceGoal, StateConfig,
-                                Transition)
+from pedvr.scene.config import BehaviorConfig, GoalSelector, GoalSet, SequenceGoal, StateConfig, Transition
 
 
 class OpenPlane:

@@ -1,0 +1,116 @@
+"""The simulation step: asymmetric avoidance of the user, motion limits, conditions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pedvr.crowd.state import LIMIT_ACCEL, LIMIT_BACKWARD, LIMIT_DECEL, LIMIT_SIDEWAYS
+from pedvr.errors import UsageError
+from pedvr.scene.loader import load_scene
+from pedvr.scenes import resolve_scene
+from pedvr.sim import PHASES, Simulation
+
+
+def headon(rho: float, condition: str = "pedvr") -> dict[str, np.ndarray | float]:
+    sim = Simulation(load_scene(resolve_scene("headon_corridor")), condition=condition,
+                     responsibility=rho, record=True)
+    sim.advance_to(10.0)
+    arr = sim.recording.arrays()  # type: ignore[union-attr]
+    user = int(np.flatnonzero(arr["is_user"])[0])
+    agent = 1 - user
+    pu, pa = arr["pos"][:, user], arr["pos"][:, agent]
+    gap = np.linalg.norm(pa - pu, axis=1)
+    ahead = pa[:, 0] > pu[:, 0] + 0.5  # before they meet
+    return {"user_y": pu[:, 1], "agent_dev": np.abs(pa[:, 1] - 0.1), "gap": gap, "ahead": ahead,
+            "min_gap": float(gap.min()), "user_x_end": float(pu[-1, 0])}
+
+
+@pytest.fixture(scope="module")
+def trials() -> dict[float, dict]:
+    return {rho: headon(rho) for rho in (0.0, 0.25, 0.5, 1.0)}
+
+
+def test_user_is_never_steered(trials: dict[float, dict]) -> None:
+    for t in trials.values():
+        assert np.abs(t["user_y"]).max() < 1e-9  # walks the corridor's centre line, whatever ρ
+        assert t["user_x_end"] > 5.0  # and gets to the far end
+
+
+def test_full_responsibility_never_touches_the_user(trials: dict[float, dict]) -> None:
+    assert trials[1.0]["min_gap"] >= 0.5 - 0.01  # radii 0.25 + 0.25
+
+
+def test_zero_responsibility_does_not_deflect(trials: dict[float, dict]) -> None:
+    t = trials[0.0]
+    # Until the discs touch, the agent walks its own line.
+    free = t["ahead"] & (t["gap"] > 0.5 + 0.05)
+    assert t["agent_dev"][free].max() < 0.02
+
+
+def test_deflection_grows_with_responsibility(trials: dict[float, dict]) -> None:
+    dev = [float(trials[r]["agent_dev"][trials[r]["ahead"]].max()) for r in (0.0, 0.25, 0.5, 1.0)]
+    gaps = [trials[r]["min_gap"] for r in (0.0, 0.25, 0.5, 1.0)]
+    assert dev == sorted(dev) and dev[0] < dev[-1] - 0.1, dev
+    assert gaps == sorted(gaps), gaps
+
+
+@pytest.mark.parametrize("scene", ["shibuya_crossing", "bidirectional_flow"])
+def test_motion_limits_hold_in_coupled_mode(scene: str) -> None:
+    sim = Simulation(load_scene(resolve_scene(scene)), condition="pedvr")
+    lim = sim.crowd.limits[~sim.crowd.is_user][0].copy()
+    worst = {"accel": 0.0, "back": 0.0, "side": 0.0}
+    keep = ~sim.crowd.is_user  # nobody leaves these scenes
+    for _ in range(round(20.0 / sim.dt)):
+        before = sim.crowd.vel.copy()
+        sim.step()
+        dv = np.linalg.norm(sim.crowd.vel[keep] - before[keep], axis=1) / sim.dt
+        worst["accel"] = max(worst["accel"], float(dv.max(initial=0)))
+        h = sim.crowd.heading[keep]
+        fwd = np.stack([np.cos(h), np.sin(h)], 1)
+        v = sim.crowd.vel[keep]
+        worst["back"] = max(worst["back"], float((-(v * fwd).sum(1)).max(initial=0)))
+    assert worst["accel"] <= max(lim[LIMIT_ACCEL], lim[LIMIT_DECEL]) * 1.05 + 1e-6, worst
+    assert worst["back"] <= lim[LIMIT_BACKWARD] + 0.05, worst
+    assert lim[LIMIT_SIDEWAYS] > 0
+
+
+def test_decoupled_mode_ignores_limits() -> None:
+    """The baseline is plain ORCA: its accelerations exceed the body's limits."""
+    scene = load_scene(resolve_scene("shibuya_crossing"))
+    s = Simulation(scene, condition="decoupled")
+    s.advance_to(20.0)
+    c = Simulation(scene, condition="pedvr")
+    c.advance_to(20.0)
+    assert s.summary()["max_accel_mps2"] > c.summary()["max_accel_mps2"]  # type: ignore[operator]
+    assert c.summary()["max_turn_rate_radps"] <= 3.0 + 1e-6  # turn_rate_standing
+
+
+def test_phases_are_timed_and_named() -> None:
+    sim = Simulation(load_scene(resolve_scene("antipodal_circle")))
+    sim.step()
+    assert tuple(sim.metrics.phase_ms) == PHASES
+
+
+def test_agents_can_be_added_and_removed_between_steps() -> None:
+    sim = Simulation(load_scene(resolve_scene("antipodal_circle")))
+    sim.advance_to(1.0)
+    ids = sim.crowd.ids.copy()
+    sim.remove_agents([ids[3]])
+    new = sim.add_agents("adult", np.array([[0.0, -8.0], [0.0, 8.0]]), state="cross")
+    sim.advance_to(3.0)
+    assert ids[3] not in sim.crowd.ids
+    assert set(new) <= set(sim.crowd.ids) and len(set(new) | set(ids)) == len(ids) + 2
+    assert len(sim.crowd) == len(ids) + 1
+    rows = np.isin(sim.crowd.ids, new)
+    assert (np.linalg.norm(sim.crowd.pos[rows] - [[0.0, -8.0], [0.0, 8.0]], axis=1) > 0.5).all()  # they walk
+    with pytest.raises(UsageError, match="profile 'ghost': unknown; known: adult, slow"):
+        sim.add_agents("ghost", np.zeros((1, 2)), state="cross")
+
+
+def test_bad_options_are_clear() -> None:
+    scene = load_scene(resolve_scene("antipodal_circle"))
+    with pytest.raises(UsageError, match=r"condition 'fast': expected one of decoupled, pedvr, pedvr\+g"):
+        Simulation(scene, condition="fast")
+    with pytest.raises(UsageError, match=r"responsibility 2\.0: expected a number in \[0, 1\]"):
+        Simulation(scene, responsibility=2.0)
