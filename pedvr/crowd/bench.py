@@ -1,0 +1,194 @@
+"""Steering benchmark: pedvr's ORCA kernels against RVO2 (pyrvo) on one machine.
+
+The scenario is RVO2's "Circle" example scaled to pedestrians: ``agents``
+agents evenly on a circle, each walking to its antipode. Centres start 0.6 m
+apart along the circle (radius ``max(10, agents * 0.6 / 2π)`` m), so every
+agent starts with a full neighbour list and the crowd jams as it converges.
+Parameters: time step 0.1 s, neighbour distance 3 m, 10 neighbours, time
+horizons 2 s (agents and obstacles), radius 0.25 m, max speed 1.4 m/s,
+preferred speed 1.4 m/s (slowing within 1.4 m of the goal), decoupled mode,
+no user, no obstacles.
+
+Both simulations run in the same process and the same loop, one step of each
+in turn, so they see the same machine state. Measured per step:
+
+* core: RVO2's ``do_step`` (k-d tree, neighbours, ORCA, position update)
+  against ours (grid, neighbours, ORCA, position update);
+* end to end: the core plus setting preferred velocities (for RVO2 the Python
+  loop of ``set_agent_pref_velocity`` calls, for us one numpy expression) and,
+  for us, the contact pass (which RVO2 does not have). RVO2's preferred
+  velocities are computed with numpy from positions read back after each
+  step, outside the timed region (reading them back is not part of either).
+
+``*_overlaps_over_1cm`` counts distinct agent pairs that overlapped by more
+than 1 cm at the end of any step (ours after the contact pass).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+import time
+
+import numba
+import numpy as np
+
+from pedvr.crowd.contact import overlapping_pairs
+from pedvr.crowd.state import N_LIMITS, CrowdState
+from pedvr.crowd.steering import Steering
+from pedvr.scene.config import SteeringParams
+from pedvr.world.obstacles import ObstacleSet
+
+DT = 0.1
+NEIGHBOR_DIST = 3.0
+MAX_NEIGHBORS = 10
+TIME_HORIZON = 2.0
+RADIUS = 0.25
+MAX_SPEED = 1.4
+PREF_SPEED = 1.4
+SPACING = 0.6
+OVERLAP_TOL = 0.01
+
+
+def circle_radius(agents: int) -> float:
+    """Radius of the start circle, m: centres ``SPACING`` apart, at least 10 m."""
+    return max(10.0, agents * SPACING / (2.0 * math.pi))
+
+
+def _pref_velocities(pos: np.ndarray, goals: np.ndarray) -> np.ndarray:
+    d = goals - pos
+    dist = np.sqrt((d * d).sum(axis=1))
+    scale = np.where(dist > 1e-9, np.minimum(PREF_SPEED, dist) / np.maximum(dist, 1e-9), 0.0)
+    return d * scale[:, None]
+
+
+def _crowd(pos: np.ndarray) -> CrowdState:
+    n = pos.shape[0]
+    return CrowdState(
+        ids=np.arange(n, dtype=np.int64), pos=pos.copy(), vel=np.zeros((n, 2)),
+        pref_vel=np.zeros((n, 2)), heading=np.zeros(n), pref_heading=np.zeros(n),
+        radius=np.full(n, RADIUS), pref_speed=np.full(n, PREF_SPEED),
+        max_speed=np.full(n, MAX_SPEED), responsibility=np.full(n, 0.5),
+        is_user=np.zeros(n, np.bool_), limits=np.zeros((n, N_LIMITS)))
+
+
+def _pair_keys(pos: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    pairs = overlapping_pairs(pos, radius, OVERLAP_TOL)
+    return pairs[:, 0] * pos.shape[0] + pairs[:, 1]
+
+
+def crossing_steps(agents: int) -> int:
+    """Steps for the front of the crowd to reach the centre, plus 200 steps of jam."""
+    return int(math.ceil(circle_radius(agents) / (PREF_SPEED * DT))) + 200
+
+
+def run_steering_bench(agents: int, *, vs_rvo2: bool, steps: int | None = None, seed: int = 0,
+                       threads: int | None = None, warmup_steps: int = 5) -> dict[str, object]:
+    """Run the antipodal-circle benchmark and return the figures (see module doc).
+
+    ``steps`` defaults to :func:`crossing_steps` (the approach and the central
+    jam, where ORCA's dense case dominates). ``threads`` sets
+    ``numba.set_num_threads`` (default: numba's current setting). ``seed``
+    jitters start positions by up to 1 mm (the circle is otherwise perfectly
+    symmetric). ``vs_rvo2=False`` skips pyrvo (its keys
+    are then None).
+    """
+    if agents < 2:
+        raise ValueError(f"agents = {agents}: must be >= 2")
+    if steps is None:
+        steps = crossing_steps(agents)
+    if threads is not None:
+        numba.set_num_threads(int(threads))
+    rng = np.random.default_rng(seed)
+    big_r = circle_radius(agents)
+    ang = 2.0 * math.pi * np.arange(agents) / agents
+    start = big_r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    start += rng.uniform(-1e-3, 1e-3, start.shape)
+    start = start.astype(np.float32).astype(np.float64)  # same start for both
+    goals = -start
+
+    params = SteeringParams(neighbor_dist=NEIGHBOR_DIST, max_neighbors=MAX_NEIGHBORS,
+                            time_horizon=TIME_HORIZON, time_horizon_obst=TIME_HORIZON,
+                            user_responsibility=0.5)
+    steering = Steering(params, ObstacleSet.empty(), coupled=False)
+    radius = np.full(agents, RADIUS)
+    is_user = np.zeros(agents, np.bool_)
+
+    # Warm numba up (compilation / cache load) on a throwaway copy.
+    warm = _crowd(start)
+    for _ in range(warmup_steps):
+        warm.pref_vel = _pref_velocities(warm.pos, goals)
+        v = steering.compute_velocities(warm, DT)
+        warm.vel = v
+        warm.pos = steering.resolve_contacts(warm.pos + v * DT, radius, is_user)
+    _pair_keys(warm.pos, radius)
+
+    sim = None
+    if vs_rvo2:
+        import pyrvo
+
+        sim = pyrvo.RVOSimulator()
+        sim.set_time_step(DT)
+        sim.set_agent_defaults(NEIGHBOR_DIST, MAX_NEIGHBORS, TIME_HORIZON, TIME_HORIZON, RADIUS,
+                               MAX_SPEED)
+        for i in range(agents):
+            sim.add_agent((float(start[i, 0]), float(start[i, 1])))
+        sim.process_obstacles()
+
+    state = _crowd(start)
+    vel_out = np.empty((agents, 2))
+    ours_core = ours_e2e = ours_contact = 0.0
+    rvo_core = rvo_e2e = 0.0
+    ours_pairs: set[int] = set()
+    rvo_pairs: set[int] = set()
+    rvo_pos = start.copy()
+    for _ in range(steps):
+        # ---- pedvr
+        t0 = time.perf_counter()
+        state.pref_vel = _pref_velocities(state.pos, goals)
+        t1 = time.perf_counter()
+        v = steering.compute_velocities(state, DT, out=vel_out)
+        state.vel = v.copy()
+        state.pos = state.pos + v * DT
+        t2 = time.perf_counter()
+        state.pos = steering.resolve_contacts(state.pos, radius, is_user)
+        t3 = time.perf_counter()
+        ours_core += t2 - t1
+        ours_contact += t3 - t2
+        ours_e2e += t3 - t0
+        ours_pairs.update(_pair_keys(state.pos, radius).tolist())
+
+        # ---- RVO2
+        if sim is not None:
+            pv = _pref_velocities(rvo_pos, goals)
+            t0 = time.perf_counter()
+            for i in range(agents):
+                sim.set_agent_pref_velocity(i, (float(pv[i, 0]), float(pv[i, 1])))
+            t1 = time.perf_counter()
+            sim.do_step()
+            t2 = time.perf_counter()
+            rvo_core += t2 - t1
+            rvo_e2e += t2 - t0
+            for i in range(agents):
+                rvo_pos[i] = sim.get_agent_position(i).to_tuple()
+            rvo_pairs.update(_pair_keys(rvo_pos, radius).tolist())
+
+    ms = 1000.0 / steps
+    result: dict[str, object] = {
+        "agents": agents,
+        "steps": steps,
+        "circle_radius_m": big_r,
+        "threads": numba.get_num_threads(),
+        "machine": f"{platform.processor() or platform.machine()} / {os.cpu_count()} cpus",
+        "pedvr_ms_per_step": ours_core * ms,
+        "pedvr_contact_ms_per_step": ours_contact * ms,
+        "pedvr_end_to_end_ms_per_step": ours_e2e * ms,
+        "pedvr_overlaps_over_1cm": len(ours_pairs),
+        "rvo2_ms_per_step": rvo_core * ms if sim is not None else None,
+        "rvo2_end_to_end_ms_per_step": rvo_e2e * ms if sim is not None else None,
+        "rvo2_overlaps_over_1cm": len(rvo_pairs) if sim is not None else None,
+        "ratio": (ours_core / rvo_core) if sim is not None and rvo_core > 0 else None,
+        "mean_speed_end": float(np.sqrt((state.vel ** 2).sum(axis=1)).mean()),
+    }
+    return result

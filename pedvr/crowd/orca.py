@@ -1,0 +1,768 @@
+"""ORCA as numba kernels: a port of RVO2's ``Agent::computeNewVelocity``.
+
+Optimal Reciprocal Collision Avoidance (van den Berg, Guy, Lin, Manocha 2011,
+"Reciprocal n-body collision avoidance"): each agent turns every neighbour
+(and every nearby obstacle edge) into a half-plane of permitted velocities, an
+*ORCA line*, and picks the velocity closest to its preferred one inside all of
+them and inside the max-speed disc (``linear_program2``). When that is
+infeasible it minimises the largest violation of the agent lines while keeping
+the hard lines (``linear_program3``, paper §5.3 "dense situations").
+
+Lines are rows ``(point_x, point_y, dir_x, dir_y)`` of a float64 array; the
+permitted side is the left of ``direction`` (RVO2's convention). Everything is
+float64 where RVO2 uses float32; results agree to ~1e-5 m/s except where a
+float32 comparison flips a branch.
+
+Responsibility (DESIGN.md "crowd")
+    For a neighbour pair the ORCA line passes through ``v_i + share * u``.
+    Between virtual agents ``share = 0.5`` (reciprocity). When the neighbour is
+    the user (``is_user[j]``), ``share = responsibility[i]``: 1 makes the user a
+    moving obstacle that does not reciprocate, 0 makes ``i`` not deflect.
+    User rows are never steered: their output velocity is their input one.
+
+Coupled mode (PedVR §4.1: the body's motion limits in the same program)
+    With ``coupled`` the hard prefix of the program holds, after the obstacle
+    lines, these motion-limit lines built from the current velocity ``v``
+    (speed ``s``), heading unit ``h`` and time step ``dt``:
+
+    (a) acceleration: a 16-gon inscribed in the region made of a forward
+        half-ellipse (semi-axes ``max_accel*dt`` along the motion direction
+        ``f``, ``L`` across) and a backward half-ellipse (``max_decel*dt``
+        along ``-f``, ``L`` across), centred on ``v``, with
+        ``L = min(max_accel, max_decel)*dt``. (Two half-discs of different
+        radii would not be convex; the half-ellipses meet smoothly.) ``f`` is
+        ``v/s``, or the heading when ``s < STOPPED_SPEED``.
+    (b) turn rate: ``|(v' - v)·f⊥| <= max(s*ω(s), max_accel)*dt`` with
+        ``ω`` linear from ``LIMIT_TURN_STANDING`` at rest to
+        ``LIMIT_TURN_WALKING`` at ``pref_speed`` (constant above). The floor
+        ``max_accel`` means the pair never binds tighter than (a) at low
+        speed, where the direction of motion is free to change (one stops and
+        sets off elsewhere); at walking speed it caps the centripetal change.
+        Omitted when ``s < STOPPED_SPEED``.
+    (c) heading-relative: backward ``v'·h >= -LIMIT_BACKWARD`` and sideways
+        ``|v'·h⊥| <= LIMIT_SIDEWAYS + k * (v'·h)`` with ``k = tan 30°``
+        (capped at ``LIMIT_SIDEWAYS / LIMIT_BACKWARD`` so that walking straight
+        backwards stays feasible). The slack grows with forward speed because
+        the body's heading lags the velocity while turning: at 1.3 m/s forward
+        the velocity may point about 54° off the heading, at 0.6 m/s a pure
+        side-step is allowed. Both sides stay linear (a cone with apex behind
+        the agent), so this is still one LP.
+
+What is relaxed first when the program is infeasible
+    1. The agent (neighbour) lines are soft: ``linear_program3`` minimises
+       their largest violation, keeping obstacle and motion-limit lines hard.
+    2. If the hard prefix itself is infeasible (e.g. a wall ahead closer than
+       the braking distance, or the body's heading jumped so ``v`` violates
+       (c)), the heading-relative lines (c) are dropped first.
+    3. If obstacles plus (a), (b) are still infeasible, all motion-limit
+       lines are dropped and plain ORCA (RVO2's behaviour) is solved.
+    ``out_status[i]`` reports what happened as bit flags: ``STATUS_DENSE``
+    (step 1 ran), ``STATUS_DROPPED_HEADING`` (step 2), ``STATUS_DROPPED_MOTION``
+    (step 3).
+
+Decoupled mode (``coupled=False``) is plain ORCA with no motion limits: the
+baseline, and what the oracle test compares against RVO2.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from pedvr.crowd.neighbors import obstacle_neighbors_of
+from pedvr.crowd.state import (
+    LIMIT_ACCEL,
+    LIMIT_BACKWARD,
+    LIMIT_DECEL,
+    LIMIT_SIDEWAYS,
+    LIMIT_TURN_STANDING,
+    LIMIT_TURN_WALKING,
+)
+
+RVO_EPSILON = 1e-5  # RVO2's RVO_EPSILON
+STOPPED_SPEED = 0.05  # m/s: below this the motion direction is the heading
+ACCEL_POLYGON_SIDES = 16
+SIDEWAYS_SLOPE = math.tan(math.radians(30.0))
+# Lines one agent may add on top of its obstacle and agent lines in coupled mode.
+MAX_MOTION_LINES = ACCEL_POLYGON_SIDES + 2 + 3
+
+# Bit flags of ``out_status``.
+STATUS_DENSE = 1  # linear_program3 ran: agent lines were softened
+STATUS_DROPPED_HEADING = 2  # hard prefix infeasible: heading-relative limits (c) dropped
+STATUS_DROPPED_MOTION = 4  # still infeasible: every motion limit dropped (plain ORCA)
+
+_FM = {"nsz", "arcp", "contract", "afn"}  # no reassociation, no nnan/ninf (RVO2 uses inf)
+
+
+# --------------------------------------------------------------------------- linear programs
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def _det(ax, ay, bx, by):
+    return ax * by - ay * bx
+
+
+@njit(cache=True, fastmath=_FM)
+def linear_program1(lines, line_no, radius, opt_x, opt_y, direction_opt):
+    """Optimise on line ``line_no`` subject to lines ``[0, line_no)`` and the disc.
+
+    Returns ``(ok, x, y)``; ``ok`` is false when the line's feasible interval
+    is empty.
+    """
+    px = lines[line_no, 0]
+    py = lines[line_no, 1]
+    dx = lines[line_no, 2]
+    dy = lines[line_no, 3]
+    dot = px * dx + py * dy
+    discriminant = dot * dot + radius * radius - (px * px + py * py)
+    if discriminant < 0.0:
+        # Max speed circle fully invalidates line line_no.
+        return False, 0.0, 0.0
+    sqrt_disc = math.sqrt(discriminant)
+    t_left = -dot - sqrt_disc
+    t_right = -dot + sqrt_disc
+    for i in range(line_no):
+        denominator = _det(dx, dy, lines[i, 2], lines[i, 3])
+        numerator = _det(lines[i, 2], lines[i, 3], px - lines[i, 0], py - lines[i, 1])
+        if abs(denominator) <= RVO_EPSILON:
+            # Lines line_no and i are (almost) parallel.
+            if numerator < 0.0:
+                return False, 0.0, 0.0
+            continue
+        t = numerator / denominator
+        if denominator >= 0.0:
+            # Line i bounds line line_no on the right.
+            t_right = min(t_right, t)
+        else:
+            # Line i bounds line line_no on the left.
+            t_left = max(t_left, t)
+        if t_left > t_right:
+            return False, 0.0, 0.0
+    if direction_opt:
+        # Optimize direction.
+        if opt_x * dx + opt_y * dy > 0.0:
+            # Take right extreme.
+            return True, px + t_right * dx, py + t_right * dy
+        # Take left extreme.
+        return True, px + t_left * dx, py + t_left * dy
+    # Optimize closest point.
+    t = dx * (opt_x - px) + dy * (opt_y - py)
+    if t < t_left:
+        return True, px + t_left * dx, py + t_left * dy
+    if t > t_right:
+        return True, px + t_right * dx, py + t_right * dy
+    return True, px + t * dx, py + t * dy
+
+
+@njit(cache=True, fastmath=_FM)
+def linear_program2(lines, n, radius, opt_x, opt_y, direction_opt):
+    """Closest point to ``opt`` (or furthest along it) in lines ``[0, n)`` ∩ disc.
+
+    Returns ``(fail, x, y)``: ``fail == n`` on success, else the index of the
+    first line that made the program infeasible, with ``(x, y)`` the optimum of
+    the lines before it (incremental algorithm, paper §5.2).
+    """
+    if direction_opt:
+        # Optimize direction. The optimization velocity is of unit length here.
+        rx = opt_x * radius
+        ry = opt_y * radius
+    elif opt_x * opt_x + opt_y * opt_y > radius * radius:
+        # Optimize closest point and outside circle.
+        norm = math.sqrt(opt_x * opt_x + opt_y * opt_y)
+        rx = opt_x / norm * radius
+        ry = opt_y / norm * radius
+    else:
+        # Optimize closest point and inside circle.
+        rx = opt_x
+        ry = opt_y
+    for i in range(n):
+        if _det(lines[i, 2], lines[i, 3], lines[i, 0] - rx, lines[i, 1] - ry) > 0.0:
+            # Result does not satisfy constraint i. Compute new optimal result.
+            ok, x, y = linear_program1(lines, i, radius, opt_x, opt_y, direction_opt)
+            if not ok:
+                return i, rx, ry
+            rx = x
+            ry = y
+    return n, rx, ry
+
+
+@njit(cache=True, fastmath=_FM)
+def linear_program3(lines, n, num_hard, begin, radius, rx, ry, proj):
+    """Dense case (paper §5.3): minimise the largest violation of the soft lines.
+
+    Lines ``[0, num_hard)`` (obstacles, motion limits) stay hard; ``proj`` is
+    scratch with room for ``n`` lines. Returns the new ``(x, y)``.
+    """
+    distance = 0.0
+    for i in range(begin, n):
+        pix = lines[i, 0]
+        piy = lines[i, 1]
+        dix = lines[i, 2]
+        diy = lines[i, 3]
+        if _det(dix, diy, pix - rx, piy - ry) > distance:
+            # Result does not satisfy constraint of line i.
+            for k in range(num_hard):
+                proj[k, 0] = lines[k, 0]
+                proj[k, 1] = lines[k, 1]
+                proj[k, 2] = lines[k, 2]
+                proj[k, 3] = lines[k, 3]
+            m = num_hard
+            for j in range(num_hard, i):
+                pjx = lines[j, 0]
+                pjy = lines[j, 1]
+                djx = lines[j, 2]
+                djy = lines[j, 3]
+                determinant = _det(dix, diy, djx, djy)
+                if abs(determinant) <= RVO_EPSILON:
+                    # Line i and line j are parallel.
+                    if dix * djx + diy * djy > 0.0:
+                        # Line i and line j point in the same direction.
+                        continue
+                    # Line i and line j point in opposite direction.
+                    qx = 0.5 * (pix + pjx)
+                    qy = 0.5 * (piy + pjy)
+                else:
+                    s = _det(djx, djy, pix - pjx, piy - pjy) / determinant
+                    qx = pix + s * dix
+                    qy = piy + s * diy
+                ex = djx - dix
+                ey = djy - diy
+                norm = math.sqrt(ex * ex + ey * ey)
+                proj[m, 0] = qx
+                proj[m, 1] = qy
+                proj[m, 2] = ex / norm
+                proj[m, 3] = ey / norm
+                m += 1
+            fail, x, y = linear_program2(proj, m, radius, -diy, dix, True)
+            if fail >= m:
+                rx = x
+                ry = y
+            # else: in principle impossible (the result is already feasible);
+            # floating point error, keep the current result.
+            distance = _det(dix, diy, pix - rx, piy - ry)
+    return rx, ry
+
+
+# --------------------------------------------------------------------------- ORCA lines
+
+
+@njit(cache=True, fastmath=_FM)
+def obstacle_lines(lines, n, px, py, vx, vy, radius, inv_tho, obst_idx, n_obst,
+                   vertices, nxt, prv, direction, convex):
+    """Append obstacle ORCA lines (RVO2's first loop) and return the new count.
+
+    ``obst_idx[:n_obst]`` are the edges (first-vertex indices) nearest first.
+    """
+    radius_sq = radius * radius
+    inf = np.inf
+    for q in range(n_obst):
+        o1 = obst_idx[q]
+        o2 = nxt[o1]
+        r1x = vertices[o1, 0] - px
+        r1y = vertices[o1, 1] - py
+        r2x = vertices[o2, 0] - px
+        r2y = vertices[o2, 1] - py
+
+        # Check if velocity obstacle of obstacle is already taken care of by
+        # previously constructed obstacle ORCA lines.
+        already_covered = False
+        for j in range(n):
+            ljx = lines[j, 0]
+            ljy = lines[j, 1]
+            djx = lines[j, 2]
+            djy = lines[j, 3]
+            if (_det(inv_tho * r1x - ljx, inv_tho * r1y - ljy, djx, djy) - inv_tho * radius
+                    >= -RVO_EPSILON
+                    and _det(inv_tho * r2x - ljx, inv_tho * r2y - ljy, djx, djy)
+                    - inv_tho * radius >= -RVO_EPSILON):
+                already_covered = True
+                break
+        if already_covered:
+            continue
+
+        # Not yet covered. Check for collisions.
+        dist_sq1 = r1x * r1x + r1y * r1y
+        dist_sq2 = r2x * r2x + r2y * r2y
+        ovx = vertices[o2, 0] - vertices[o1, 0]
+        ovy = vertices[o2, 1] - vertices[o1, 1]
+        s = (-r1x * ovx - r1y * ovy) / (ovx * ovx + ovy * ovy)
+        lx = -r1x - s * ovx
+        ly = -r1y - s * ovy
+        dist_sq_line = lx * lx + ly * ly
+
+        if s < 0.0 and dist_sq1 <= radius_sq:
+            # Collision with left vertex. Ignore if non-convex.
+            if convex[o1]:
+                norm = math.sqrt(dist_sq1)
+                lines[n, 0] = 0.0
+                lines[n, 1] = 0.0
+                lines[n, 2] = -r1y / norm
+                lines[n, 3] = r1x / norm
+                n += 1
+            continue
+        if s > 1.0 and dist_sq2 <= radius_sq:
+            # Collision with right vertex. Ignore if non-convex or if it will be
+            # taken care of by the neighbouring obstacle.
+            if convex[o2] and _det(r2x, r2y, direction[o2, 0], direction[o2, 1]) >= 0.0:
+                norm = math.sqrt(dist_sq2)
+                lines[n, 0] = 0.0
+                lines[n, 1] = 0.0
+                lines[n, 2] = -r2y / norm
+                lines[n, 3] = r2x / norm
+                n += 1
+            continue
+        if s >= 0.0 and s <= 1.0 and dist_sq_line <= radius_sq:
+            # Collision with obstacle segment.
+            lines[n, 0] = 0.0
+            lines[n, 1] = 0.0
+            lines[n, 2] = -direction[o1, 0]
+            lines[n, 3] = -direction[o1, 1]
+            n += 1
+            continue
+
+        # No collision. Compute legs. When obliquely viewed, both legs can come
+        # from a single vertex. Legs extend cut-off line when nonconvex vertex.
+        if s < 0.0 and dist_sq_line <= radius_sq:
+            # Obstacle viewed obliquely so that left vertex defines velocity obstacle.
+            if not convex[o1]:
+                continue  # Ignore obstacle.
+            o2 = o1
+            leg1 = math.sqrt(dist_sq1 - radius_sq)
+            llx = (r1x * leg1 - r1y * radius) / dist_sq1
+            lly = (r1x * radius + r1y * leg1) / dist_sq1
+            rlx = (r1x * leg1 + r1y * radius) / dist_sq1
+            rly = (-r1x * radius + r1y * leg1) / dist_sq1
+        elif s > 1.0 and dist_sq_line <= radius_sq:
+            # Obstacle viewed obliquely so that right vertex defines velocity obstacle.
+            if not convex[o2]:
+                continue  # Ignore obstacle.
+            o1 = o2
+            leg2 = math.sqrt(dist_sq2 - radius_sq)
+            llx = (r2x * leg2 - r2y * radius) / dist_sq2
+            lly = (r2x * radius + r2y * leg2) / dist_sq2
+            rlx = (r2x * leg2 + r2y * radius) / dist_sq2
+            rly = (-r2x * radius + r2y * leg2) / dist_sq2
+        else:
+            # Usual situation.
+            if convex[o1]:
+                leg1 = math.sqrt(dist_sq1 - radius_sq)
+                llx = (r1x * leg1 - r1y * radius) / dist_sq1
+                lly = (r1x * radius + r1y * leg1) / dist_sq1
+            else:
+                # Left vertex non-convex; left leg extends cut-off line.
+                llx = -direction[o1, 0]
+                lly = -direction[o1, 1]
+            if convex[o2]:
+                leg2 = math.sqrt(dist_sq2 - radius_sq)
+                rlx = (r2x * leg2 + r2y * radius) / dist_sq2
+                rly = (-r2x * radius + r2y * leg2) / dist_sq2
+            else:
+                # Right vertex non-convex; right leg extends cut-off line.
+                rlx = direction[o1, 0]
+                rly = direction[o1, 1]
+
+        # Legs can never point into neighbouring edge when convex vertex, take
+        # cut-off line of neighbouring edge instead. If velocity projected on
+        # "foreign" leg, no constraint is added.
+        left_neighbor = prv[o1]
+        left_foreign = False
+        right_foreign = False
+        if convex[o1] and _det(llx, lly, -direction[left_neighbor, 0],
+                               -direction[left_neighbor, 1]) >= 0.0:
+            # Left leg points into obstacle.
+            llx = -direction[left_neighbor, 0]
+            lly = -direction[left_neighbor, 1]
+            left_foreign = True
+        if convex[o2] and _det(rlx, rly, direction[o2, 0], direction[o2, 1]) <= 0.0:
+            # Right leg points into obstacle.
+            rlx = direction[o2, 0]
+            rly = direction[o2, 1]
+            right_foreign = True
+
+        # Compute cut-off centres.
+        lcx = inv_tho * (vertices[o1, 0] - px)
+        lcy = inv_tho * (vertices[o1, 1] - py)
+        rcx = inv_tho * (vertices[o2, 0] - px)
+        rcy = inv_tho * (vertices[o2, 1] - py)
+        cvx = rcx - lcx
+        cvy = rcy - lcy
+
+        # Project current velocity on velocity obstacle.
+        # Check if current velocity is projected on cut-off circles.
+        same = o1 == o2
+        if same:
+            t = 0.5
+        else:
+            t = ((vx - lcx) * cvx + (vy - lcy) * cvy) / (cvx * cvx + cvy * cvy)
+        t_left = (vx - lcx) * llx + (vy - lcy) * lly
+        t_right = (vx - rcx) * rlx + (vy - rcy) * rly
+
+        if (t < 0.0 and t_left < 0.0) or (same and t_left < 0.0 and t_right < 0.0):
+            # Project on left cut-off circle.
+            wx = vx - lcx
+            wy = vy - lcy
+            norm = math.sqrt(wx * wx + wy * wy)
+            uwx = wx / norm
+            uwy = wy / norm
+            lines[n, 2] = uwy
+            lines[n, 3] = -uwx
+            lines[n, 0] = lcx + radius * inv_tho * uwx
+            lines[n, 1] = lcy + radius * inv_tho * uwy
+            n += 1
+            continue
+        if t > 1.0 and t_right < 0.0:
+            # Project on right cut-off circle.
+            wx = vx - rcx
+            wy = vy - rcy
+            norm = math.sqrt(wx * wx + wy * wy)
+            uwx = wx / norm
+            uwy = wy / norm
+            lines[n, 2] = uwy
+            lines[n, 3] = -uwx
+            lines[n, 0] = rcx + radius * inv_tho * uwx
+            lines[n, 1] = rcy + radius * inv_tho * uwy
+            n += 1
+            continue
+
+        # Project on left leg, right leg, or cut-off line, whichever is closest
+        # to velocity.
+        if t < 0.0 or t > 1.0 or same:
+            dist_sq_cutoff = inf
+        else:
+            ex = vx - (lcx + t * cvx)
+            ey = vy - (lcy + t * cvy)
+            dist_sq_cutoff = ex * ex + ey * ey
+        if t_left < 0.0:
+            dist_sq_left = inf
+        else:
+            ex = vx - (lcx + t_left * llx)
+            ey = vy - (lcy + t_left * lly)
+            dist_sq_left = ex * ex + ey * ey
+        if t_right < 0.0:
+            dist_sq_right = inf
+        else:
+            ex = vx - (rcx + t_right * rlx)
+            ey = vy - (rcy + t_right * rly)
+            dist_sq_right = ex * ex + ey * ey
+
+        if dist_sq_cutoff <= dist_sq_left and dist_sq_cutoff <= dist_sq_right:
+            # Project on cut-off line.
+            dlx = -direction[o1, 0]
+            dly = -direction[o1, 1]
+            lines[n, 2] = dlx
+            lines[n, 3] = dly
+            lines[n, 0] = lcx + radius * inv_tho * -dly
+            lines[n, 1] = lcy + radius * inv_tho * dlx
+            n += 1
+            continue
+        if dist_sq_left <= dist_sq_right:
+            # Project on left leg.
+            if left_foreign:
+                continue
+            lines[n, 2] = llx
+            lines[n, 3] = lly
+            lines[n, 0] = lcx + radius * inv_tho * -lly
+            lines[n, 1] = lcy + radius * inv_tho * llx
+            n += 1
+            continue
+        # Project on right leg.
+        if right_foreign:
+            continue
+        lines[n, 2] = -rlx
+        lines[n, 3] = -rly
+        lines[n, 0] = rcx + radius * inv_tho * rly
+        lines[n, 1] = rcy + radius * inv_tho * -rlx
+        n += 1
+    return n
+
+
+@njit(cache=True, fastmath=_FM)
+def agent_line(lines, n, px, py, vx, vy, radius, qx, qy, wvx, wvy, other_radius, inv_th,
+               inv_dt, share):
+    """Append the ORCA line induced by one neighbour; ``share`` is i's part of ``u``."""
+    rpx = qx - px
+    rpy = qy - py
+    rvx = vx - wvx
+    rvy = vy - wvy
+    dist_sq = rpx * rpx + rpy * rpy
+    combined = radius + other_radius
+    combined_sq = combined * combined
+    if dist_sq > combined_sq:
+        # No collision. Vector from cut-off centre to relative velocity.
+        wx = rvx - inv_th * rpx
+        wy = rvy - inv_th * rpy
+        w_len_sq = wx * wx + wy * wy
+        dot = wx * rpx + wy * rpy
+        if dot < 0.0 and dot * dot > combined_sq * w_len_sq:
+            # Project on cut-off circle.
+            w_len = math.sqrt(w_len_sq)
+            uwx = wx / w_len
+            uwy = wy / w_len
+            dx = uwy
+            dy = -uwx
+            ux = (combined * inv_th - w_len) * uwx
+            uy = (combined * inv_th - w_len) * uwy
+        else:
+            # Project on legs.
+            leg = math.sqrt(dist_sq - combined_sq)
+            if _det(rpx, rpy, wx, wy) > 0.0:
+                # Project on left leg.
+                dx = (rpx * leg - rpy * combined) / dist_sq
+                dy = (rpx * combined + rpy * leg) / dist_sq
+            else:
+                # Project on right leg.
+                dx = -(rpx * leg + rpy * combined) / dist_sq
+                dy = -(-rpx * combined + rpy * leg) / dist_sq
+            dot2 = rvx * dx + rvy * dy
+            ux = dot2 * dx - rvx
+            uy = dot2 * dy - rvy
+    else:
+        # Collision. Project on cut-off circle of time timeStep.
+        wx = rvx - inv_dt * rpx
+        wy = rvy - inv_dt * rpy
+        w_len = math.sqrt(wx * wx + wy * wy)
+        uwx = wx / w_len
+        uwy = wy / w_len
+        dx = uwy
+        dy = -uwx
+        ux = (combined * inv_dt - w_len) * uwx
+        uy = (combined * inv_dt - w_len) * uwy
+    lines[n, 0] = vx + share * ux
+    lines[n, 1] = vy + share * uy
+    lines[n, 2] = dx
+    lines[n, 3] = dy
+    return n + 1
+
+
+# --------------------------------------------------------------------------- motion limits
+
+
+@njit(cache=True, inline="always")
+def _put_line(lines, n, px, py, dx, dy):
+    lines[n, 0] = px
+    lines[n, 1] = py
+    lines[n, 2] = dx
+    lines[n, 3] = dy
+    return n + 1
+
+
+@njit(cache=True, fastmath=_FM)
+def velocity_limit_lines(lines, n, vx, vy, heading, limits, pref_speed, dt):
+    """Append (a) acceleration polygon and (b) turn-rate pair; return the new count.
+
+    Both are centred on the current velocity ``v``, so ``v`` always satisfies
+    them (see the module docstring for the geometry).
+    """
+    s = math.sqrt(vx * vx + vy * vy)
+    if s >= STOPPED_SPEED:
+        fx = vx / s
+        fy = vy / s
+    else:
+        fx = math.cos(heading)
+        fy = math.sin(heading)
+    # Left normal of the motion direction.
+    gx = -fy
+    gy = fx
+    r_fwd = limits[LIMIT_ACCEL] * dt
+    r_back = limits[LIMIT_DECEL] * dt
+    r_lat = min(r_fwd, r_back)
+    # (a) 16-gon, counter-clockwise, vertices on two half-ellipses; edge k runs
+    # from vertex k to k+1 and the inside is on its left.
+    sides = ACCEL_POLYGON_SIDES
+    step = 2.0 * math.pi / sides
+    prev_x = 0.0
+    prev_y = 0.0
+    for k in range(sides + 1):
+        phi = k * step
+        c = math.cos(phi)
+        sn = math.sin(phi)
+        if k == sides:
+            c = 1.0
+            sn = 0.0
+        along = (r_fwd if c >= 0.0 else r_back) * c
+        across = r_lat * sn
+        x = vx + along * fx + across * gx
+        y = vy + along * fy + across * gy
+        if k > 0:
+            ex = x - prev_x
+            ey = y - prev_y
+            norm = math.sqrt(ex * ex + ey * ey)
+            if norm > 0.0:
+                n = _put_line(lines, n, prev_x, prev_y, ex / norm, ey / norm)
+        prev_x = x
+        prev_y = y
+    # (b) turn rate falling with speed: lateral change of velocity bounded.
+    if s >= STOPPED_SPEED:
+        frac = min(s / pref_speed, 1.0) if pref_speed > 0.0 else 1.0
+        omega = limits[LIMIT_TURN_STANDING] + (
+            limits[LIMIT_TURN_WALKING] - limits[LIMIT_TURN_STANDING]) * frac
+        half = max(s * omega, limits[LIMIT_ACCEL]) * dt
+        # (v' - v)·g <= half: point v + half g, direction -f (inside on the left).
+        n = _put_line(lines, n, vx + half * gx, vy + half * gy, -fx, -fy)
+        # (v' - v)·g >= -half: point v - half g, direction f.
+        n = _put_line(lines, n, vx - half * gx, vy - half * gy, fx, fy)
+    return n
+
+
+@njit(cache=True, fastmath=_FM)
+def heading_limit_lines(lines, n, heading, limits):
+    """Append (c): backward speed and speed-dependent sideways speed w.r.t. the heading."""
+    hx = math.cos(heading)
+    hy = math.sin(heading)
+    back = limits[LIMIT_BACKWARD]
+    side = limits[LIMIT_SIDEWAYS]
+    k = SIDEWAYS_SLOPE
+    if back > 0.0:
+        k = min(k, side / back)
+    # v·h >= -back: left normal of the direction must be h.
+    n = _put_line(lines, n, -back * hx, -back * hy, hy, -hx)
+    # v·h⊥ <= side + k v·h, with h⊥ = (-hy, hx): normal m = h⊥ - k h, m·v <= side.
+    mx = -hy - k * hx
+    my = hx - k * hy
+    mm = math.sqrt(mx * mx + my * my)
+    mx /= mm
+    my /= mm
+    off = side / mm
+    # Inside is the side of -m: the direction whose left normal is -m is (-my, mx).
+    n = _put_line(lines, n, off * mx, off * my, -my, mx)
+    # -v·h⊥ <= side + k v·h: normal m2 = -h⊥ - k h.
+    mx = hy - k * hx
+    my = -hx - k * hy
+    mm = math.sqrt(mx * mx + my * my)
+    mx /= mm
+    my /= mm
+    off = side / mm
+    n = _put_line(lines, n, off * mx, off * my, -my, mx)
+    return n
+
+
+# --------------------------------------------------------------------------- one agent
+
+
+@njit(cache=True, fastmath=_FM)
+def _shift_lines(lines, src, dst, count):
+    for k in range(count):
+        lines[dst + k, 0] = lines[src + k, 0]
+        lines[dst + k, 1] = lines[src + k, 1]
+        lines[dst + k, 2] = lines[src + k, 2]
+        lines[dst + k, 3] = lines[src + k, 3]
+
+
+@njit(cache=True, fastmath=_FM)
+def _solve(lines, n, num_hard, max_speed, prx, pry, proj):
+    fail, rx, ry = linear_program2(lines, n, max_speed, prx, pry, False)
+    if fail < n:
+        rx, ry = linear_program3(lines, n, num_hard, fail, max_speed, rx, ry, proj)
+    return rx, ry
+
+
+@njit(cache=True, fastmath=_FM)
+def agent_new_velocity(i, pos, vel, pref_vel, radius, max_speed, responsibility, is_user,
+                       heading, pref_speed, limits, nbr_idx, nbr_count, obst_idx, n_obst,
+                       vertices, nxt, prv, direction, convex, time_horizon, time_horizon_obst,
+                       dt, coupled, lines, proj):
+    """New velocity of agent ``i`` (RVO2's ``computeNewVelocity`` plus limits).
+
+    ``lines``/``proj`` are scratch of at least ``n_obst + K + MAX_MOTION_LINES``
+    rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags.
+    """
+    px = pos[i, 0]
+    py = pos[i, 1]
+    vx = vel[i, 0]
+    vy = vel[i, 1]
+    r = radius[i]
+    n = obstacle_lines(lines, 0, px, py, vx, vy, r, 1.0 / time_horizon_obst, obst_idx, n_obst,
+                       vertices, nxt, prv, direction, convex)
+    num_obst = n
+    num_vel_lim = 0
+    if coupled:
+        n = velocity_limit_lines(lines, n, vx, vy, heading[i], limits[i], pref_speed[i], dt)
+        num_vel_lim = n - num_obst
+        n = heading_limit_lines(lines, n, heading[i], limits[i])
+    num_hard = n
+    inv_th = 1.0 / time_horizon
+    inv_dt = 1.0 / dt
+    rho = responsibility[i]
+    for q in range(nbr_count[i]):
+        j = nbr_idx[i, q]
+        share = rho if is_user[j] else 0.5
+        n = agent_line(lines, n, px, py, vx, vy, r, pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1],
+                       radius[j], inv_th, inv_dt, share)
+    num_agent = n - num_hard
+    ms = max_speed[i]
+    prx = pref_vel[i, 0]
+    pry = pref_vel[i, 1]
+    fail, rx, ry = linear_program2(lines, n, ms, prx, pry, False)
+    status = 0
+    if coupled and fail < num_hard and num_hard > num_obst:
+        # Hard prefix infeasible: drop the heading lines (c) first ...
+        status = STATUS_DROPPED_HEADING
+        _shift_lines(lines, num_hard, num_obst + num_vel_lim, num_agent)
+        num_hard = num_obst + num_vel_lim
+        n = num_hard + num_agent
+        fail, rx, ry = linear_program2(lines, n, ms, prx, pry, False)
+        if fail < num_hard:
+            # ... then every motion limit: plain ORCA.
+            status = STATUS_DROPPED_MOTION
+            _shift_lines(lines, num_hard, num_obst, num_agent)
+            num_hard = num_obst
+            n = num_hard + num_agent
+            fail, rx, ry = linear_program2(lines, n, ms, prx, pry, False)
+    if fail < n:
+        status |= STATUS_DENSE
+        rx, ry = linear_program3(lines, n, num_hard, fail, ms, rx, ry, proj)
+    return rx, ry, status
+
+
+# --------------------------------------------------------------------------- batch
+
+
+@njit(cache=True, parallel=True, fastmath=_FM)
+def orca_kernel(pos, vel, pref_vel, radius, max_speed, responsibility, is_user, heading,
+                pref_speed, limits, nbr_idx, nbr_count, vertices, nxt, prv, direction, convex,
+                og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
+                time_horizon, time_horizon_obst, dt, coupled, chunk_bounds,
+                scratch_lines, scratch_proj, scratch_oidx, scratch_odsq,
+                out_vel, out_status, out_obst_count):
+    """New velocities of every row, parallel over chunks of agents.
+
+    Chunk ``c`` handles rows ``chunk_bounds[c]:chunk_bounds[c+1]`` with its
+    own scratch ``scratch_*[c]`` (preallocated by the caller, reused for every
+    agent of the chunk). ``out_obst_count[i]`` is the true number of obstacle
+    neighbours; where it exceeds ``scratch_oidx.shape[1]`` the agent's result
+    is invalid and the caller must retry with more room. User rows copy their
+    input velocity.
+    """
+    nchunks = chunk_bounds.shape[0] - 1
+    for c in prange(nchunks):
+        lines = scratch_lines[c]
+        proj = scratch_proj[c]
+        oidx = scratch_oidx[c]
+        odsq = scratch_odsq[c]
+        cap = oidx.shape[0]
+        for i in range(chunk_bounds[c], chunk_bounds[c + 1]):
+            if is_user[i]:
+                out_vel[i, 0] = vel[i, 0]
+                out_vel[i, 1] = vel[i, 1]
+                out_status[i] = 0
+                out_obst_count[i] = 0
+                continue
+            rng = time_horizon_obst * max_speed[i] + radius[i]
+            n_obst = obstacle_neighbors_of(pos[i, 0], pos[i, 1], rng * rng, vertices, nxt,
+                                           og_origin, og_cell, og_nx, og_ny, og_cell_start,
+                                           og_cell_edges, og_edge_cells, oidx, odsq)
+            out_obst_count[i] = n_obst
+            if n_obst > cap:
+                out_vel[i, 0] = vel[i, 0]
+                out_vel[i, 1] = vel[i, 1]
+                out_status[i] = 0
+                continue
+            rx, ry, status = agent_new_velocity(
+                i, pos, vel, pref_vel, radius, max_speed, responsibility, is_user, heading,
+                pref_speed, limits, nbr_idx, nbr_count, oidx, n_obst, vertices, nxt, prv,
+                direction, convex, time_horizon, time_horizon_obst, dt, coupled, lines, proj)
+            out_vel[i, 0] = rx
+            out_vel[i, 1] = ry
+            out_status[i] = status

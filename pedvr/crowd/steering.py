@@ -1,0 +1,221 @@
+"""The typed façade over the steering kernels: ORCA, contacts, unsticking.
+
+:class:`Steering` validates arrays, owns reusable scratch and the static
+obstacle grid, and calls the numba kernels in :mod:`pedvr.crowd.orca`,
+:mod:`pedvr.crowd.neighbors`, :mod:`pedvr.crowd.contact` and
+:mod:`pedvr.crowd.deadlock`. It computes; it never mutates the
+:class:`~pedvr.crowd.state.CrowdState` it is given (compute, then apply: the
+simulation commits the returned arrays).
+
+Units: metres, seconds, radians. Every array is float64 (``is_user`` bool)
+and C-contiguous; shapes are checked and a wrong one raises
+:class:`SteeringInputError` naming the field, its shape/dtype and what was
+expected.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from pedvr.crowd import contact as _contact
+from pedvr.crowd import deadlock as _deadlock
+from pedvr.crowd import neighbors as _nb
+from pedvr.crowd import orca as _orca
+from pedvr.crowd.state import N_LIMITS, CrowdState
+from pedvr.errors import PedvrError
+from pedvr.scene.config import SteeringParams
+from pedvr.world.obstacles import ObstacleSet
+
+# Obstacle-grid cell side, m: about RVO2's obstacle range (time_horizon_obst *
+# max_speed + radius) for walking agents, so a query touches ~4 cells.
+OBSTACLE_CELL = 2.0
+_CHUNKS_PER_THREAD = 4
+
+
+class SteeringInputError(PedvrError, ValueError):
+    """An array handed to :class:`Steering` has the wrong shape, dtype or value."""
+
+
+def _check(name: str, a: np.ndarray, shape: tuple[int, ...], dtype: type) -> np.ndarray:
+    if not isinstance(a, np.ndarray):
+        raise SteeringInputError(f"{name}: expected a numpy array, got {type(a).__name__}")
+    if a.dtype != np.dtype(dtype) or a.shape != shape:
+        want = "x".join(str(s) for s in shape) or "scalar"
+        raise SteeringInputError(
+            f"{name} has shape {a.shape} dtype {a.dtype}: must be {want} {np.dtype(dtype)}")
+    return np.ascontiguousarray(a)
+
+
+class Steering:
+    """ORCA steering for one crowd (van den Berg et al. 2011; PedVR §4.1).
+
+    ``coupled`` selects the condition: False is plain ORCA (the Decoupled
+    baseline), True adds the body's motion limits as hard lines of the same
+    linear program (see :mod:`pedvr.crowd.orca` for the geometry and what is
+    relaxed first when infeasible). The time horizons, neighbour distance and
+    count come from ``params``; per-agent radius, max speed, responsibility
+    toward the user and limits come from the state.
+
+    The instance keeps scratch buffers between calls; it is not safe to call
+    one instance from two threads at once.
+    """
+
+    def __init__(self, params: SteeringParams, obstacles: ObstacleSet, *, coupled: bool) -> None:
+        if params.neighbor_dist <= 0.0:
+            raise SteeringInputError(
+                f"neighbor_dist = {params.neighbor_dist}: must be > 0")
+        if params.max_neighbors < 0:
+            raise SteeringInputError(f"max_neighbors = {params.max_neighbors}: must be >= 0")
+        if params.time_horizon <= 0.0 or params.time_horizon_obst <= 0.0:
+            raise SteeringInputError(
+                f"time_horizon = {params.time_horizon}, time_horizon_obst = "
+                f"{params.time_horizon_obst}: both must be > 0")
+        self.params = params
+        self.obstacles = obstacles
+        self.coupled = bool(coupled)
+        self._verts = np.ascontiguousarray(obstacles.vertices, dtype=np.float64).reshape(-1, 2)
+        self._next = np.ascontiguousarray(obstacles.next, dtype=np.int64)
+        self._prev = np.ascontiguousarray(obstacles.prev, dtype=np.int64)
+        self._dir = np.ascontiguousarray(obstacles.direction, dtype=np.float64).reshape(-1, 2)
+        self._convex = np.ascontiguousarray(obstacles.convex, dtype=np.bool_)
+        self.obstacle_grid = _nb.build_obstacle_grid(self._verts, self._next, OBSTACLE_CELL)
+        self._obst_cap = max(1, min(32, len(obstacles)))
+        self._scratch_key: tuple[int, int, int] | None = None
+        self.last_status = np.zeros(0, np.int8)
+        """Per row, after :meth:`compute_velocities`: ``orca.STATUS_*`` bit flags
+        (dense case; heading limits dropped; all motion limits dropped)."""
+
+    # ------------------------------------------------------------------ ORCA
+
+    def _scratch(self, n: int, k: int) -> tuple[np.ndarray, ...]:
+        threads = numba.get_num_threads()
+        chunks = max(1, min(n, threads * _CHUNKS_PER_THREAD))
+        key = (chunks, k, self._obst_cap)
+        if self._scratch_key != key:
+            cap = self._obst_cap + k + _orca.MAX_MOTION_LINES
+            self._lines = np.zeros((chunks, cap, 4))
+            self._proj = np.zeros((chunks, cap, 4))
+            self._oidx = np.zeros((chunks, self._obst_cap), np.int64)
+            self._odsq = np.zeros((chunks, self._obst_cap))
+            self._scratch_key = key
+        bounds = np.linspace(0, n, chunks + 1).astype(np.int64)
+        return bounds, self._lines, self._proj, self._oidx, self._odsq
+
+    def validate(self, state: CrowdState) -> None:
+        """Check every field's shape and dtype; raise :class:`SteeringInputError`."""
+        n = len(state)
+        for name, shape, dtype in (
+            ("pos", (n, 2), np.float64), ("vel", (n, 2), np.float64),
+            ("pref_vel", (n, 2), np.float64), ("heading", (n,), np.float64),
+            ("radius", (n,), np.float64), ("pref_speed", (n,), np.float64),
+            ("max_speed", (n,), np.float64), ("responsibility", (n,), np.float64),
+            ("is_user", (n,), np.bool_), ("limits", (n, N_LIMITS), np.float64),
+        ):
+            _check(f"CrowdState.{name}", getattr(state, name), shape, dtype)
+        if n and not np.all(state.radius > 0.0):
+            raise SteeringInputError(
+                f"CrowdState.radius min = {state.radius.min()}: every radius must be > 0")
+        if n and not (np.all(state.responsibility >= 0.0) and np.all(state.responsibility <= 1.0)):
+            raise SteeringInputError(
+                "CrowdState.responsibility outside [0, 1]: "
+                f"min {state.responsibility.min()}, max {state.responsibility.max()}")
+
+    def neighbors(self, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Agent neighbours ``(idx (N,K) int64, count (N,) int64)``, nearest first."""
+        return _nb.agent_neighbors(pos, neighbor_dist=self.params.neighbor_dist,
+                                   max_neighbors=self.params.max_neighbors)
+
+    def compute_velocities(self, state: CrowdState, dt: float,
+                           out: np.ndarray | None = None) -> np.ndarray:
+        """New velocities ``(N,2) float64`` m/s for every row of ``state``.
+
+        User rows get their input velocity back. ``dt`` (s) matters for the
+        collision case of ORCA (cut-off at ``dt``) and for motion limits.
+        ``out``, if given, must be ``(N,2) float64`` and is filled and returned.
+        """
+        if not dt > 0.0:
+            raise SteeringInputError(f"dt = {dt}: must be > 0")
+        self.validate(state)
+        n = len(state)
+        if out is None:
+            out = np.empty((n, 2))
+        else:
+            _check("out", out, (n, 2), np.float64)
+            if not out.flags.c_contiguous:
+                raise SteeringInputError("out: must be C-contiguous")
+        self.last_status = np.zeros(n, np.int8)
+        if n == 0:
+            return out
+        p = self.params
+        k = int(p.max_neighbors)
+        pos = np.ascontiguousarray(state.pos)
+        g = _nb.build_agent_grid(pos, _nb.default_cell_size(p.neighbor_dist))
+        kk = max(k, 1)
+        idx = np.empty((n, kk), np.int64)
+        dsq = np.empty((n, kk))
+        cnt = np.empty(n, np.int64)
+        _nb.agent_neighbors_kernel(pos, float(p.neighbor_dist), k, g.origin, g.cell, g.shape[0],
+                                   g.shape[1], g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt)
+        og = self.obstacle_grid
+        obst_count = np.empty(n, np.int64)
+        while True:
+            bounds, lines, proj, oidx, odsq = self._scratch(n, kk)
+            _orca.orca_kernel(
+                pos, np.ascontiguousarray(state.vel), np.ascontiguousarray(state.pref_vel),
+                np.ascontiguousarray(state.radius), np.ascontiguousarray(state.max_speed),
+                np.ascontiguousarray(state.responsibility), np.ascontiguousarray(state.is_user),
+                np.ascontiguousarray(state.heading), np.ascontiguousarray(state.pref_speed),
+                np.ascontiguousarray(state.limits), idx, cnt, self._verts, self._next, self._prev,
+                self._dir, self._convex, og.origin, og.cell, og.shape[0], og.shape[1],
+                og.cell_start, og.cell_edges, og.edge_cells, float(p.time_horizon),
+                float(p.time_horizon_obst), float(dt), self.coupled, bounds, lines, proj, oidx,
+                odsq, out, self.last_status, obst_count)
+            need = int(obst_count.max())
+            if need <= self._obst_cap:
+                return out
+            self._obst_cap = need  # rare: more obstacle neighbours than room; redo
+
+    # ------------------------------------------------------------------ contacts
+
+    def resolve_contacts(self, pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray, *,
+                         tolerance: float = _contact.DEFAULT_TOLERANCE,
+                         max_iterations: int = _contact.DEFAULT_ITERATIONS) -> np.ndarray:
+        """New positions ``(N,2)`` with overlaps pushed apart (see :mod:`pedvr.crowd.contact`).
+
+        The user row never moves; agents take the whole correction against the
+        user and against obstacle edges.
+        """
+        n = pos.shape[0] if isinstance(pos, np.ndarray) else -1
+        pos = _check("pos", pos, (n, 2), np.float64)
+        radius = _check("radius", radius, (n,), np.float64)
+        is_user = _check("is_user", is_user, (n,), np.bool_)
+        return _contact.resolve_contacts(pos, radius, is_user, self._verts, self._next,
+                                         self._prev, self.obstacle_grid, tolerance=tolerance,
+                                         max_iterations=max_iterations)
+
+    # ------------------------------------------------------------------ deadlocks
+
+    def unstick(self, vel: np.ndarray, pref_vel: np.ndarray, is_user: np.ndarray,
+                stuck_time: np.ndarray, dt: float, *, out: np.ndarray | None = None,
+                slow_fraction: float = _deadlock.SLOW_FRACTION,
+                patience: float = _deadlock.PATIENCE, turn_rate: float = _deadlock.TURN_RATE,
+                max_turn: float = _deadlock.MAX_TURN,
+                recovery: float = _deadlock.RECOVERY) -> np.ndarray:
+        """Preferred velocities with stuck agents nudged (see :mod:`pedvr.crowd.deadlock`).
+
+        ``stuck_time (N,) float64`` is owned by the caller and updated in
+        place; everything else is read only. Call before :meth:`compute_velocities`.
+        """
+        n = vel.shape[0] if isinstance(vel, np.ndarray) else -1
+        _check("vel", vel, (n, 2), np.float64)
+        _check("pref_vel", pref_vel, (n, 2), np.float64)
+        _check("is_user", is_user, (n,), np.bool_)
+        _check("stuck_time", stuck_time, (n,), np.float64)
+        if not stuck_time.flags.c_contiguous:
+            raise SteeringInputError("stuck_time: must be C-contiguous (it is updated in place)")
+        if out is not None:
+            _check("out", out, (n, 2), np.float64)
+        return _deadlock.unstick(vel, pref_vel, is_user, stuck_time, dt, out=out,
+                                 slow_fraction=slow_fraction, patience=patience,
+                                 turn_rate=turn_rate, max_turn=max_turn, recovery=recovery)
