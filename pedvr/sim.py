@@ -105,9 +105,7 @@ class Simulation:
         seg_a, seg_b = edges(scene.world)
         self.metrics = Metrics(seg_a=seg_a, seg_b=seg_b, inside=self._inside_obstacle)
         self.recording = Recording() if record else None
-        self._plan()
-        unset = np.isnan(self.crowd.heading)
-        self.crowd.heading[unset] = self.crowd.pref_heading[unset]
+        self._face_unset()
         if self.recording is not None:
             self.recording.add(self.t, self.crowd)
 
@@ -132,6 +130,14 @@ class Simulation:
             pts.append(leg[1:])
             here = target
         return ScriptedUser(np.concatenate(pts), speed=u.speed, heading=u.heading)
+
+    def _face_unset(self) -> None:
+        """New agents without a given facing face their first waypoint, or a random way when standing."""
+        self._plan()
+        unset = np.isnan(self.crowd.heading)
+        self.crowd.heading[unset] = self.crowd.pref_heading[unset]
+        still = np.flatnonzero(np.isnan(self.crowd.heading))
+        self.crowd.heading[still] = self.rng.uniform(-np.pi, np.pi, still.size)
 
     def _inside_obstacle(self, pts: np.ndarray) -> np.ndarray:
         import shapely
@@ -285,7 +291,7 @@ class Simulation:
         pts, starts, lens = self._flat_paths()
         crowd = self.crowd
         cursor = self.visibility.furthest_visible(crowd.pos, crowd.radius, pts, starts, lens,
-                                                  self.cursor, LOOKAHEAD)
+                                                  self.cursor, lookahead=LOOKAHEAD)
         has_path = (lens >= 2) & ~crowd.is_user
         cur = np.minimum(cursor, np.maximum(lens - 1, 0))
         target = np.where(has_path[:, None], pts[np.minimum(starts + cur, max(len(pts) - 1, 0))]
@@ -307,8 +313,8 @@ class Simulation:
     def _avoid(self) -> None:
         """ORCA: reciprocal between agents, asymmetric toward the user, inside the body's limits."""
         self.body.fill_limits(self.crowd, self.crowd.limits)
-        pref = self.steering.unstick(self.crowd, self.stuck_time, self.dt)
         crowd = self.crowd
+        pref = self.steering.unstick(crowd.vel, crowd.pref_vel, crowd.is_user, self.stuck_time, self.dt)
         saved = crowd.pref_vel
         crowd.pref_vel = pref
         self._new_vel = self.steering.compute_velocities(crowd, self.dt)
@@ -351,9 +357,7 @@ class Simulation:
             self._add_rows(1, pos=p[None], radius=prof.radius, pref_speed=prof.pref_speed,
                            max_speed=prof.max_speed, limits=_limits_row(prof), is_user=False,
                            heading=np.asarray([heading]), state=state)
-        self._plan()
-        unset = np.isnan(self.crowd.heading)
-        self.crowd.heading[unset] = self.crowd.pref_heading[unset]
+        self._face_unset()
         return np.arange(first, self._next_id, dtype=np.int64)
 
     def remove_agents(self, ids: np.ndarray | list[int]) -> None:

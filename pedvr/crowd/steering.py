@@ -113,6 +113,12 @@ class Steering:
             ("is_user", (n,), np.bool_), ("limits", (n, N_LIMITS), np.float64),
         ):
             _check(f"CrowdState.{name}", getattr(state, name), shape, dtype)
+        for name in ("pos", "vel", "pref_vel", "heading"):
+            a = getattr(state, name)
+            if n and not np.isfinite(a).all():
+                bad = int(np.flatnonzero(~np.isfinite(a.reshape(n, -1)).all(axis=1))[0])
+                raise SteeringInputError(
+                    f"CrowdState.{name}[{bad}] = {a[bad]}: must be finite (agent id {int(state.ids[bad])})")
         if n and not np.all(state.radius > 0.0):
             raise SteeringInputError(
                 f"CrowdState.radius min = {state.radius.min()}: every radius must be > 0")

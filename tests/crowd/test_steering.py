@@ -173,6 +173,10 @@ def test_wrong_shapes_are_named() -> None:
         s.compute_velocities(crowd([(0.0, 0.0)]), 0)
     with pytest.raises(SteeringInputError, match="neighbor_dist = -1.0"):
         Steering(SteeringParams(neighbor_dist=-1.0), ObstacleSet.empty(), coupled=False)
+    state = crowd([(0.0, 0.0), (1.0, 0.0)])
+    state.heading = np.array([0.0, np.nan])
+    with pytest.raises(SteeringInputError, match=r"CrowdState\.heading\[1\] = nan: must be finite"):
+        s.compute_velocities(state, 0.1)
 
 
 def test_compute_never_mutates_the_state() -> None:
