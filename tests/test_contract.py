@@ -65,8 +65,14 @@ def test_agents_reach_goals(run: tuple[Path, Simulation]) -> None:
     assert s["arrivals"] >= 1, s
     assert s["unreachable_goals"] == 0
     if path.suffix == ".xml":
-        # SteerSuite agents leave at their final goal: most must be gone after 60 s.
-        assert len(sim.crowd) - int(sim.crowd.is_user.sum()) <= 0.2 * s["agents"], s  # type: ignore[operator]
+        # SteerSuite agents leave at their final goal. Those still walking after
+        # 60 s (long hallways) must be getting somewhere, not frozen in a jam.
+        arr = sim.recording.arrays()  # type: ignore[union-attr]
+        last = round(10.0 / sim.dt)
+        end, before = arr["pos"][-1], arr["pos"][-1 - last]
+        still = ~np.isnan(end[:, 0]) & ~arr["is_user"]
+        moved = np.linalg.norm(end[still] - before[still], axis=1)
+        assert (moved > 2.0).mean() >= 0.9 if still.any() else True, np.sort(moved)[:10]
 
 
 def test_user_follows_route(run: tuple[Path, Simulation]) -> None:

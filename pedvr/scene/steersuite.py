@@ -75,8 +75,10 @@ selector walks the spawn's ``goal_sequence``; its ``arrival`` transition to
 the final state ``exit`` fires only after the last goal, and a final state
 removes the agent, as SteerSuite disables an agent at its last goal.
 SteerSuite's AIs count a goal reached when the distance falls below about one
-agent radius; ``arrive_dist`` is the largest agent radius of the case, and at
-least 0.5 m.
+agent radius. Several agents often share one target point; at one radius
+they then ring it, each blocking the others (seen in 4-way-oncomming). So
+``arrive_dist`` is twice the largest agent radius of the case, at least 1 m:
+the disc overlaps the target by its own size.
 
 Profiles: one :class:`AgentProfile` per distinct (radius, speeds), named
 ``steersuite_r0.50`` (``_v1.30`` is appended when agents of one radius have
@@ -672,7 +674,7 @@ class _Importer:
                                     positions=(pos,), facing=facing,
                                     goal_sequence=tuple(goals)))
 
-        arrive = max([0.5] + [a.radius for a in case.agents])
+        arrive = max([1.0] + [2.0 * a.radius for a in case.agents])
         behavior = BehaviorConfig(states={
             "seek": StateConfig("seek", GoalSelector("sequence", {}),
                                 transitions=(Transition(on="arrival", to=("exit",)),),

@@ -150,7 +150,7 @@ def test_crossing_1() -> None:
     seek = scene.behavior.states["seek"]
     assert seek.goal is not None and seek.goal.kind == "sequence"
     assert seek.transitions[0].on == "arrival" and seek.transitions[0].to == ("exit",)
-    assert seek.arrive_dist == 0.5
+    assert seek.arrive_dist == 1.0
     assert scene.behavior.states["exit"].final
     # The user is far from both agents.
     assert min(math.dist(scene.user.start, sp.positions[0]) for sp in scene.spawns) > 50
