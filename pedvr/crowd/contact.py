@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit, prange
 
 from pedvr.crowd.neighbors import ObstacleGrid, build_agent_grid_arrays, edges_near
+from pedvr.kernels import PARALLEL_MIN_ROWS, parallel_kernel
 
 DEFAULT_TOLERANCE = 0.005  # m: stop when no overlap exceeds this (the bar is 1 cm)
 DEFAULT_ITERATIONS = 300
@@ -79,7 +80,7 @@ def _edge_push(px, py, r, ax, ay, bx, by, closed):
     return (depth + SLACK) * ux, (depth + SLACK) * uy, depth
 
 
-@njit(cache=True, parallel=True, fastmath={"nsz", "arcp", "contract"})
+@parallel_kernel(fastmath={"nsz", "arcp", "contract"})
 def _corrections(cur, radius, is_user, origin, cell, nx, ny, cell_start, order, sorted_pos,
                  vertices, nxt, prv, og_origin, og_cell, og_nx, og_ny, og_cell_start,
                  og_cell_edges, og_edge_cells, edge_scratch, corr, depth):
@@ -157,7 +158,7 @@ def _corrections(cur, radius, is_user, origin, cell, nx, ny, cell_start, order, 
                 depth[i] = worst
 
 
-@njit(cache=True, parallel=True)
+@parallel_kernel()
 def _apply(cur, corr, step, momentum):
     # Heavy-ball Jacobi: the step keeps a share of the previous one, which
     # carries a push through a packed cluster in O(depth) instead of
@@ -167,6 +168,10 @@ def _apply(cur, corr, step, momentum):
         step[i, 1] = momentum * step[i, 1] + corr[i, 1]
         cur[i, 0] += step[i, 0]
         cur[i, 1] += step[i, 1]
+
+
+_corrections_par, _corrections_ser = _corrections.parallel, _corrections.serial
+_apply_par, _apply_ser = _apply.parallel, _apply.serial
 
 
 @njit(cache=True)
@@ -195,9 +200,14 @@ def contact_kernel(pos, radius, is_user, vertices, nxt, prv, og_origin, og_cell,
     while True:
         origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(
             out_pos, 2.0 * rmax * 1.0001)
-        _corrections(out_pos, radius, is_user, origin, cell, nx, ny, cell_start, order,
-                     sorted_pos, vertices, nxt, prv, og_origin, og_cell, og_nx, og_ny,
-                     og_cell_start, og_cell_edges, og_edge_cells, edge_scratch, corr, depth)
+        if n >= PARALLEL_MIN_ROWS:
+            _corrections_par(out_pos, radius, is_user, origin, cell, nx, ny, cell_start, order,
+                             sorted_pos, vertices, nxt, prv, og_origin, og_cell, og_nx, og_ny,
+                             og_cell_start, og_cell_edges, og_edge_cells, edge_scratch, corr, depth)
+        else:
+            _corrections_ser(out_pos, radius, is_user, origin, cell, nx, ny, cell_start, order,
+                             sorted_pos, vertices, nxt, prv, og_origin, og_cell, og_nx, og_ny,
+                             og_cell_start, og_cell_edges, og_edge_cells, edge_scratch, corr, depth)
         worst = 0.0
         for i in range(n):
             if depth[i] < 0.0:
@@ -205,7 +215,10 @@ def contact_kernel(pos, radius, is_user, vertices, nxt, prv, og_origin, og_cell,
             worst = max(worst, depth[i])
         if worst <= tolerance or it >= max_iterations:
             break
-        _apply(out_pos, corr, step, momentum)
+        if n >= PARALLEL_MIN_ROWS:
+            _apply_par(out_pos, corr, step, momentum)
+        else:
+            _apply_ser(out_pos, corr, step, momentum)
         it += 1
     return it, worst
 

@@ -24,7 +24,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from pedvr.kernels import parallel_kernel
 
 SLOW_FRACTION = 0.2  # "stuck" means speed below this share of the preferred speed
 PATIENCE = 1.5  # s of being stuck before the preferred velocity is turned
@@ -33,7 +35,7 @@ MAX_TURN = 1.2  # rad (about 70°)
 RECOVERY = 0.5  # stuck_time decays at this many seconds per second once moving
 
 
-@njit(cache=True, parallel=True)
+@parallel_kernel()
 def unstick_kernel(vel, pref_vel, is_user, stuck_time, dt, slow_fraction, patience, turn_rate,
                    max_turn, recovery, out_pref_vel):
     """Update ``stuck_time`` in place and write perturbed preferred velocities.

@@ -38,6 +38,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
+from pedvr.kernels import parallel_kernel
+
 # Grids never have more cells than this many per agent (or per edge): keeps a
 # few far-flung agents from allocating a huge, empty grid.
 _MAX_CELLS_PER_ITEM = 4
@@ -205,7 +207,7 @@ def agent_neighbors_of(i, px, py, range_sq, max_neighbors, origin, cell, nx, ny,
     return count
 
 
-@njit(cache=True, parallel=True)
+@parallel_kernel()
 def agent_neighbors_kernel(pos, neighbor_dist, max_neighbors, origin, cell, nx, ny,
                            cell_start, order, sorted_pos, out_idx, out_dsq, out_count):
     """Batch form of :func:`agent_neighbors_of` for every row (parallel over agents)."""
@@ -422,7 +424,7 @@ def obstacle_neighbors_of(px, py, range_sq, vertices, nxt, origin, cell, nx, ny,
     return count
 
 
-@njit(cache=True, parallel=True)
+@parallel_kernel()
 def obstacle_neighbors_kernel(pos, ranges_sq, vertices, nxt, origin, cell, nx, ny, cell_start,
                               cell_edges, edge_cells, out_idx, out_dsq, out_count):
     """Batch form of :func:`obstacle_neighbors_of` (parallel over agents)."""

@@ -80,6 +80,7 @@ from pedvr.crowd.state import (
     LIMIT_TURN_STANDING,
     LIMIT_TURN_WALKING,
 )
+from pedvr.kernels import parallel_kernel
 
 RVO_EPSILON = 1e-5  # RVO2's RVO_EPSILON
 STOPPED_SPEED = 0.05  # m/s: below this the motion direction is the heading
@@ -719,7 +720,7 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, max_speed, responsibility,
 # --------------------------------------------------------------------------- batch
 
 
-@njit(cache=True, parallel=True, fastmath=_FM)
+@parallel_kernel(fastmath=_FM)
 def orca_kernel(pos, vel, pref_vel, radius, max_speed, responsibility, is_user, heading,
                 pref_speed, limits, nbr_idx, nbr_count, vertices, nxt, prv, direction, convex,
                 og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,

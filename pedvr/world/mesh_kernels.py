@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from pedvr.kernels import parallel_kernel
+
 # A point this far (metres) outside a triangle still counts as inside it, so
 # that points on shared edges and on the boundary are never lost to rounding.
 INSIDE_TOL = 1e-9
@@ -82,7 +84,7 @@ def _inside(verts: np.ndarray, tris: np.ndarray, t: int, x: float, y: float) -> 
     return True
 
 
-@njit(cache=True, parallel=True)
+@parallel_kernel()
 def locate_points(
     points: np.ndarray,
     verts: np.ndarray,

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from pedvr.kernels import parallel_kernel
+
 
 @njit(cache=True, inline="always")
 def _orient(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
@@ -77,7 +79,7 @@ def segment_clear(
     return True
 
 
-@njit(cache=True, parallel=True)
+@parallel_kernel()
 def visible_batch(
     a: np.ndarray, b: np.ndarray, radius: np.ndarray, p1: np.ndarray, p2: np.ndarray, out: np.ndarray
 ) -> None:
@@ -111,7 +113,7 @@ def raycast(
     return best
 
 
-@njit(cache=True, parallel=True)
+@parallel_kernel()
 def furthest_visible(
     pos: np.ndarray,
     radius: np.ndarray,
