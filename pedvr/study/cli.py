@@ -1,0 +1,250 @@
+"""``pedvr study run | export | analyze``.
+
+``pedvr study run PROTOCOL --participant P07 [--backend auto|xr|desktop|headless] [--resume]``
+``pedvr study run PROTOCOL --participant simulated [--max-trial-seconds S]``   (a scripted dry run)
+``pedvr study export DB --out DIR``
+``pedvr study analyze (DB | --responses FILE.csv) [--json] [--report DIR]``
+
+``pedvr/cli.py`` wires these in with :func:`add_study_parser` and
+:func:`run_study_command`; ``python -m pedvr.study ...`` runs them on their
+own (:func:`main`). Errors print as ``pedvr: error: ...`` lines with a
+non-zero exit code, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+from pedvr.errors import BackendUnavailableError, PedvrError, UsageError
+
+EXIT_ABORTED = 4
+
+
+class _StudyParser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    return v
+
+
+def _add_commands(study: argparse.ArgumentParser) -> None:
+    sub = study.add_subparsers(dest="study_command", required=True, parser_class=type(study))
+    run = sub.add_parser("run", help="run (or resume) one participant through a protocol")
+    run.add_argument("protocol", type=Path, help="protocol file, e.g. user_study/pedvr_replication.toml")
+    run.add_argument(
+        "--participant",
+        required=True,
+        help="participant id ending in a number (P07), or 'simulated' for a scripted dry run",
+    )
+    run.add_argument("--backend", default="auto", choices=("auto", "xr", "desktop", "headless"))
+    run.add_argument(
+        "--resume", action="store_true", help="continue an existing participant at the first unfinished step"
+    )
+    run.add_argument(
+        "--simulated",
+        action="store_true",
+        help="the named participant is scripted (follows the spheres, seeded answers)",
+    )
+    run.add_argument("--db", type=Path, default=None, help="study database (default: ./<study name>.sqlite)")
+    run.add_argument(
+        "--max-trial-seconds",
+        type=_positive_float,
+        default=None,
+        help="cap every trial's time limit (dry runs)",
+    )
+    run.add_argument(
+        "--pace",
+        type=_positive_float,
+        default=None,
+        help="simulated participant only: run trials at this multiple of real time",
+    )
+
+    export = sub.add_parser("export", help="export a study database as TSV/CSV files")
+    export.add_argument("db", type=Path)
+    export.add_argument("--out", type=Path, required=True, help="output folder")
+
+    an = sub.add_parser("analyze", help="analyse the pairwise questionnaire (PedVR §6.5), SSQ and corridor")
+    an.add_argument("db", type=Path, nargs="?", default=None, help="study database")
+    an.add_argument(
+        "--responses",
+        type=Path,
+        default=None,
+        help="long-format CSV: participant,scenario,comparison,question,response",
+    )
+    an.add_argument("--json", action="store_true", help="print the results as JSON")
+    an.add_argument("--report", type=Path, default=None, help="write report.md and figures into this folder")
+
+
+def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``study`` with its ``run``, ``export`` and ``analyze`` subcommands to ``subparsers``."""
+    study = subparsers.add_parser("study", help="run, export and analyse user studies")
+    _add_commands(study)
+    return study
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """A stand-alone parser for ``python -m pedvr.study``."""
+    p = _StudyParser(prog="pedvr study", description="Run, export and analyse pedvr user studies.")
+    _add_commands(p)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+        return run_study_command(args)
+    except PedvrError as exc:
+        for line in str(exc).splitlines() or [type(exc).__name__]:
+            print(f"pedvr: error: {line}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("pedvr: interrupted; continue with --resume", file=sys.stderr)
+        return 130
+
+
+def run_study_command(
+    args: argparse.Namespace, *, stdin: TextIO | None = None, stdout: TextIO | None = None
+) -> int:
+    """Run a parsed ``study`` command; return the exit code. Raises :class:`PedvrError` on bad input."""
+    out = stdout or sys.stdout
+    if args.study_command == "run":
+        return _run(args, stdin=stdin or sys.stdin, stdout=out)
+    if args.study_command == "export":
+        from pedvr.study.export import export_study
+
+        paths = export_study(args.db, out=args.out)
+        print(f"exported {len(paths)} files to {args.out}", file=out)
+        return 0
+    return _analyze(args, stdout=out)
+
+
+def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
+    from pedvr.study.console import ExperimenterConsole, KeySource, NoKeys, TerminalKeys
+    from pedvr.study.presenter import Participant, SimulatedParticipant, TerminalParticipant
+    from pedvr.study.protocol import load_protocol, participant_number
+    from pedvr.study.session import Session
+    from pedvr.study.store import StudyStore
+
+    backend, why = _study_backend(args.backend)
+    protocol = load_protocol(args.protocol)
+    db = args.db or Path(f"{protocol.name}.sqlite")
+    simulated = args.simulated or args.participant == "simulated"
+    if args.pace is not None and not simulated:
+        raise UsageError("--pace applies only to a simulated participant")
+    print(why, file=stdout)
+    with StudyStore(db) as store:
+        pid = args.participant
+        if pid == "simulated":
+            if args.resume:
+                raise UsageError(
+                    "--resume needs the simulated participant's id (e.g. --participant SIM03 --simulated)"
+                )
+            pid = f"SIM{store.next_number():02d}"
+        number = participant_number(pid)
+        participant: Participant
+        if simulated:
+            participant = SimulatedParticipant(
+                seed=protocol.seed, number=number, eye_height_m=protocol.eye_height_m, pace=args.pace or 0.0
+            )
+        else:
+            participant = TerminalParticipant(stdin=stdin, stdout=stdout, eye_height_m=protocol.eye_height_m)
+        keys: KeySource = TerminalKeys(stdin, stdout) if _isatty(stdin) else NoKeys()
+        console = ExperimenterConsole(out=stdout, keys=keys)
+        result = Session(
+            protocol=protocol,
+            store=store,
+            participant_id=pid,
+            participant=participant,
+            console=console,
+            backend=backend,
+            resume=args.resume,
+            max_trial_s=args.max_trial_seconds,
+            simulated=simulated,
+        ).run()
+        if result.status == "already_finished":
+            print(result.message, file=stdout)
+        print(f"database: {db}", file=stdout)
+    return EXIT_ABORTED if result.status == "aborted" else 0
+
+
+def _study_backend(requested: str) -> tuple[str, str]:
+    """The backend a study session runs on, and the one line that says why.
+
+    Only the headless participants (simulated, terminal) exist: the in-app
+    participant that draws instructions and questionnaires in the desktop or
+    headset view (the :class:`~pedvr.study.presenter.Participant` seam) is
+    not written yet, so ``xr`` and ``desktop`` are refused rather than run
+    with a participant who cannot see the questions.
+    """
+    if requested in ("xr", "desktop"):
+        raise BackendUnavailableError(
+            f"pedvr study run --backend {requested}: the in-app study participant (questionnaires in the "
+            f"{requested} view) is not part of this version; use --backend headless"
+        )
+    if requested == "headless":
+        return "headless", "backend: headless (asked for with --backend headless)"
+    return (
+        "headless",
+        "backend: headless (the in-app study participant for xr/desktop is not part of this version)",
+    )
+
+
+def _isatty(f: TextIO) -> bool:
+    try:
+        return f.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+def _analyze(args: argparse.Namespace, *, stdout: TextIO) -> int:
+    from pedvr.study.analysis import analyze, apa_friedman, apa_rm_anova, apa_t
+
+    if (args.db is None) == (args.responses is None):
+        raise UsageError("pedvr study analyze: give a study database or --responses FILE.csv (exactly one)")
+    result = analyze(db=args.db, responses=args.responses)
+    if args.report is not None:
+        from pedvr.study.report import write_report
+
+        md = write_report(result, out=args.report)
+        if not args.json:
+            print(f"report: {md}", file=stdout)
+    if args.json:
+        json.dump(result, stdout, indent=2, sort_keys=False, default=str)
+        stdout.write("\n")
+        return 0
+    print(f"{result['n_participants']} participants, {result['n_responses']} pairwise responses", file=stdout)
+    for scen, s in result["scenarios"].items():
+        print(f"{scen}:", file=stdout)
+        for c, v in s["comparisons"].items():
+            t = v["one_sample_t_vs_4"]
+            alpha = "–" if v["cronbach_alpha"] is None else f"{v['cronbach_alpha']:.2f}"
+            sd = "–" if v["sd"] is None else f"{v['sd']:.2f}"
+            print(
+                f"  {c}: n = {v['n']}, M = {v['mean']:.2f}, SD = {sd}, α = {alpha}, "
+                f"<4 {v['pct_less_than_4']:.1f}%, =1 {v['pct_equal_1']:.1f}%, =4 {v['pct_equal_4']:.1f}%"
+                + (f"; vs 4: {apa_t(t)}" if t else ""),
+                file=stdout,
+            )
+        if s.get("rm_anova"):
+            print(f"  RM-ANOVA: {apa_rm_anova(s['rm_anova'])}", file=stdout)
+            for ph in s["posthoc_bonferroni"]:
+                print(
+                    f"  post hoc {ph['a']} vs {ph['b']}: p(Bonferroni) = {ph['p_bonferroni']:.3f}",
+                    file=stdout,
+                )
+        if s.get("friedman"):
+            print(f"  Friedman: {apa_friedman(s['friedman'])}", file=stdout)
+    return 0

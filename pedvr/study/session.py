@@ -1,0 +1,495 @@
+"""A participant's session: a resumable state machine over the planned steps.
+
+States are the steps of :func:`pedvr.study.protocol.plan_for` (instructions,
+questionnaire, trial), each ``pending``, ``done`` or ``skipped`` in the
+``steps`` table. A session runs the pending steps in order; every answer and
+every finished trial is committed as it happens (:mod:`pedvr.study.store`),
+so after a crash or an abort ``--resume`` continues at the first unfinished
+step — inside a questionnaire, at the first unanswered item.
+
+Trials follow PedVR §6.2: the participant follows the red sphere; a trial
+ends when the last sphere is reached or at the time limit. Each frame the
+runner advances the simulation to the time the participant's backend asks
+for and records one sample (head pose, every agent, contacts, distance to
+the nearest agent).
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from pedvr.errors import UsageError
+from pedvr.study.console import Command, ExperimenterConsole
+from pedvr.study.errors import AnswerError, ParticipantExistsError, StudyStoreError
+from pedvr.study.presenter import Page, Participant, Question
+from pedvr.study.protocol import PlannedStep, Protocol, ShownPair, TrialSpec, participant_number, plan_for
+from pedvr.study.questionnaire import Response, check_response, recode
+from pedvr.study.store import StudyStore
+
+SAMPLE_CHUNK_FRAMES = 90  # samples are committed about once per simulated second at 90 Hz
+
+
+def software_version() -> str:
+    """The installed pedvr version, or the source tree's version marked ``+src``."""
+    try:
+        return metadata.version("pedvr")
+    except metadata.PackageNotFoundError:
+        pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
+        if pyproject.is_file():
+            return str(tomllib.loads(pyproject.read_text())["project"]["version"]) + "+src"
+        return "unknown"
+
+
+@dataclass(frozen=True)
+class SessionResult:
+    """How a session ended: ``finished``, ``aborted``, ``withdrawn`` or ``already_finished``."""
+
+    status: str
+    participant: str
+    session_id: int | None
+    steps_done: int
+    steps_total: int
+    message: str
+
+
+class Session:
+    """Run (or resume) one participant through a protocol.
+
+    ``max_trial_s`` caps every trial's time limit (dry runs and tests);
+    ``resume`` must be given exactly when the participant already exists.
+    """
+
+    def __init__(
+        self,
+        *,
+        protocol: Protocol,
+        store: StudyStore,
+        participant_id: str,
+        participant: Participant,
+        console: ExperimenterConsole,
+        backend: str,
+        resume: bool = False,
+        max_trial_s: float | None = None,
+        simulated: bool = False,
+    ) -> None:
+        if max_trial_s is not None and max_trial_s <= 0:
+            raise UsageError(f"max_trial_s = {max_trial_s}: must be > 0")
+        self.protocol = protocol
+        self.store = store
+        self.pid = participant_id
+        self.number = participant_number(participant_id)
+        self.participant = participant
+        self.console = console
+        self.backend = backend
+        self.resume = resume
+        self.max_trial_s = max_trial_s
+        self.simulated = simulated
+        self.plan = plan_for(protocol, number=self.number)
+        self.session_id: int | None = None
+        self._current: int | None = None
+
+    # -- the state machine ------------------------------------------------------------------
+
+    def run(self) -> SessionResult:
+        rows = self._open()
+        total = len(self.plan)
+        if all(r.status != "pending" for r in rows):
+            self.store.set_participant_status(self.pid, "finished")
+            return SessionResult(
+                "already_finished",
+                self.pid,
+                None,
+                total,
+                total,
+                f"participant {self.pid} has finished the protocol; nothing to resume",
+            )
+        first = next(r.index for r in rows if r.status == "pending")
+        self.session_id = self.store.start_session(
+            participant=self.pid,
+            software_version=software_version(),
+            protocol_source=self.protocol.source,
+            protocol_hash=self.protocol.content_hash,
+            seed=self.protocol.seed,
+            backend=self.backend,
+            participant_kind=self.participant.kind,
+            resumed=self.resume,
+        )
+        self.console.on_event = self._event
+        self.console.session_started(
+            participant=self.pid,
+            protocol=self.protocol.title,
+            resumed_at=first if self.resume else None,
+            total=total,
+        )
+        if self.resume:
+            self._event("resume_session", f"at step {first + 1}: {self.plan[first].key}")
+        status = "finished"
+        try:
+            for row in rows:
+                if row.status != "pending":
+                    continue
+                step = self.plan[row.index]
+                self._current = step.index
+                nxt = next(
+                    (self.plan[r.index].title for r in rows[row.index + 1 :] if r.status == "pending"), None
+                )
+                self.console.step_started(index=step.index, total=total, title=step.title, next_title=nxt)
+                outcome = self._run_step(step)
+                if outcome.kind == "abort":
+                    status = "aborted"
+                    break
+                if outcome.kind == "withdrawn":
+                    status = "withdrawn"
+                    self.store.mark_step(
+                        participant=self.pid,
+                        index=step.index,
+                        status="done",
+                        session_id=self.session_id,
+                        reason="consent declined",
+                    )
+                    break
+                st = "skipped" if outcome.kind == "skip" else "done"
+                self.store.mark_step(
+                    participant=self.pid,
+                    index=step.index,
+                    status=st,
+                    session_id=self.session_id,
+                    reason=outcome.reason or None,
+                )
+                self.console.step_finished(
+                    index=step.index, total=total, title=step.title, status=st, detail=outcome.reason
+                )
+        except KeyboardInterrupt:
+            self._event("abort", "interrupted (Ctrl-C)")
+            self.store.end_session(self.session_id, "aborted")
+            raise
+        self.store.end_session(self.session_id, status)
+        if status in ("finished", "withdrawn"):
+            self.store.set_participant_status(self.pid, status)
+        done = sum(1 for r in self.store.steps(self.pid) if r.status != "pending")
+        msg = {
+            "finished": f"participant {self.pid} finished the protocol",
+            "aborted": f"session aborted at step {(self._current or 0) + 1}/{total}; continue with --resume",
+            "withdrawn": f"participant {self.pid} declined consent; the session ended",
+        }[status]
+        self.console.say(msg)
+        return SessionResult(status, self.pid, self.session_id, done, total, msg)
+
+    def _open(self) -> list[Any]:
+        existing = self.store.participant(self.pid)
+        specs = [(s.index, s.key, s.kind, s.to_json()) for s in self.plan]
+        if existing is None:
+            if self.resume:
+                raise StudyStoreError(
+                    f"participant {self.pid} has no session in {self.store.path} to resume; "
+                    "start without --resume"
+                )
+            self.store.register(
+                participant=self.pid,
+                number=self.number,
+                simulated=self.simulated,
+                protocol_hash=self.protocol.content_hash,
+                plan=specs,
+            )
+            self.store.set_meta("comparisons", [f"{a}/{b}" for a, b in self.protocol.comparisons])
+            return self.store.steps(self.pid)
+        if not self.resume:
+            raise ParticipantExistsError(
+                f"participant {self.pid} already exists in {self.store.path} (status {existing['status']}); "
+                "use --resume to continue their session, or choose another participant id"
+            )
+        if existing["protocol_hash"] != self.protocol.content_hash:
+            raise StudyStoreError(
+                f"participant {self.pid} started with protocol {existing['protocol_hash']}, but "
+                f"{self.protocol.source} is now {self.protocol.content_hash}; "
+                "resume with the original protocol file"
+            )
+        if existing["status"] == "withdrawn":
+            raise StudyStoreError(f"participant {self.pid} declined consent; there is nothing to resume")
+        rows = self.store.steps(self.pid)
+        if [(r.index, r.key, r.kind, r.spec) for r in rows] != specs:
+            raise StudyStoreError(
+                f"participant {self.pid}: the stored plan differs from the protocol's plan for "
+                f"number {self.number}; the database or protocol was changed"
+            )
+        self.store.close_dead_sessions(self.pid)
+        self.store.mark_interrupted_trials(self.pid)
+        return rows
+
+    def _event(self, kind: str, detail: str | None) -> None:
+        assert self.session_id is not None
+        self.store.log_event(
+            session_id=self.session_id,
+            participant=self.pid,
+            step_index=self._current,
+            kind=kind,
+            detail=detail,
+        )
+
+    def _run_step(self, step: PlannedStep) -> _Outcome:
+        cmd = self.console.check()
+        if cmd is not None:
+            return self._command(cmd)
+        if step.kind == "instructions":
+            self.participant.show(Page(title=step.title, text=step.text))
+            return _Outcome("done")
+        if step.kind == "questionnaire":
+            return self._questionnaire(step)
+        return self._trial(step)
+
+    def _command(self, cmd: Command) -> _Outcome:
+        self._event(cmd.kind, cmd.reason or None)
+        return _Outcome(cmd.kind, cmd.reason)
+
+    # -- questionnaires ---------------------------------------------------------------------
+
+    def _questionnaire(self, step: PlannedStep) -> _Outcome:
+        assert step.questionnaire is not None and self.session_id is not None
+        q = self.protocol.questionnaires[step.questionnaire]
+        occurrence = sum(1 for s in self.plan[: step.index + 1] if s.questionnaire == q.id)
+        pairs: list[ShownPair | None] = list(step.pairs) if q.kind == "pairwise" else [None]
+        if q.kind == "pairwise" and not step.pairs:
+            return _Outcome("done")
+        done = self.store.answered(self.pid, step.index)
+        todo = [(item, pair) for item in q.items for pair in pairs]
+        if q.instructions and not done:
+            self.participant.show(Page(title=q.title, text=q.instructions))
+        for k, (item, pair) in enumerate(todo):
+            comparison = pair.comparison if pair else None
+            if (item.id, comparison) in done:
+                continue
+            if k:
+                cmd = self.console.check()
+                if cmd is not None:
+                    return self._command(cmd)
+            required = item.required and not step.optional
+            question = Question(
+                questionnaire=q,
+                item=item,
+                position=k + 1,
+                count=len(todo),
+                pair=pair,
+                scenario=step.scenario,
+                condition=step.condition,
+                label=step.label,
+                occurrence=occurrence,
+                required=required,
+            )
+            raw = self.participant.ask(question)
+            resp = self._validate(q, item, raw, required=required)
+            if item.kind == "consent" and resp.text == "no":
+                self._store_answer(step, q, item, pair, resp)
+                return _Outcome("withdrawn")
+            self._store_answer(step, q, item, pair, resp)
+        return _Outcome("done")
+
+    def _validate(self, q: Any, item: Any, raw: Response, *, required: bool) -> Response:
+        if not required and raw.value is None and (raw.text is None or raw.text == ""):
+            return Response()
+        try:
+            return check_response(q, replace(item, required=required), raw)
+        except AnswerError as exc:
+            raise AnswerError([f"participant {self.pid}: {p}" for p in exc.problems]) from None
+
+    def _store_answer(
+        self, step: PlannedStep, q: Any, item: Any, pair: ShownPair | None, r: Response
+    ) -> None:
+        assert self.session_id is not None
+        raw_label = (
+            q.scale.label(int(r.value))
+            if (item.kind == "scale" and q.scale is not None and r.value is not None)
+            else None
+        )
+        self.store.record_answer(
+            participant=self.pid,
+            session_id=self.session_id,
+            step_index=step.index,
+            step_key=step.key,
+            questionnaire=q.id,
+            questionnaire_kind=q.kind,
+            item=item.id,
+            item_number=item.number,
+            block=step.block,
+            scenario=step.scenario,
+            condition=step.condition,
+            label=step.label,
+            comparison=pair.comparison if pair else None,
+            left_condition=pair.left_condition if pair else None,
+            right_condition=pair.right_condition if pair else None,
+            left_label=pair.left_label if pair else None,
+            right_label=pair.right_label if pair else None,
+            flipped=None if pair is None else int(pair.flipped),
+            raw_value=r.value,
+            raw_label=raw_label,
+            recoded_value=recode(q, item, r.value, flipped=bool(pair and pair.flipped))
+            if item.kind in ("scale", "number")
+            else None,
+            text=r.text,
+        )
+
+    # -- trials -----------------------------------------------------------------------------
+
+    def _trial(self, step: PlannedStep) -> _Outcome:
+        from pedvr.scene.loader import load_any
+        from pedvr.sim import Simulation
+
+        spec = step.trial
+        assert spec is not None and self.session_id is not None
+        scene = load_any(spec.scene, seed=spec.seed)
+        user_input = self.participant.trial_input(trial=spec, scene=scene)
+        sim = Simulation(
+            scene,
+            seed=spec.seed,
+            condition=spec.condition,
+            responsibility=spec.responsibility,
+            user_input=user_input,
+        )
+        if sim.user is None:
+            raise StudyStoreError(f"{spec.scene}: the scene has no user; a study trial needs one")
+        limit = spec.time_limit_s if self.max_trial_s is None else min(spec.time_limit_s, self.max_trial_s)
+        trial_id = self.store.begin_trial(
+            participant=self.pid,
+            session_id=self.session_id,
+            step_index=step.index,
+            step_key=step.key,
+            design=step.design,
+            block=step.block,
+            scenario=spec.scene_name,
+            scene_source=spec.scene,
+            scene_hash=scene.content_hash,
+            condition=spec.condition,
+            label=spec.label,
+            trial_order=spec.order,
+            responsibility=sim.responsibility,
+            seed=spec.seed,
+            time_limit_s=limit,
+        )
+        rec = _SampleRecorder(
+            self.store, trial_id=trial_id, clock=self.console.clock, keep_agents=spec.record_trajectory
+        )
+        rec.add(sim, frame=0, head=self.participant.head_pose(sim))
+        total = int(sim.user.route.shape[0])
+        outcome = _Outcome("done")
+        result = "time_limit"
+        frame = 0
+        with self.console.keys.live():
+            while True:
+                if sim.user.route_done:
+                    result = "reached_last_sphere"
+                    break
+                if sim.t >= limit - 1e-9:
+                    result = "time_limit"
+                    break
+                cmd = self.console.check()
+                if cmd is not None:
+                    outcome = self._command(cmd)
+                    result = "skipped" if cmd.kind == "skip" else "aborted"
+                    break
+                target = self.participant.present(sim)
+                sim.advance_to(min(max(target, sim.t + sim.dt), limit))
+                frame += 1
+                rec.add(sim, frame=frame, head=self.participant.head_pose(sim))
+                self.console.trial_status(
+                    sim_t=sim.t, limit_s=limit, spheres=sim.user.sphere, spheres_total=total
+                )
+        rec.flush()
+        self.store.finish_trial(
+            trial_id,
+            outcome=result,
+            sim_time_s=round(sim.t, 6),
+            frames=frame + 1,
+            spheres_reached=sim.user.sphere,
+            spheres_total=total,
+            min_user_distance_m=rec.min_distance,
+            contacts=rec.contact_count,
+        )
+        if outcome.kind == "done":
+            outcome = _Outcome("done", f"{result}, {sim.user.sphere}/{total} spheres, {sim.t:.1f} s")
+        return outcome
+
+
+@dataclass(frozen=True)
+class _Outcome:
+    kind: str  # done | skip | abort | withdrawn
+    reason: str = ""
+
+
+class _SampleRecorder:
+    """Per-frame rows for one trial, committed every :data:`SAMPLE_CHUNK_FRAMES` frames."""
+
+    def __init__(
+        self, store: StudyStore, *, trial_id: int, clock: Callable[[], float], keep_agents: bool
+    ) -> None:
+        self.store = store
+        self.trial_id = trial_id
+        self.clock = clock
+        self.keep_agents = keep_agents
+        self.samples: list[tuple[Any, ...]] = []
+        self.agents: list[tuple[Any, ...]] = []
+        self.contacts: list[tuple[Any, ...]] = []
+        self.gaze: list[tuple[Any, ...]] = []
+        self.min_distance: float | None = None
+        self.contact_count = 0
+
+    def add(self, sim: Any, *, frame: int, head: Any) -> None:
+        crowd = sim.crowd
+        pos, rad, ids, is_user = crowd.pos, crowd.radius, crowd.ids, crowd.is_user
+        nearest = None
+        user = np.flatnonzero(is_user)
+        others = np.flatnonzero(~is_user)
+        if user.size and others.size:
+            nearest = float(np.linalg.norm(pos[others] - pos[user[0]], axis=1).min())
+            self.min_distance = nearest if self.min_distance is None else min(self.min_distance, nearest)
+        t = float(sim.t)
+        (hx, hy, hz), (qw, qx, qy, qz) = head.position, head.orientation
+        self.samples.append((self.trial_id, frame, self.clock(), t, hx, hy, hz, qw, qx, qy, qz, nearest))
+        if self.keep_agents:
+            self.agents.extend(
+                (self.trial_id, frame, int(i), int(u), float(p[0]), float(p[1]), float(h))
+                for i, u, p, h in zip(ids, is_user, pos, crowd.heading, strict=True)
+            )
+        if len(crowd) > 1:
+            pairs = cKDTree(pos).query_pairs(r=2.0 * float(rad.max()), output_type="ndarray")
+            if pairs.size:
+                i, j = pairs[:, 0], pairs[:, 1]
+                ov = rad[i] + rad[j] - np.linalg.norm(pos[i] - pos[j], axis=1)
+                for k in np.flatnonzero(ov > 0.0):
+                    a, b = int(ids[i[k]]), int(ids[j[k]])
+                    self.contacts.append(
+                        (
+                            self.trial_id,
+                            frame,
+                            t,
+                            min(a, b),
+                            max(a, b),
+                            int(is_user[i[k]] or is_user[j[k]]),
+                            float(ov[k]),
+                        )
+                    )
+                    self.contact_count += 1
+        if len(self.samples) >= SAMPLE_CHUNK_FRAMES:
+            self.flush()
+
+    def flush(self) -> None:
+        if self.samples or self.agents or self.contacts or self.gaze:
+            self.store.write_samples(
+                samples=self.samples, agents=self.agents, contacts=self.contacts, gaze=self.gaze
+            )
+        self.samples, self.agents, self.contacts, self.gaze = [], [], [], []
+
+
+def plan_json(step: PlannedStep) -> dict[str, Any]:
+    """A planned step as the JSON stored in the ``steps`` table."""
+    return json.loads(step.to_json())
+
+
+__all__ = ["Session", "SessionResult", "TrialSpec", "plan_json", "software_version"]

@@ -1,0 +1,411 @@
+"""The study database: one SQLite file per study, written as things happen.
+
+Tables (columns in :data:`SCHEMA`): ``participants``, ``sessions`` (software
+version, protocol hash, seed, backend, start time UTC), ``steps`` (each
+participant's plan and how far it got), ``trials`` (scene, condition, label,
+order, seed, outcome), ``samples`` (one row per frame: monotonic time, frame
+index, head position and orientation quaternion, distance to the nearest
+agent), ``agent_samples`` (every agent's position and heading per frame),
+``gaze_events``, ``contacts``, ``answers`` (raw as shown and recoded to the
+fixed orientation) and ``events`` (the experimenter's pauses, skips, aborts).
+
+Durability: the database runs in WAL mode with ``synchronous = FULL``. Every
+answer, every step status and every trial start and end is its own
+committed transaction; samples are committed in chunks of about a second.
+A process killed mid-trial therefore loses at most that trial's last
+uncommitted chunk of samples, never an answer; on ``--resume`` the
+unfinished trial is marked ``interrupted`` (its committed samples are kept)
+and run again as a new trial row.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from pedvr.study.errors import ParticipantExistsError, StudyStoreError
+
+SCHEMA_VERSION = "1"
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS participants (
+    participant TEXT PRIMARY KEY, number INTEGER NOT NULL, simulated INTEGER NOT NULL,
+    created_utc TEXT NOT NULL, protocol_hash TEXT NOT NULL, status TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS sessions (
+    session_id INTEGER PRIMARY KEY, participant TEXT NOT NULL REFERENCES participants(participant),
+    software_version TEXT NOT NULL, protocol_source TEXT NOT NULL, protocol_hash TEXT NOT NULL,
+    seed INTEGER NOT NULL, backend TEXT NOT NULL, participant_kind TEXT NOT NULL,
+    started_utc TEXT NOT NULL, ended_utc TEXT, status TEXT NOT NULL, resumed INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS steps (
+    participant TEXT NOT NULL REFERENCES participants(participant), step_index INTEGER NOT NULL,
+    step_key TEXT NOT NULL, kind TEXT NOT NULL, spec TEXT NOT NULL, status TEXT NOT NULL,
+    reason TEXT, session_id INTEGER, finished_utc TEXT, PRIMARY KEY (participant, step_index));
+CREATE TABLE IF NOT EXISTS trials (
+    trial_id INTEGER PRIMARY KEY, participant TEXT NOT NULL, session_id INTEGER NOT NULL,
+    step_index INTEGER NOT NULL, step_key TEXT NOT NULL, design TEXT NOT NULL, block TEXT,
+    scenario TEXT NOT NULL,
+    scene_source TEXT NOT NULL, scene_hash TEXT NOT NULL, condition TEXT NOT NULL, label TEXT,
+    trial_order INTEGER, responsibility REAL, seed INTEGER NOT NULL, time_limit_s REAL NOT NULL,
+    started_utc TEXT NOT NULL, ended_utc TEXT, outcome TEXT, sim_time_s REAL, frames INTEGER,
+    spheres_reached INTEGER, spheres_total INTEGER, min_user_distance_m REAL, contacts INTEGER);
+CREATE TABLE IF NOT EXISTS samples (
+    trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, t_mono REAL NOT NULL, sim_t REAL NOT NULL,
+    head_x REAL NOT NULL, head_y REAL NOT NULL, head_z REAL NOT NULL,
+    head_qw REAL NOT NULL, head_qx REAL NOT NULL, head_qy REAL NOT NULL, head_qz REAL NOT NULL,
+    nearest_agent_m REAL, PRIMARY KEY (trial_id, frame)) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS agent_samples (
+    trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, agent_id INTEGER NOT NULL, is_user INTEGER NOT NULL,
+    x REAL NOT NULL, y REAL NOT NULL, heading REAL NOT NULL,
+    PRIMARY KEY (trial_id, frame, agent_id)) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS gaze_events (
+    trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, agent_id INTEGER NOT NULL,
+    event TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS contacts (
+    trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, agent_a INTEGER NOT NULL,
+    agent_b INTEGER NOT NULL, with_user INTEGER NOT NULL, overlap_m REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS answers (
+    answer_id INTEGER PRIMARY KEY, participant TEXT NOT NULL, session_id INTEGER NOT NULL,
+    step_index INTEGER NOT NULL, step_key TEXT NOT NULL, questionnaire TEXT NOT NULL,
+    questionnaire_kind TEXT NOT NULL, item TEXT NOT NULL,
+    item_number INTEGER NOT NULL, block TEXT, scenario TEXT, condition TEXT, label TEXT, comparison TEXT,
+    left_condition TEXT, right_condition TEXT, left_label TEXT, right_label TEXT, flipped INTEGER,
+    raw_value REAL, raw_label TEXT, recoded_value REAL, text TEXT, answered_utc TEXT NOT NULL);
+CREATE UNIQUE INDEX IF NOT EXISTS answers_once
+    ON answers (participant, step_index, item, IFNULL(comparison, ''));
+CREATE TABLE IF NOT EXISTS events (
+    event_id INTEGER PRIMARY KEY, session_id INTEGER NOT NULL, participant TEXT NOT NULL,
+    step_index INTEGER, utc TEXT NOT NULL, kind TEXT NOT NULL, detail TEXT);
+"""
+
+TABLES = (
+    "participants",
+    "sessions",
+    "steps",
+    "trials",
+    "samples",
+    "agent_samples",
+    "gaze_events",
+    "contacts",
+    "answers",
+    "events",
+)
+
+
+def utc_now() -> str:
+    return datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+@dataclass(frozen=True)
+class StepRow:
+    index: int
+    key: str
+    kind: str
+    spec: str
+    status: str
+    reason: str | None
+
+
+class StudyStore:
+    """An open study database. Use as a context manager or call :meth:`close`.
+
+    ``path`` is created with the schema when missing; an existing file must
+    be a pedvr study database of this schema version.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        if self.path.exists() and not self.path.is_file():
+            raise StudyStoreError(f"{self.path}: not a file")
+        if self.path.parent and not self.path.parent.exists():
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self.db = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
+            self.db.execute("PRAGMA journal_mode = WAL")
+            self.db.execute("PRAGMA synchronous = FULL")
+            self.db.execute("PRAGMA foreign_keys = ON")
+            have = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        except sqlite3.DatabaseError as exc:
+            raise StudyStoreError(f"{self.path}: not a SQLite database ({exc})") from None
+        if have and "meta" not in have:
+            self.db.close()
+            raise StudyStoreError(
+                f"{self.path}: a SQLite database, but not a pedvr study database "
+                f"(tables: {', '.join(sorted(have))})"
+            )
+        if have:
+            row = self.db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+            if row is None or row[0] != SCHEMA_VERSION:
+                self.db.close()
+                raise StudyStoreError(
+                    f"{self.path}: study database schema version "
+                    f"{None if row is None else row[0]!r}; this pedvr reads {SCHEMA_VERSION!r}"
+                )
+        if not have:
+            self.db.executescript(
+                "BEGIN IMMEDIATE;"
+                + SCHEMA
+                + f"INSERT INTO meta VALUES ('schema_version', '{SCHEMA_VERSION}'); COMMIT;"
+            )
+
+    # -- plumbing --------------------------------------------------------------------------
+
+    def transaction(self) -> _Tx:
+        return _Tx(self.db)
+
+    def close(self) -> None:
+        self.db.close()
+
+    def __enter__(self) -> StudyStore:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def query(self, sql: str, params: Sequence[Any] = ()) -> list[dict[str, Any]]:
+        cur = self.db.execute(sql, params)
+        cols = [d[0] for d in cur.description] if cur.description else []
+        return [dict(zip(cols, r, strict=True)) for r in cur.fetchall()]
+
+    # -- participants, sessions, plan ------------------------------------------------------
+
+    def participant(self, participant: str) -> dict[str, Any] | None:
+        rows = self.query("SELECT * FROM participants WHERE participant = ?", (participant,))
+        return rows[0] if rows else None
+
+    def register(
+        self,
+        *,
+        participant: str,
+        number: int,
+        simulated: bool,
+        protocol_hash: str,
+        plan: Iterable[tuple[int, str, str, str]],
+    ) -> None:
+        """Add a participant and their plan (``(index, key, kind, spec_json)`` rows) in one transaction."""
+        if self.participant(participant) is not None:
+            raise ParticipantExistsError(
+                f"participant {participant} already exists in {self.path}; use --resume to continue their "
+                "session, or choose another participant id"
+            )
+        clash = self.query("SELECT participant FROM participants WHERE number = ?", (number,))
+        if clash:
+            raise ParticipantExistsError(
+                f"participant {participant}: number {number} is already used by {clash[0]['participant']} in "
+                f"{self.path}; the number picks the counterbalancing, so each must be unique"
+            )
+        with self.transaction():
+            self.db.execute(
+                "INSERT INTO participants VALUES (?, ?, ?, ?, ?, 'in_progress')",
+                (participant, number, int(simulated), utc_now(), protocol_hash),
+            )
+            self.db.executemany(
+                "INSERT INTO steps (participant, step_index, step_key, kind, spec, status) "
+                "VALUES (?, ?, ?, ?, ?, 'pending')",
+                [(participant, i, k, kind, spec) for i, k, kind, spec in plan],
+            )
+
+    def next_number(self) -> int:
+        """One more than the largest participant number used so far."""
+        rows = self.query("SELECT MAX(number) AS n FROM participants")
+        return int(rows[0]["n"] or 0) + 1
+
+    def set_participant_status(self, participant: str, status: str) -> None:
+        with self.transaction():
+            self.db.execute("UPDATE participants SET status = ? WHERE participant = ?", (status, participant))
+
+    def start_session(
+        self,
+        *,
+        participant: str,
+        software_version: str,
+        protocol_source: str,
+        protocol_hash: str,
+        seed: int,
+        backend: str,
+        participant_kind: str,
+        resumed: bool,
+    ) -> int:
+        with self.transaction():
+            cur = self.db.execute(
+                "INSERT INTO sessions (participant, software_version, protocol_source, protocol_hash, seed, "
+                "backend, participant_kind, started_utc, status, resumed) VALUES (?, ?, ?, ?, ?, ?, ?, ?, "
+                "'running', ?)",
+                (
+                    participant,
+                    software_version,
+                    protocol_source,
+                    protocol_hash,
+                    seed,
+                    backend,
+                    participant_kind,
+                    utc_now(),
+                    int(resumed),
+                ),
+            )
+            return int(cur.lastrowid or 0)
+
+    def end_session(self, session_id: int, status: str) -> None:
+        with self.transaction():
+            self.db.execute(
+                "UPDATE sessions SET status = ?, ended_utc = ? WHERE session_id = ?",
+                (status, utc_now(), session_id),
+            )
+
+    def close_dead_sessions(self, participant: str) -> int:
+        """Sessions of ``participant`` still ``running`` belong to a dead process: mark them ``crashed``."""
+        with self.transaction():
+            cur = self.db.execute(
+                "UPDATE sessions SET status = 'crashed' WHERE participant = ? AND status = 'running'",
+                (participant,),
+            )
+            return cur.rowcount
+
+    def steps(self, participant: str) -> list[StepRow]:
+        return [
+            StepRow(
+                index=r["step_index"],
+                key=r["step_key"],
+                kind=r["kind"],
+                spec=r["spec"],
+                status=r["status"],
+                reason=r["reason"],
+            )
+            for r in self.query(
+                "SELECT * FROM steps WHERE participant = ? ORDER BY step_index", (participant,)
+            )
+        ]
+
+    def mark_step(
+        self, *, participant: str, index: int, status: str, session_id: int, reason: str | None = None
+    ) -> None:
+        with self.transaction():
+            self.db.execute(
+                "UPDATE steps SET status = ?, reason = ?, session_id = ?, finished_utc = ? "
+                "WHERE participant = ? AND step_index = ?",
+                (status, reason, session_id, utc_now(), participant, index),
+            )
+
+    def log_event(
+        self,
+        *,
+        session_id: int,
+        participant: str,
+        step_index: int | None,
+        kind: str,
+        detail: str | None = None,
+    ) -> None:
+        with self.transaction():
+            self.db.execute(
+                "INSERT INTO events (session_id, participant, step_index, utc, kind, detail) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                (session_id, participant, step_index, utc_now(), kind, detail),
+            )
+
+    # -- answers ---------------------------------------------------------------------------
+
+    def answered(self, participant: str, step_index: int) -> set[tuple[str, str | None]]:
+        """``(item, comparison)`` already answered in this step (resume skips them)."""
+        return {
+            (r["item"], r["comparison"])
+            for r in self.query(
+                "SELECT item, comparison FROM answers WHERE participant = ? AND step_index = ?",
+                (participant, step_index),
+            )
+        }
+
+    def record_answer(self, **row: Any) -> None:
+        """Insert one answer and commit it before returning."""
+        row = dict(row)
+        row.setdefault("answered_utc", utc_now())
+        cols = ", ".join(row)
+        marks = ", ".join("?" for _ in row)
+        with self.transaction():
+            self.db.execute(f"INSERT INTO answers ({cols}) VALUES ({marks})", tuple(row.values()))
+
+    # -- trials ----------------------------------------------------------------------------
+
+    def begin_trial(self, **row: Any) -> int:
+        row = dict(row)
+        row.setdefault("started_utc", utc_now())
+        cols = ", ".join(row)
+        marks = ", ".join("?" for _ in row)
+        with self.transaction():
+            cur = self.db.execute(f"INSERT INTO trials ({cols}) VALUES ({marks})", tuple(row.values()))
+            return int(cur.lastrowid or 0)
+
+    def write_samples(
+        self,
+        *,
+        samples: list[tuple[Any, ...]],
+        agents: list[tuple[Any, ...]],
+        contacts: list[tuple[Any, ...]],
+        gaze: list[tuple[Any, ...]],
+    ) -> None:
+        """Commit one chunk of per-frame rows."""
+        with self.transaction():
+            self.db.executemany("INSERT INTO samples VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", samples)
+            self.db.executemany("INSERT INTO agent_samples VALUES (?, ?, ?, ?, ?, ?, ?)", agents)
+            self.db.executemany("INSERT INTO contacts VALUES (?, ?, ?, ?, ?, ?, ?)", contacts)
+            self.db.executemany("INSERT INTO gaze_events VALUES (?, ?, ?, ?, ?)", gaze)
+
+    def finish_trial(self, trial_id: int, **row: Any) -> None:
+        row = dict(row)
+        row.setdefault("ended_utc", utc_now())
+        sets = ", ".join(f"{k} = ?" for k in row)
+        with self.transaction():
+            self.db.execute(f"UPDATE trials SET {sets} WHERE trial_id = ?", (*row.values(), trial_id))
+
+    def mark_interrupted_trials(self, participant: str) -> int:
+        """Trials with no outcome were cut off by a crash; say so (their committed samples stay)."""
+        with self.transaction():
+            cur = self.db.execute(
+                "UPDATE trials SET outcome = 'interrupted' WHERE participant = ? AND outcome IS NULL",
+                (participant,),
+            )
+            return cur.rowcount
+
+    def meta(self, key: str) -> Any:
+        """A JSON value stored with :meth:`set_meta`, or ``None``."""
+        rows = self.query("SELECT value FROM meta WHERE key = ?", (key,))
+        return json.loads(rows[0]["value"]) if rows else None
+
+    def set_meta(self, key: str, value: object) -> None:
+        with self.transaction():
+            self.db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (key, json.dumps(value)))
+
+
+class _Tx:
+    """``BEGIN IMMEDIATE`` … ``COMMIT`` (``ROLLBACK`` on error) on an autocommit connection."""
+
+    def __init__(self, db: sqlite3.Connection) -> None:
+        self.db = db
+
+    def __enter__(self) -> sqlite3.Connection:
+        if not self.db.in_transaction:
+            self.db.execute("BEGIN IMMEDIATE")
+            self._own = True
+        else:
+            self._own = False
+        return self.db
+
+    def __exit__(self, exc_type: object, *rest: object) -> None:
+        if not self._own:
+            return
+        if exc_type is None:
+            self.db.execute("COMMIT")
+        else:
+            self.db.execute("ROLLBACK")
+
+
+def open_store(path: str | Path, *, must_exist: bool = False) -> StudyStore:
+    """Open a study database; with ``must_exist`` a missing file is a clear error."""
+    p = Path(path)
+    if must_exist and not p.is_file():
+        raise StudyStoreError(f"{p}: no such study database")
+    return StudyStore(p)
