@@ -69,6 +69,21 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", type=Path, default=Path("pedvr-out"),
                      help="folder for outputs not named explicitly (default ./pedvr-out)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--frames", type=Path, default=None, metavar="DIR",
+                     help="headless: write first-person and overhead PNGs into DIR (offscreen, EGL)")
+    run.add_argument("--video", type=Path, default=None, metavar="FILE",
+                     help="headless: write an MP4 of the first-person and overhead views side by side")
+    run.add_argument("--view", default="mono", choices=("mono", "sbs", "anaglyph", "overhead"),
+                     help="first-person view: mono, side-by-side stereo, anaglyph, or overhead debug")
+    run.add_argument("--width", type=_positive(int), default=None,
+                     help="pixels per view (default 640 headless, 1280 desktop)")
+    run.add_argument("--height", type=_positive(int), default=None,
+                     help="pixels per view (default 360 headless, 720 desktop)")
+    run.add_argument("--fps", type=_positive(float), default=30.0,
+                     help="headless: frames per simulated second")
+    run.add_argument("--label", default=None, choices=tuple("ABCDEFGH"),
+                     help="condition label the HUD shows (blind studies: never the condition's name)")
+    run.add_argument("--no-vsync", action="store_true", help="desktop: do not wait for the vertical blank")
 
     scene = sub.add_parser("scene", help="scene files")
     ssub = scene.add_subparsers(dest="scene_command", required=True, parser_class=_Parser)
@@ -83,6 +98,16 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--vs", choices=("rvo2",), default=None)
     st.add_argument("--steps", type=_positive(int), default=None)
     st.add_argument("--json", action="store_true")
+    rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
+    rb.add_argument("--agents", type=_positive(int), action="append", default=None)
+    rb.add_argument("--width", type=_positive(int), default=1280)
+    rb.add_argument("--height", type=_positive(int), default=720)
+    rb.add_argument("--frames", type=_positive(int), default=30)
+    rb.add_argument("--json", action="store_true")
+
+    from pedvr.study.cli import add_study_parser
+
+    add_study_parser(sub)
     return p
 
 
@@ -93,6 +118,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _run(args)
         if args.command == "scene":
             return _scene(args)
+        if args.command == "study":
+            from pedvr.study.cli import run_study_command
+
+            return run_study_command(args)
         return _bench(args)
     except PedvrError as exc:
         for line in str(exc).splitlines() or [type(exc).__name__]:
@@ -104,19 +133,51 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from pedvr.errors import BackendUnavailableError
     from pedvr.scene.loader import load_any
-    from pedvr.xr.select import choose_backend
+    from pedvr.xr.select import choose_backend, fallback_after
 
-    backend, why = choose_backend(args.backend)
+    files = args.frames is not None or args.video is not None
+    if files and args.backend in ("xr", "desktop"):
+        raise UsageError(f"--frames/--video write files from the headless renderer; drop --backend "
+                         f"{args.backend} or use --backend headless")
+    if files:
+        backend, why = "headless", "backend: headless (rendering offscreen to --frames/--video)"
+    else:
+        backend, why = choose_backend(args.backend)
     path = resolve_scene(args.scene)
     scene = load_any(path, seed=args.seed)
     print(why)
-    from pedvr.headless import run_headless
+    from pedvr.xr.run import ViewOptions
 
-    summary = run_headless(scene, duration=args.duration, seed=args.seed, condition=args.condition,
-                           responsibility=args.responsibility, record=args.record,
-                           metrics_json=args.metrics_json, out=args.out, progress=not args.quiet)
-    return 0 if summary else 1
+    while True:
+        desk = backend == "desktop"
+        opts = ViewOptions(frames=args.frames, video=args.video, view=args.view,
+                           width=args.width or (1280 if desk else 640),
+                           height=args.height or (720 if desk else 360),
+                           fps=args.fps, label=args.label, vsync=not args.no_vsync)
+        common = {"duration": args.duration, "seed": args.seed, "condition": args.condition,
+                  "responsibility": args.responsibility, "record": args.record,
+                  "metrics_json": args.metrics_json, "out": args.out}
+        try:
+            if backend == "headless":
+                from pedvr.headless import run_headless
+
+                summary = run_headless(scene, progress=not args.quiet, view=opts, **common)
+            else:
+                from pedvr.xr.run import run_with_view
+
+                summary = run_with_view(scene, backend=backend, opts=opts, **common)
+            return 0 if summary else 1
+        except BackendUnavailableError as exc:
+            from pedvr.xr.session import BackendLostError
+
+            lost = isinstance(exc, BackendLostError)
+            nxt = None if lost or args.backend != "auto" else fallback_after(backend)
+            if nxt is None:
+                raise
+            print(f"backend: {nxt} ({backend} could not start: {exc})")
+            backend = nxt
 
 
 def _scene(args: argparse.Namespace) -> int:
@@ -143,6 +204,17 @@ def _scene(args: argparse.Namespace) -> int:
 
 
 def _bench(args: argparse.Namespace) -> int:
+    if args.bench_command == "render":
+        from pedvr.render.bench import run_render_bench
+
+        rendered = [run_render_bench(n, width=args.width, height=args.height, frames=args.frames)
+                    for n in args.agents or [100, 500]]
+        if args.json:
+            print(json.dumps(rendered[0] if len(rendered) == 1 else rendered, indent=2))
+        else:
+            for r in rendered:
+                print(", ".join(f"{k}={v}" for k, v in r.items()))
+        return 0
     from pedvr.crowd.bench import run_steering_bench
 
     results = []

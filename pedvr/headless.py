@@ -1,7 +1,9 @@
-"""The headless run: simulate a scene without rendering, record and measure.
+"""The headless run: simulate a scene without a window, record and measure.
 
 Used by ``pedvr run --backend headless`` and as the fallback when no headset
-and no display answer.
+and no display answer. Without ``--frames``/``--video`` nothing is rendered
+and no OpenGL is needed; with them the frame loop renders offscreen through
+EGL (:mod:`pedvr.xr.headless`).
 """
 
 from __future__ import annotations
@@ -11,32 +13,117 @@ import math
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
 from pedvr.scene.config import SceneConfig
 from pedvr.sim import Simulation
 
+if TYPE_CHECKING:
+    from pedvr.xr.run import ViewOptions
 
-def run_headless(scene: SceneConfig, *, duration: float | None, seed: int | None, condition: str,
-                 responsibility: float | None, record: Path | None, metrics_json: Path | None,
-                 out: Path, progress: bool = True) -> dict[str, object]:
-    """Run, save the trajectory and metrics, print a summary; return the metrics."""
-    duration = scene.duration if duration is None else duration
-    tag = f"{scene.name}-seed{scene.seed if seed is None else seed}-{condition.replace('+', 'g')}"
+
+def run_tag(scene: SceneConfig, *, seed: int | None, condition: str) -> str:
+    return f"{scene.name}-seed{scene.seed if seed is None else seed}-{condition.replace('+', 'g')}"
+
+
+def write_outputs(
+    sim: Simulation,
+    scene: SceneConfig,
+    *,
+    condition: str,
+    record: Path | None,
+    metrics_json: Path | None,
+    out: Path,
+    extra: dict[str, object],
+) -> dict[str, object]:
+    """Save the trajectory (``.npz``) and metrics (``.json``, the summary plus ``extra``); print a summary."""
+    tag = run_tag(scene, seed=sim.seed, condition=condition)
     record = record or out / f"{tag}.npz"
     metrics_json = metrics_json or out / f"{tag}.json"
     for p in (record, metrics_json):
         p.parent.mkdir(parents=True, exist_ok=True)
+    summary = sim.summary()
+    summary.update(extra)
+    meta = {k: summary[k] for k in ("scene", "scene_hash", "seed", "condition", "responsibility", "dt")}
+    meta["source"] = scene.source
+    assert sim.recording is not None
+    sim.recording.save(record, meta)
+    metrics_json.write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n")
 
+    print(
+        f"scene {scene.name} ({scene.source}), seed {sim.seed}, condition {condition}, "
+        f"responsibility {sim.responsibility}"
+    )
+    wall = float(summary.get("wall_s") or 0.0)  # type: ignore[arg-type]
+    print(
+        f"  {summary['steps']} steps of {sim.dt * 1e3:.2f} ms = {sim.t:.1f} s simulated in {wall:.1f} s "
+        f"({summary.get('realtime_factor')}x real time)"
+    )
+    print(
+        f"  agents {summary['agents']}, arrivals {summary['arrivals']}, mean speed "
+        f"{summary['mean_speed_mps']} m/s, min distance to user {summary['min_user_distance_m']} m"
+    )
+    print(
+        f"  max overlap {summary['max_overlap_m']} m, pairs overlapping > 1 cm: "
+        f"{summary['overlaps_over_1cm']}"
+    )
+    print(f"  step time p50 {summary['step_ms_p50']} ms, p95 {summary['step_ms_p95']} ms")
+    print(f"  trajectory: {record}")
+    print(f"  metrics:    {metrics_json}")
+    return summary
+
+
+def run_headless(
+    scene: SceneConfig,
+    *,
+    duration: float | None,
+    seed: int | None,
+    condition: str,
+    responsibility: float | None,
+    record: Path | None,
+    metrics_json: Path | None,
+    out: Path,
+    progress: bool = True,
+    view: ViewOptions | None = None,
+) -> dict[str, object]:
+    """Run, save the trajectory and metrics, print a summary; return the metrics.
+
+    With ``view`` naming ``frames`` or ``video``, the run goes through the
+    frame loop and renders offscreen (:func:`pedvr.xr.run.run_with_view`).
+    """
+    if view is not None and (view.frames is not None or view.video is not None):
+        from pedvr.xr.run import run_with_view
+
+        return run_with_view(
+            scene,
+            backend="headless",
+            opts=view,
+            duration=duration,
+            seed=seed,
+            condition=condition,
+            responsibility=responsibility,
+            record=record,
+            metrics_json=metrics_json,
+            out=out,
+        )
+    duration = scene.duration if duration is None else duration
     t0 = time.perf_counter()
     sim = Simulation(scene, seed=seed, condition=condition, responsibility=responsibility, record=True)
     first = time.perf_counter()
     sim.step()
     first_step_s = time.perf_counter() - first
     steps = max(0, math.ceil(duration / sim.dt - 1e-9) - 1)
-    bar = tqdm(total=steps + 1, initial=1, unit="step", disable=not progress or None, file=sys.stderr,
-               desc=scene.name, leave=False)
+    bar = tqdm(
+        total=steps + 1,
+        initial=1,
+        unit="step",
+        disable=not progress or None,
+        file=sys.stderr,
+        desc=scene.name,
+        leave=False,
+    )
     interrupted = False
     try:
         for _ in range(steps):
@@ -47,26 +134,13 @@ def run_headless(scene: SceneConfig, *, duration: float | None, seed: int | None
     finally:
         bar.close()
     wall = time.perf_counter() - t0
-
-    summary = sim.summary()
-    summary.update({"wall_s": round(wall, 3), "setup_s": round(first - t0, 3),
-                    "first_step_s": round(first_step_s, 4), "interrupted": interrupted,
-                    "realtime_factor": round(sim.t / wall, 2) if wall > 0 else None})
-    meta = {k: summary[k] for k in ("scene", "scene_hash", "seed", "condition", "responsibility", "dt")}
-    meta["source"] = scene.source
-    assert sim.recording is not None
-    sim.recording.save(record, meta)
-    metrics_json.write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n")
-
-    print(f"scene {scene.name} ({scene.source}), seed {sim.seed}, condition {condition}, "
-          f"responsibility {sim.responsibility}")
-    print(f"  {summary['steps']} steps of {sim.dt * 1e3:.2f} ms = {sim.t:.1f} s simulated in {wall:.1f} s "
-          f"({summary['realtime_factor']}x real time)")
-    print(f"  agents {summary['agents']}, arrivals {summary['arrivals']}, mean speed "
-          f"{summary['mean_speed_mps']} m/s, min distance to user {summary['min_user_distance_m']} m")
-    print(f"  max overlap {summary['max_overlap_m']} m, pairs overlapping > 1 cm: "
-          f"{summary['overlaps_over_1cm']}")
-    print(f"  step time p50 {summary['step_ms_p50']} ms, p95 {summary['step_ms_p95']} ms")
-    print(f"  trajectory: {record}")
-    print(f"  metrics:    {metrics_json}")
-    return summary
+    extra: dict[str, object] = {
+        "wall_s": round(wall, 3),
+        "setup_s": round(first - t0, 3),
+        "first_step_s": round(first_step_s, 4),
+        "interrupted": interrupted,
+        "realtime_factor": round(sim.t / wall, 2) if wall > 0 else None,
+    }
+    return write_outputs(
+        sim, scene, condition=condition, record=record, metrics_json=metrics_json, out=out, extra=extra
+    )

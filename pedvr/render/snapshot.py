@@ -1,0 +1,107 @@
+"""What a frame shows: a read-only copy of the simulation state the renderer needs (no GL).
+
+The renderer reads simulation state and never writes it (DESIGN.md); a
+:class:`Snapshot` is taken after ``sim.advance_to(t)`` and drawn, so drawing
+never sees a half-updated world.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from pedvr.sim import Simulation
+
+SPHERE_HEIGHT = 1.4  # m: the red target sphere floats just below eye level
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """Per-agent arrays (rows as in the crowd; the user row, if any, flagged in ``is_user``).
+
+    ``gaze_target`` is ``(N, 3)`` world points each agent looks at (NaN rows:
+    none); until the behaviour layer's gaze rule (PedVR §4.2) and the body's
+    gaze controller provide it, callers pass it explicitly or leave it None.
+    ``sphere`` is the next red target sphere on the ground, or None when the
+    route is done; ``route`` all spheres.
+    """
+
+    t: float
+    ids: np.ndarray
+    pos: np.ndarray
+    vel: np.ndarray
+    heading: np.ndarray
+    radius: np.ndarray
+    is_user: np.ndarray
+    gaze_target: np.ndarray | None = None
+    sphere: np.ndarray | None = None
+    sphere_radius: float = 0.5
+    route: np.ndarray | None = None
+    next_sphere: int = 0
+
+    def __len__(self) -> int:
+        return int(self.ids.shape[0])
+
+    @property
+    def user_row(self) -> int | None:
+        rows = np.flatnonzero(self.is_user)
+        return int(rows[0]) if rows.size else None
+
+    @classmethod
+    def from_sim(cls, sim: Simulation, *, gaze_target: np.ndarray | None = None) -> Snapshot:
+        c = sim.crowd
+        sphere = None
+        route = None
+        nxt = 0
+        radius = sim.scene.user.sphere_radius
+        if sim.user is not None:
+            route = sim.user.route.copy()
+            nxt = sim.user.sphere
+            if not sim.user.route_done:
+                sphere = sim.user.route[sim.user.sphere].copy()
+        return cls(
+            t=sim.t,
+            ids=c.ids.copy(),
+            pos=c.pos.copy(),
+            vel=c.vel.copy(),
+            heading=c.heading.copy(),
+            radius=c.radius.copy(),
+            is_user=c.is_user.copy(),
+            gaze_target=None if gaze_target is None else np.asarray(gaze_target, dtype=np.float64),
+            sphere=sphere,
+            sphere_radius=radius,
+            route=route,
+            next_sphere=nxt,
+        )
+
+    @classmethod
+    def of_agents(
+        cls,
+        *,
+        pos: np.ndarray,
+        heading: np.ndarray,
+        vel: np.ndarray | None = None,
+        ids: np.ndarray | None = None,
+        radius: float = 0.25,
+        is_user: np.ndarray | None = None,
+        gaze_target: np.ndarray | None = None,
+        sphere: np.ndarray | None = None,
+        t: float = 0.0,
+    ) -> Snapshot:
+        """A hand-made snapshot (tests, benchmarks): agents at ``pos`` facing ``heading``."""
+        pos = np.asarray(pos, dtype=np.float64).reshape(-1, 2)
+        n = pos.shape[0]
+        return cls(
+            t=t,
+            ids=np.arange(n, dtype=np.int64) if ids is None else np.asarray(ids, dtype=np.int64),
+            pos=pos,
+            vel=np.zeros((n, 2)) if vel is None else np.asarray(vel, dtype=np.float64).reshape(n, 2),
+            heading=np.asarray(heading, dtype=np.float64).reshape(n),
+            radius=np.full(n, radius),
+            is_user=np.zeros(n, np.bool_) if is_user is None else np.asarray(is_user, np.bool_),
+            gaze_target=gaze_target,
+            sphere=None if sphere is None else np.asarray(sphere, np.float64),
+        )

@@ -1,0 +1,278 @@
+"""OpenXR backend logic, independent of pyopenxr: session states, frames, poses, controls.
+
+:class:`XrPresenter` drives an :class:`XrPort` — the thin layer of real
+pyopenxr calls in :mod:`pedvr.xr.openxr`, or a fake in tests — through the
+OpenXR session life cycle (OpenXR 1.0 §9.3):
+
+* ``READY``: begin the session (stereo view configuration); frames start.
+* ``SYNCHRONIZED`` / ``VISIBLE`` / ``FOCUSED``: frames run; input only when focused.
+* ``STOPPING``: end the session; frames stop.
+* ``EXITING``: the runtime or the user ended it; the loop stops normally.
+* ``LOSS_PENDING`` (or instance loss): the headset went away; the loop stops
+  and :attr:`XrPresenter.lost` says why (one line, no traceback).
+
+Each frame: ``wait_frame`` (predicted display time drives the simulation
+clock), ``begin_frame``, locate the head and the per-eye views at the
+predicted time, feed :class:`~pedvr.xr.locomotion.HeadsetUser` (head pose,
+thumbstick, snap turn), render each eye with its own view and off-axis
+projection, ``end_frame`` with a projection layer (or none when the runtime
+says not to render).
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from pedvr.errors import BackendUnavailableError
+from pedvr.render.math3d import FAR, NEAR, EyeView, projection_from_fov, quat_to_matrix
+from pedvr.xr.locomotion import Controls, HeadsetUser
+from pedvr.xr.loop import FrameTiming
+
+if TYPE_CHECKING:
+    from pedvr.sim import Simulation
+
+
+class BackendLostError(BackendUnavailableError):
+    """The OpenXR session ended early (headset or runtime lost); the run so far is saved."""
+
+
+class SessionState(enum.IntEnum):
+    """``XrSessionState`` values (OpenXR 1.0)."""
+
+    UNKNOWN = 0
+    IDLE = 1
+    READY = 2
+    SYNCHRONIZED = 3
+    VISIBLE = 4
+    FOCUSED = 5
+    STOPPING = 6
+    LOSS_PENDING = 7
+    EXITING = 8
+
+
+@dataclass(frozen=True)
+class StateChanged:
+    state: SessionState
+
+
+@dataclass(frozen=True)
+class InstanceLossPending:
+    pass
+
+
+XrEvent = StateChanged | InstanceLossPending
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A located pose in tracking space: ``position`` (3,), ``orientation`` quaternion ``(x, y, z, w)``."""
+
+    position: np.ndarray
+    orientation: tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class ViewLocation:
+    """One eye at the predicted display time: pose and ``fov`` ``(left, right, up, down)`` angles in rad."""
+
+    pose: Pose
+    fov: tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class XrFrame:
+    """``xrWaitFrame``'s answer: predicted display time and period (s), and ``should_render``."""
+
+    display_time: float
+    period: float
+    should_render: bool
+
+
+class XrPort(Protocol):
+    """What the backend needs from OpenXR; :class:`pedvr.xr.openxr.OpenXRPort` makes the real calls."""
+
+    def poll_events(self) -> list[XrEvent]: ...
+
+    def begin_session(self) -> None: ...
+
+    def end_session(self) -> None: ...
+
+    def request_exit(self) -> None: ...
+
+    def wait_frame(self) -> XrFrame: ...
+
+    def begin_frame(self) -> None: ...
+
+    def locate_head(self, display_time: float) -> Pose | None: ...
+
+    def locate_views(self, display_time: float) -> list[ViewLocation]: ...
+
+    def sync_controls(self, *, focused: bool) -> Controls: ...
+
+    def render_eye(self, index: int, draw: Callable[[object, tuple[int, int, int, int]], None]) -> None: ...
+
+    def end_frame(self, *, display_time: float, views: list[ViewLocation] | None) -> None: ...
+
+    def idle_wait(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
+@dataclass
+class SessionLogic:
+    """The session state machine: what each ``XrEventDataSessionStateChanged`` means for the app."""
+
+    port: XrPort
+    state: SessionState = SessionState.IDLE
+    running: bool = False
+    exit_requested: bool = False
+    lost: str | None = None
+    history: list[SessionState] = field(default_factory=list)
+
+    @property
+    def focused(self) -> bool:
+        return self.state == SessionState.FOCUSED
+
+    @property
+    def done(self) -> bool:
+        return self.state == SessionState.EXITING or self.lost is not None
+
+    def handle(self, event: XrEvent) -> None:
+        if isinstance(event, InstanceLossPending):
+            self.lost = "the OpenXR runtime is going away (instance loss pending); restart it and pedvr"
+            self._stop()
+            return
+        self.state = event.state
+        self.history.append(event.state)
+        if event.state == SessionState.READY and not self.running:
+            self.port.begin_session()
+            self.running = True
+        elif event.state == SessionState.STOPPING:
+            self._stop()
+        elif event.state == SessionState.LOSS_PENDING:
+            self.lost = "the headset was lost (session loss pending): reconnect it and run again"
+            self._stop()
+        elif event.state == SessionState.EXITING:
+            self.running = False
+
+    def _stop(self) -> None:
+        if self.running:
+            self.port.end_session()
+            self.running = False
+
+    def request_exit(self) -> None:
+        """Ask the runtime to end the session (Esc, window closed, duration reached)."""
+        if self.running and not self.exit_requested:
+            self.port.request_exit()
+            self.exit_requested = True
+
+
+class XrPresenter:
+    """The OpenXR presenter (module docstring). ``draw_eye(eye, framebuffer, viewport)`` draws one eye."""
+
+    name = "xr"
+
+    def __init__(
+        self,
+        port: XrPort,
+        *,
+        user: HeadsetUser,
+        draw_eye: Callable[[EyeView, object, tuple], None],
+        near: float = NEAR,
+        far: float = FAR,
+        update: Callable[[Simulation], None] | None = None,
+    ) -> None:
+        self.port = port
+        self.user = user
+        self.draw_eye = draw_eye
+        self.update = update
+        self.near, self.far = near, far
+        self.logic = SessionLogic(port)
+        self._frame: XrFrame | None = None
+        self._views: list[ViewLocation] | None = None
+        self._last_time: float | None = None
+        self.controls = Controls()
+        self.triggers = 0
+        self.menus = 0
+
+    @property
+    def closed(self) -> bool:
+        return self.logic.done
+
+    @property
+    def lost(self) -> str | None:
+        return self.logic.lost
+
+    def wait_frame(self) -> FrameTiming | None:
+        for ev in self.port.poll_events():
+            self.logic.handle(ev)
+        if not self.logic.running:
+            self.port.idle_wait()
+            return None
+        frame = self.port.wait_frame()
+        self.port.begin_frame()
+        self._frame = frame
+        head = self.port.locate_head(frame.display_time)
+        self.controls = self.port.sync_controls(focused=self.logic.focused)
+        self.triggers += int(self.controls.trigger)
+        self.menus += int(self.controls.menu)
+        dt = 0.0 if self._last_time is None else max(0.0, frame.display_time - self._last_time)
+        self._last_time = frame.display_time
+        self.user.track(
+            t=frame.display_time,
+            position=head.position if head else np.zeros(3),
+            orientation=head.orientation if head else None,
+            controls=self.controls,
+            dt=dt,
+        )
+        self._views = self.port.locate_views(frame.display_time) if frame.should_render else None
+        return FrameTiming(
+            display_time=frame.display_time,
+            period=frame.period,
+            should_render=frame.should_render and bool(self._views),
+        )
+
+    def eye_views(self) -> list[EyeView]:
+        """World-space views of the located eyes: tracking pose through the play space, off-axis frusta."""
+        out = []
+        for v in self._views or []:
+            r, p = self.user.eye_world_pose(
+                rotation=quat_to_matrix(*v.pose.orientation), position=v.pose.position
+            )
+            left, right, up, down = v.fov
+            proj = projection_from_fov(
+                angle_left=left, angle_right=right, angle_up=up, angle_down=down, near=self.near, far=self.far
+            )
+            out.append(EyeView.from_pose(rotation=r, position=p, projection=proj))
+        return out
+
+    def render(self, sim: Simulation) -> None:
+        if self.update is not None:
+            self.update(sim)
+        for i, eye in enumerate(self.eye_views()):
+            self.port.render_eye(i, self._drawer(eye))
+
+    def _drawer(self, eye: EyeView) -> Callable[[object, tuple[int, int, int, int]], None]:
+        def draw(framebuffer: object, viewport: tuple[int, int, int, int]) -> None:
+            self.draw_eye(eye, framebuffer, viewport)
+
+        return draw
+
+    def end_frame(self) -> None:
+        if self._frame is None:
+            return
+        self.port.end_frame(
+            display_time=self._frame.display_time, views=self._views if self._frame.should_render else None
+        )
+        self._frame = None
+
+    def request_exit(self) -> None:
+        self.logic.request_exit()
+
+    def close(self) -> None:
+        self.port.close()

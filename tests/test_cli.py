@@ -1,0 +1,76 @@
+"""The command line: the headless run's outputs, and one clear line for every bad input."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pedvr.cli import main
+
+METRIC_KEYS = {"steps", "agents", "max_overlap_m", "overlaps_over_1cm", "min_user_distance_m", "arrivals",
+               "mean_speed_mps", "max_accel_mps2", "max_turn_rate_radps", "step_ms_p50", "step_ms_p95"}
+
+
+def test_headless_run_writes_recording_and_metrics(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    rec, met = tmp_path / "r.npz", tmp_path / "m.json"
+    code = main(["run", "headon_corridor", "--backend", "headless", "--duration", "2", "--seed", "4",
+                 "--condition", "decoupled", "--responsibility", "0.25", "--record", str(rec),
+                 "--metrics-json", str(met), "--quiet"])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("backend: headless (asked for with --backend headless)")
+    m = json.loads(met.read_text())
+    assert METRIC_KEYS <= set(m)
+    assert m["steps"] == 180 and m["agents"] == 1 and m["seed"] == 4 and m["responsibility"] == 0.25
+    with np.load(rec) as z:
+        meta = json.loads(str(z["meta"]))
+        assert meta["seed"] == 4 and meta["condition"] == "decoupled" and len(meta["scene_hash"]) == 16
+        assert z["pos"].shape == (181, 2, 2) and z["heading"].shape == (181, 2)
+        assert z["is_user"].sum() == 1
+
+
+def test_auto_backend_falls_back_to_headless_and_says_why(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                         capsys: pytest.CaptureFixture) -> None:
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    assert main(["run", "--duration", "0.5", "--out", str(tmp_path), "--quiet"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.startswith("backend: headless (no OpenXR: ") and "no desktop: no display (DISPLAY is not set)" in first
+    assert len(list(tmp_path.glob("antipodal_circle-seed7-pedvr.*"))) == 2
+
+
+@pytest.mark.parametrize("argv, code, message", [
+    (["run", "--responsibility", "2"], 2, r"argument --responsibility: '2' must be in \[0, 1\]"),
+    (["run", "--duration", "-1"], 2, r"argument --duration: '-1' must be > 0"),
+    (["run", "--condition", "fast"], 2, r"argument --condition: invalid choice: 'fast'"),
+    (["run", "no/such/scene.toml"], 2, r"no/such/scene\.toml: no such scene file"),
+    (["run", "--backend", "xr"], 3, r"cannot start the OpenXR backend: .*; use --backend headless"),
+    (["run", "--backend", "desktop"], 3, r"cannot open a desktop window: .*; use --backend headless"),
+    (["frobnicate"], 2, r"invalid choice: 'frobnicate'"),
+])
+def test_bad_input_is_one_clear_line(argv: list[str], code: int, message: str,
+                                     capsys: pytest.CaptureFixture) -> None:
+    import re
+
+    assert main(argv) == code
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("pedvr: error: ")
+    assert re.search(message, err[0]), err[0]
+
+
+def test_python_dash_m_and_no_traceback_on_bad_scene(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[scene]\nname = "b"\nseed = 1\nduration = 5\n')
+    r = subprocess.run([sys.executable, "-m", "pedvr", "run", str(bad), "--backend", "headless"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert all(line.startswith(f"pedvr: error: {bad}: ") for line in lines)
+    assert any("world = <missing>: required table" in line for line in lines)
+    assert any("user = <missing>: required table" in line for line in lines)

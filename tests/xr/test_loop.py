@@ -1,0 +1,87 @@
+"""The frame loop: fixed simulation steps decoupled from the display, display time drives the clock."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import pytest
+
+from pedvr.scene.loader import load_any
+from pedvr.scenes import resolve_scene
+from pedvr.sim import Simulation
+from pedvr.xr.loop import FrameTiming, missed_between, run_frames
+
+
+@dataclass
+class ScriptedPresenter:
+    """Display times from a list; records the simulation time of each rendered frame."""
+
+    times: list[float]
+    period: float
+    name: str = "fake"
+    shown: list[float] = field(default_factory=list)
+    renders: int = 0
+    ends: int = 0
+
+    @property
+    def closed(self) -> bool:
+        return not self.times
+
+    def wait_frame(self) -> FrameTiming | None:
+        return FrameTiming(display_time=self.times.pop(0), period=self.period)
+
+    def render(self, sim: Simulation) -> None:
+        self.renders += 1
+        self.shown.append(sim.t)
+
+    def end_frame(self) -> None:
+        self.ends += 1
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.fixture(scope="module")
+def scene():  # type: ignore[no-untyped-def]
+    return load_any(resolve_scene("headon_corridor"), seed=None)
+
+
+def test_simulation_follows_display_time_at_its_own_fixed_dt(scene) -> None:  # type: ignore[no-untyped-def]
+    sim = Simulation(scene)
+    dt = sim.dt
+    # A 60 Hz display starting at an arbitrary runtime time: 1.5 steps of 1/90 s per frame on average.
+    times = [1000.0 + k / 60 for k in range(31)]
+    p = ScriptedPresenter(times=list(times), period=1 / 60)
+    tel = run_frames(sim, p, duration=None)
+    assert p.renders == 31 and tel.missed_frames == 0
+    assert sim.t == pytest.approx(30 / 60, abs=dt)
+    for k, shown in enumerate(p.shown):
+        assert k / 60 - dt - 1e-9 <= shown <= k / 60 + 1e-9  # never ahead of the display, < one step behind
+    assert set(tel.steps[1:]) <= {1, 2}
+
+
+def test_missed_frames_are_counted_from_the_display_intervals(scene) -> None:  # type: ignore[no-untyped-def]
+    times = [0.0, 1 / 90, 2 / 90, 5 / 90, 6 / 90]  # two refreshes missed between the 3rd and 4th frame
+    tel = run_frames(Simulation(scene), ScriptedPresenter(times=times, period=1 / 90), duration=None)
+    assert tel.missed_frames == 2
+    assert missed_between(1 / 90, 1 / 90) == 0 and missed_between(3.1 / 90, 1 / 90) == 2
+
+
+def test_a_stall_skips_simulated_time_instead_of_a_burst_of_steps(scene) -> None:  # type: ignore[no-untyped-def]
+    sim = Simulation(scene)
+    tel = run_frames(
+        sim, ScriptedPresenter(times=[0.0, 1 / 90, 3.0], period=1 / 90), duration=None, max_lag=0.25
+    )
+    assert sim.t == pytest.approx(1 / 90 + 0.25, abs=sim.dt)
+    assert tel.skipped_sim_s == pytest.approx(3.0 - 1 / 90 - 0.25, abs=1e-9)
+    assert max(tel.steps) <= round(0.25 / sim.dt) + 1
+
+
+def test_duration_stops_the_loop_and_telemetry_goes_into_the_summary(scene) -> None:  # type: ignore[no-untyped-def]
+    sim = Simulation(scene)
+    p = ScriptedPresenter(times=[k / 30 for k in range(100)], period=1 / 30)
+    tel = run_frames(sim, p, duration=1.0)
+    assert sim.t == pytest.approx(1.0, abs=1e-9)
+    s = tel.summary()
+    assert s["frames"] == p.renders and s["fps"] == pytest.approx(30.0)
+    assert {"sim_ms_p50", "render_ms_p50", "missed_frames", "frame_ms_p95"} <= set(s)
