@@ -36,64 +36,22 @@ from pedvr.scene.config import (
     WorldConfig,
     default_dt,
 )
+from pedvr.validation import MISSING, Checker, is_num
 
 OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter")
 TRANSITION_EVENTS = ("arrival", "timer", "probability")
-_MISSING = object()
-
-
-def _fmt(v: object) -> str:
-    if v is _MISSING:
-        return "<missing>"
-    if isinstance(v, str):
-        return repr(v)
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, dict):
-        return "{...}"
-    return str(v).replace("'", '"')
-
-
-def _is_num(v: object) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(float(v))
-
-
-class _Checker:
-    """Collects problems; each accessor returns a usable value or None."""
-
-    def __init__(self, source: str) -> None:
-        self.source = source
-        self.problems: list[str] = []
-
-    def bad(self, key: str, value: object, why: str) -> None:
-        self.problems.append(f"{self.source}: {key} = {_fmt(value)}: {why}")
-
-    def table(self, d: dict[str, Any], key: str, path: str, *, required: bool) -> dict[str, Any] | None:
-        v = d.get(key, _MISSING)
-        if v is _MISSING:
-            if required:
-                self.bad(path, v, "required table")
-            return None
-        if not isinstance(v, dict):
-            self.bad(path, v, "expected a table")
-            return None
-        return v
-
-    def known(self, d: dict[str, Any], path: str, allowed: tuple[str, ...]) -> None:
-        for k in d:
-            if k not in allowed:
-                self.bad(f"{path}.{k}" if path else k, d[k],
-                         f"unknown key; allowed: {', '.join(allowed)}")
+class _Checker(Checker):
+    """The shared problem collector plus the accessors scenes need."""
 
     def number(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
                default: float | None = None, check: Callable[[float], bool] | None = None,
                expect: str = "") -> float | None:
-        v = d.get(key, _MISSING)
-        if v is _MISSING:
+        v = d.get(key, MISSING)
+        if v is MISSING:
             if required:
                 self.bad(path, v, "required" + (f" ({expect})" if expect else ""))
             return default
-        if not _is_num(v):
+        if not is_num(v):
             self.bad(path, v, "expected a number" + (f" {expect}" if expect else ""))
             return default
         f = float(v)
@@ -104,8 +62,8 @@ class _Checker:
 
     def integer(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
                 default: int | None = None, minimum: int = 0) -> int | None:
-        v = d.get(key, _MISSING)
-        if v is _MISSING:
+        v = d.get(key, MISSING)
+        if v is MISSING:
             if required:
                 self.bad(path, v, "required")
             return default
@@ -116,8 +74,8 @@ class _Checker:
 
     def string(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
                default: str | None = None, choices: tuple[str, ...] = ()) -> str | None:
-        v = d.get(key, _MISSING)
-        if v is _MISSING:
+        v = d.get(key, MISSING)
+        if v is MISSING:
             if required:
                 self.bad(path, v, "required" + (f"; one of {', '.join(choices)}" if choices else ""))
             return default
@@ -130,8 +88,8 @@ class _Checker:
         return v
 
     def boolean(self, d: dict[str, Any], key: str, path: str, default: bool) -> bool:
-        v = d.get(key, _MISSING)
-        if v is _MISSING:
+        v = d.get(key, MISSING)
+        if v is MISSING:
             return default
         if not isinstance(v, bool):
             self.bad(path, v, "expected true or false")
@@ -139,15 +97,15 @@ class _Checker:
         return v
 
     def point(self, v: object, path: str) -> Vec2 | None:
-        if isinstance(v, list) and len(v) == 2 and all(_is_num(x) for x in v):
+        if isinstance(v, list) and len(v) == 2 and all(is_num(x) for x in v):
             return (float(v[0]), float(v[1]))
         self.bad(path, v, "expected [x, y] in metres")
         return None
 
     def points(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
                minimum: int = 1) -> tuple[Vec2, ...] | None:
-        v = d.get(key, _MISSING)
-        if v is _MISSING:
+        v = d.get(key, MISSING)
+        if v is MISSING:
             if required:
                 self.bad(path, v, f"required list of at least {minimum} [x, y] points")
             return None
@@ -160,7 +118,7 @@ class _Checker:
         return tuple(p for p in out if p is not None)
 
     def floats(self, v: object, path: str, n: int, expect: str) -> tuple[float, ...] | None:
-        if isinstance(v, list) and len(v) == n and all(_is_num(x) for x in v):
+        if isinstance(v, list) and len(v) == n and all(is_num(x) for x in v):
             return tuple(float(x) for x in v)
         self.bad(path, v, f"expected {expect}")
         return None
@@ -227,7 +185,7 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
     agents = c.table(data, "agents", "agents", required=True) or {}
     c.known(agents, "agents", ("profiles", "spawns"))
     profiles = _profiles(c, c.table(agents, "profiles", "agents.profiles", required=True) or {})
-    spawns = _spawns(c, agents.get("spawns", _MISSING), profiles, behavior, world)
+    spawns = _spawns(c, agents.get("spawns", MISSING), profiles, behavior, world)
     user = _user(c, c.table(data, "user", "user", required=True) or {}, world)
 
     if c.problems:
@@ -244,8 +202,8 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
 def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
     c.known(w, "world", ("bounds", "obstacles"))
     bounds = None
-    b = w.get("bounds", _MISSING)
-    if b is _MISSING:
+    b = w.get("bounds", MISSING)
+    if b is MISSING:
         c.bad("world.bounds", b, "required [[xmin, ymin], [xmax, ymax]]")
     else:
         pts = c.points(w, "bounds", "world.bounds", minimum=2)
@@ -440,7 +398,7 @@ def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
         if pts is None:
             continue
         w = g.get("weights", [1.0] * len(pts))
-        if (not isinstance(w, list) or len(w) != len(pts) or not all(_is_num(x) and x >= 0 for x in w)
+        if (not isinstance(w, list) or len(w) != len(pts) or not all(is_num(x) and x >= 0 for x in w)
                 or sum(w) <= 0):
             c.bad(f"{path}.weights", w, f"expected {len(pts)} numbers >= 0 with a positive sum")
             continue
@@ -456,7 +414,7 @@ def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
             c.bad(path, s, "expected a table")
             continue
         c.known(s, path, ("goal", "transitions", "speed_scale", "arrive_dist", "final"))
-        goal = _goal(c, s.get("goal", _MISSING), f"{path}.goal", goal_sets)
+        goal = _goal(c, s.get("goal", MISSING), f"{path}.goal", goal_sets)
         trans = []
         raw_t = s.get("transitions", [])
         if not isinstance(raw_t, list):
@@ -479,16 +437,16 @@ def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
 
 
 def _goal(c: _Checker, g: object, path: str, goal_sets: dict[str, GoalSet]) -> GoalSelector | None:
-    if g is _MISSING:
+    if g is MISSING:
         c.bad(path, g, 'required: a table such as {selector = "point", at = [x, y]}, '
               'or {selector = "stay"}')
         return None
     if not isinstance(g, dict):
         c.bad(path, g, 'expected a table such as {selector = "point", at = [x, y]}')
         return None
-    kind = g.get("selector", _MISSING)
+    kind = g.get("selector", MISSING)
     if kind not in selectors:
-        c.bad(f"{path}.selector", kind, selectors.unknown(kind if kind is not _MISSING else None)
+        c.bad(f"{path}.selector", kind, selectors.unknown(kind if kind is not MISSING else None)
               .split("; ", 1)[1].replace("known:", "expected one of:"))
         return None
     params = {k: v for k, v in g.items() if k != "selector"}
@@ -508,9 +466,9 @@ def _transition(c: _Checker, t: object, path: str, states_raw: dict[str, Any]) -
         return None
     c.known(t, path, ("on", "to", "weights", "after", "rate"))
     on = c.string(t, "on", f"{path}.on", choices=TRANSITION_EVENTS)
-    to_raw = t.get("to", _MISSING)
+    to_raw = t.get("to", MISSING)
     to: tuple[str, ...] | None = None
-    if to_raw is _MISSING:
+    if to_raw is MISSING:
         c.bad(f"{path}.to", to_raw, "required: a state name or a list of them")
     else:
         names = [to_raw] if isinstance(to_raw, str) else to_raw
@@ -527,7 +485,7 @@ def _transition(c: _Checker, t: object, path: str, states_raw: dict[str, Any]) -
     if "weights" in t:
         w = t["weights"]
         n = len(to) if to else -1
-        if not isinstance(w, list) or len(w) != n or not all(_is_num(x) and x >= 0 for x in w) \
+        if not isinstance(w, list) or len(w) != n or not all(is_num(x) and x >= 0 for x in w) \
                 or sum(w) <= 0:
             c.bad(f"{path}.weights", w, f"expected {max(n, 1)} numbers >= 0 with a positive sum, "
                   "one per target state")
@@ -536,10 +494,10 @@ def _transition(c: _Checker, t: object, path: str, states_raw: dict[str, Any]) -
     after = (0.0, 0.0)
     rate = 0.0
     if on == "timer":
-        a = t.get("after", _MISSING)
-        if _is_num(a) and float(a) >= 0:  # type: ignore[arg-type]
+        a = t.get("after", MISSING)
+        if is_num(a) and float(a) >= 0:  # type: ignore[arg-type]
             after = (float(a), float(a))  # type: ignore[arg-type]
-        elif isinstance(a, list) and len(a) == 2 and all(_is_num(x) for x in a) and 0 <= a[0] <= a[1]:
+        elif isinstance(a, list) and len(a) == 2 and all(is_num(x) for x in a) and 0 <= a[0] <= a[1]:
             after = (float(a[0]), float(a[1]))
         else:
             c.bad(f"{path}.after", a, "required for a timer: seconds >= 0, or [lo, hi] with lo <= hi")
@@ -557,7 +515,7 @@ def _transition(c: _Checker, t: object, path: str, states_raw: dict[str, Any]) -
 
 def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
             behavior: BehaviorConfig | None, world: WorldConfig | None) -> tuple[Spawn, ...]:
-    if raw is _MISSING:
+    if raw is MISSING:
         return ()
     if not isinstance(raw, list):
         c.bad("agents.spawns", raw, "expected an array of tables [[agents.spawns]]")
@@ -628,9 +586,9 @@ def _blocked(world: WorldConfig | None) -> Any:
 def _user(c: _Checker, u: dict[str, Any], world: WorldConfig | None) -> UserConfig | None:
     c.known(u, "user", ("start", "heading_deg", "radius", "speed", "route", "sphere_radius",
                         "enabled"))
-    s = u.get("start", _MISSING)
-    start = c.point(s, "user.start") if s is not _MISSING else None
-    if s is _MISSING:
+    s = u.get("start", MISSING)
+    start = c.point(s, "user.start") if s is not MISSING else None
+    if s is MISSING:
         c.bad("user.start", s, "required [x, y]")
     heading = c.number(u, "heading_deg", "user.heading_deg", required=False, default=0.0)
     radius = c.number(u, "radius", "user.radius", required=False, default=0.25,

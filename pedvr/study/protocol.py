@@ -25,7 +25,6 @@ from typing import Any
 
 from pedvr.errors import SceneError
 from pedvr.scene.config import CONDITIONS
-from pedvr.study._checks import MISSING, Checker, is_num
 from pedvr.study.counterbalance import (
     left_right_flipped,
     random_order,
@@ -35,6 +34,7 @@ from pedvr.study.counterbalance import (
 )
 from pedvr.study.errors import ProtocolError
 from pedvr.study.questionnaire import Questionnaire, load_questionnaire
+from pedvr.validation import MISSING, Checker, is_num
 
 STEP_KINDS = ("instructions", "questionnaire", "trial", "blocks", "sweep")
 ORDERS = ("balanced_latin_square", "random", "fixed")

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pedvr.study._checks import MISSING, Checker
 from pedvr.study.errors import AnswerError, ProtocolError
+from pedvr.validation import MISSING, Checker
 
 KINDS = ("ssq", "pairwise", "likert", "form")
 ITEM_KINDS = ("scale", "text", "number", "choice", "consent")

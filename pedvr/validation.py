@@ -1,4 +1,4 @@
-"""A problem collector for study TOML files (protocols and questionnaires).
+"""A problem collector for TOML files: scenes, protocols, questionnaires.
 
 Every accessor records a problem line ``file: dotted.key = value: expectation``
 and returns ``None`` instead of raising, so a file's problems are reported all
