@@ -20,16 +20,6 @@ from pedvr.crowd.state import CrowdState
 OVERLAP_TOLERANCE = 0.01  # m: the quality bar (DESIGN.md)
 
 
-def point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distances (N, M) from points ``p`` (N,2) to segments ``a``–``b`` (M,2)."""
-    ab = b - a
-    denom = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18)
-    ap = p[:, None, :] - a[None, :, :]
-    s = np.clip(np.einsum("nmj,mj->nm", ap, ab) / denom, 0.0, 1.0)
-    closest = a[None] + s[..., None] * ab[None]
-    return np.linalg.norm(p[:, None, :] - closest, axis=2)
-
-
 @dataclass
 class Metrics:
     """Running metrics of one run; :meth:`summary` gives the JSON keys."""
@@ -37,6 +27,7 @@ class Metrics:
     seg_a: np.ndarray
     seg_b: np.ndarray
     inside: object  # callable: (N,2) -> (N,) bool, True where a point is inside an obstacle
+    _tree: object = None  # STRtree over the edges, built on first use
     steps: int = 0
     agent_ids: set[int] = field(default_factory=set)
     max_overlap: float = 0.0
@@ -89,13 +80,34 @@ class Metrics:
                         du = np.linalg.norm(pos[others] - pos[u], axis=1)
                         self.min_user_distance = min(self.min_user_distance, float(du.min()))
         if self.seg_a.shape[0]:
-            d = point_segment_distance(pos, self.seg_a, self.seg_b).min(axis=1)
+            d = self._edge_distance(pos, float(rad.max()))
             inside = self.inside(pos)  # type: ignore[operator]
-            ov = np.where(inside, rad + d, rad - d)
+            ov = np.where(inside, rad + np.where(np.isfinite(d), d, 0.0), rad - d)
             ov = np.where(crowd.is_user, -np.inf, ov)  # the user is not steered, only measured
             self.max_overlap = max(self.max_overlap, float(ov.max()))
             for k in np.flatnonzero(ov > OVERLAP_TOLERANCE):
                 self.overlap_pairs.add((int(crowd.ids[k]), -1))
+
+    def _edge_distance(self, pos: np.ndarray, reach: float) -> np.ndarray:
+        """Distance from each point to the nearest obstacle edge within ``reach`` (else inf).
+
+        An STRtree over the edges keeps this near O(N log M) (forest: 500
+        agents, 2800 edges), where the dense N×M form took 150 ms a step.
+        """
+        import shapely
+
+        if self._tree is None:
+            lines = shapely.linestrings(np.stack([self.seg_a, self.seg_b], axis=1))
+            self._tree = shapely.STRtree(lines)
+        pi, si = self._tree.query(shapely.points(pos), predicate="dwithin", distance=reach)
+        d = np.full(pos.shape[0], np.inf)
+        if pi.size:
+            a, b, p = self.seg_a[si], self.seg_b[si], pos[pi]
+            ab = b - a
+            t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18),
+                        0.0, 1.0)
+            np.minimum.at(d, pi, np.linalg.norm(p - (a + t[:, None] * ab), axis=1))
+        return d
 
     def summary(self) -> dict[str, object]:
         ms = np.asarray(self.step_ms) if self.step_ms else np.zeros(1)

@@ -16,6 +16,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 import numpy as np
+import shapely
 
 from pedvr.behavior.bfsm import BFSM, BehaviorState
 from pedvr.body.simple import SimpleBody
@@ -71,6 +72,7 @@ class Simulation:
         self.obstacles = obstacle_set(scene.world)
         self.visibility = Visibility(scene.world)
         self._walkable = walkable_area(scene.world)
+        shapely.prepare(self._walkable)  # contains_xy on every recorded step
         self._navmeshes: dict[float, NavMesh] = {}
         radii = [p.radius for p in scene.profiles.values()] or [scene.user.radius]
         self.goal_mesh = self.navmesh_for(max(radii))
@@ -140,8 +142,6 @@ class Simulation:
         self.crowd.heading[still] = self.rng.uniform(-np.pi, np.pi, still.size)
 
     def _inside_obstacle(self, pts: np.ndarray) -> np.ndarray:
-        import shapely
-
         return ~shapely.contains_xy(self._walkable, pts[:, 0], pts[:, 1])
 
     def _add_rows(self, n: int, *, pos: np.ndarray, radius: float, pref_speed: float, max_speed: float,

@@ -16,8 +16,8 @@ from pedvr.scenes import shipped_scenes
 from pedvr.sim import Simulation
 
 STEERSUITE = Path(__file__).resolve().parents[2] / "shared" / "benchmarks" / "steersuite"
-STEERSUITE_CASES = ["crossing-1", "oncoming-1", "oncoming-obstacle", "4-way-oncomming", "fan-in",
-                    "hallway-two-way", "doorway-one-way", "bottleneck-squeeze-2", "forest", "overtake"]
+STEERSUITE_CASES = ["crossing-1", "oncoming-1", "oncoming-obstacle", "4-way-oncomming", "fan-in", "squeeze",
+                    "hallway-two-way", "doorway-one-way", "bottleneck-evacuation-2", "circle-20", "overtake"]
 SECONDS = 60.0
 
 
