@@ -98,6 +98,10 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--vs", choices=("rvo2",), default=None)
     st.add_argument("--steps", type=_positive(int), default=None)
     st.add_argument("--json", action="store_true")
+    bd = bsub.add_parser("body", help="full-body layer ms per step beside the steering step")
+    bd.add_argument("--agents", type=_positive(int), action="append", default=None)
+    bd.add_argument("--steps", type=_positive(int), default=300)
+    bd.add_argument("--json", action="store_true")
     rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
     rb.add_argument("--agents", type=_positive(int), action="append", default=None)
     rb.add_argument("--width", type=_positive(int), default=1280)
@@ -203,17 +207,25 @@ def _scene(args: argparse.Namespace) -> int:
     return status
 
 
+def _print_results(results: list[dict[str, object]], as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(results[0] if len(results) == 1 else results, indent=2))
+    else:
+        for r in results:
+            print(", ".join(f"{k}={v}" for k, v in r.items()))
+
+
 def _bench(args: argparse.Namespace) -> int:
     if args.bench_command == "render":
         from pedvr.render.bench import run_render_bench
 
-        rendered = [run_render_bench(n, width=args.width, height=args.height, frames=args.frames)
-                    for n in args.agents or [100, 500]]
-        if args.json:
-            print(json.dumps(rendered[0] if len(rendered) == 1 else rendered, indent=2))
-        else:
-            for r in rendered:
-                print(", ".join(f"{k}={v}" for k, v in r.items()))
+        _print_results([run_render_bench(n, width=args.width, height=args.height, frames=args.frames)
+                        for n in args.agents or [100, 500]], args.json)
+        return 0
+    if args.bench_command == "body":
+        from pedvr.body.bench import run_body_bench
+
+        _print_results([run_body_bench(n, steps=args.steps) for n in args.agents or [100, 1000]], args.json)
         return 0
     from pedvr.crowd.bench import run_steering_bench
 
@@ -224,8 +236,5 @@ def _bench(args: argparse.Namespace) -> int:
         r = run_steering_bench(n, vs_rvo2=args.vs == "rvo2", **kw)
         r["wall_s"] = round(time.perf_counter() - t0, 3)
         results.append(r)
-        if not args.json:
-            print(", ".join(f"{k}={v}" for k, v in r.items()))
-    if args.json:
-        print(json.dumps(results[0] if len(results) == 1 else results, indent=2))
+    _print_results(results, args.json)
     return 0

@@ -40,6 +40,35 @@ class Metrics:
     arrivals: int = 0
     step_ms: list[float] = field(default_factory=list)
     phase_ms: dict[str, float] = field(default_factory=dict)
+    gaze_events: list[dict[str, object]] = field(default_factory=list)
+    root_sync_error: float = 0.0
+
+    def observe_body(self, crowd: CrowdState, *, pelvis: np.ndarray) -> None:
+        """Pelvis ``(N,3)`` (3D, Y up) against the committed 2D agents: the largest
+        horizontal distance (virtual agents; it includes the pelvis's deliberate sway)."""
+        virt = ~crowd.is_user
+        if virt.any() and pelvis.shape[0] == len(crowd):
+            d = np.hypot(pelvis[virt, 0] - crowd.pos[virt, 0], pelvis[virt, 2] - crowd.pos[virt, 1])
+            self.root_sync_error = max(self.root_sync_error, float(d.max()))
+
+    def body_summary(self, *, slides: np.ndarray, steps: list[np.ndarray]) -> dict[str, object]:
+        """Body metrics: foot skate per stance (m), root sync, gaze events, cadence at 1.3–1.4 m/s.
+
+        ``steps`` are the body's completed steps ``(row id, duration s, distance m,
+        speed m/s)``; the cadence is 1 / mean duration of steps taken at 1.3–1.4 m/s
+        (None when there were none).
+        """
+        st = np.concatenate(steps) if steps else np.zeros((0, 4))
+        band = st[(st[:, 3] >= 1.3) & (st[:, 3] <= 1.4) & (st[:, 1] < 1.5)]  # not first steps from rest
+        return {
+            "foot_skate_p95_m": round(float(np.percentile(slides, 95)), 6) if slides.size else 0.0,
+            "foot_skate_max_m": round(float(slides.max()), 6) if slides.size else 0.0,
+            "foot_stances": int(slides.size),
+            "root_sync_error_m": round(self.root_sync_error, 6),
+            "gaze_events": list(self.gaze_events),
+            "cadence_hz_at_1_35": round(float(1.0 / band[:, 1].mean()), 4) if band.size else None,
+            "step_length_m_at_1_35": round(float(band[:, 2].mean()), 4) if band.size else None,
+        }
 
     def observe(self, crowd: CrowdState, *, prev_vel: np.ndarray, prev_heading: np.ndarray,
                 dt: float) -> None:

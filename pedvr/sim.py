@@ -19,7 +19,7 @@ import numpy as np
 import shapely
 
 from pedvr.behavior.bfsm import BFSM, BehaviorState
-from pedvr.body.simple import SimpleBody
+from pedvr.body import FullBody
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ScriptedUser, StandingUser, UserAgent, UserInput
@@ -78,7 +78,7 @@ class Simulation:
         self.goal_mesh = self.navmesh_for(max(radii))
         self.steering = Steering(scene.steering, self.obstacles, coupled=self.coupled)
         self.bfsm = BFSM(scene.behavior, self.goal_mesh)
-        self.body = SimpleBody()
+        self.body = FullBody(rng=self.rng)
 
         self.crowd = CrowdState.empty()
         self.behavior = BehaviorState.rows(0)
@@ -157,6 +157,8 @@ class Simulation:
             is_user=np.full(n, is_user), limits=np.tile(np.asarray(limits, np.float64), (n, 1)),
         )
         first = len(self.crowd)
+        rows.pref_speed *= self.body.append(n, ids=ids, pos=rows.pos, heading=rows.heading, is_user=is_user,
+                                            limits=rows.limits)
         self.crowd.append(rows)
         self.behavior.append(BehaviorState.rows(n))
         self.paths.extend(np.zeros((0, 2)) for _ in range(n))
@@ -250,6 +252,9 @@ class Simulation:
     def _decide(self) -> None:
         """The BFSM sets goals at the decision rate (30 Hz by default)."""
         self._leaving = np.zeros(len(self.crowd), np.bool_)
+        self.metrics.gaze_events += self.body.gaze_rule(
+            self.crowd, t=self.t, visibility=self.visibility, d1=self.scene.gaze_distance,
+            d2=self.scene.gaze_speed, enabled=self.gaze_on)
         if self.step_index % self.scene.decision_every != 0:
             return
         d = self.bfsm.decide(self.behavior, t=self.t, dt=self.dt * self.scene.decision_every,
@@ -288,14 +293,23 @@ class Simulation:
                 if not self.crowd.is_user[row] and self.paths[row].shape[0] == 0 \
                         and not np.isnan(self.behavior.goal[row, 0]):
                     self._replan(row)
-        pts, starts, lens = self._flat_paths()
         crowd = self.crowd
+        pts, starts, lens = self._flat_paths()
         cursor = self.visibility.furthest_visible(crowd.pos, crowd.radius, pts, starts, lens,
                                                   self.cursor, lookahead=LOOKAHEAD)
-        has_path = (lens >= 2) & ~crowd.is_user
+        target, has_path = self._targets(pts, starts, lens, cursor)
+        if self.step_index % self.scene.decision_every == 0 and has_path.any():
+            # A push (contact, a crowd) can leave the waypoint behind a corner the
+            # cursor already passed: the agent would walk into the wall for ever.
+            # Replan those from where they stand (at the decision rate, rarely).
+            lost = has_path & ~self.visibility.visible(crowd.pos, target, crowd.radius * 0.25)
+            if lost.any():
+                for row in np.flatnonzero(lost):
+                    self._replan(int(row))
+                pts, starts, lens = self._flat_paths()
+                cursor = np.where(lost, 1, cursor)
+                target, has_path = self._targets(pts, starts, lens, cursor)
         cur = np.minimum(cursor, np.maximum(lens - 1, 0))
-        target = np.where(has_path[:, None], pts[np.minimum(starts + cur, max(len(pts) - 1, 0))]
-                          if len(pts) else crowd.pos, crowd.pos)
         d = target - crowd.pos
         dist = np.linalg.norm(d, axis=1)
         speed = crowd.pref_speed * self.behavior.speed_scale
@@ -310,6 +324,17 @@ class Simulation:
         crowd.pref_vel = np.where(crowd.is_user[:, None], crowd.vel, pref_vel)
         crowd.pref_heading = np.where(crowd.is_user, crowd.heading, pref_heading)
 
+    def _targets(self, pts: np.ndarray, starts: np.ndarray, lens: np.ndarray,
+                 cursor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each row's current waypoint (its own position when it has no path)."""
+        crowd = self.crowd
+        has_path = (lens >= 2) & ~crowd.is_user
+        if not len(pts):
+            return crowd.pos.copy(), has_path
+        cur = np.minimum(cursor, np.maximum(lens - 1, 0))
+        target = np.where(has_path[:, None], pts[np.minimum(starts + cur, len(pts) - 1)], crowd.pos)
+        return target, has_path
+
     def _avoid(self) -> None:
         """ORCA: reciprocal between agents, asymmetric toward the user, inside the body's limits."""
         self.body.fill_limits(self.crowd, self.crowd.limits)
@@ -321,10 +346,13 @@ class Simulation:
         crowd.pref_vel = saved
 
     def _animate(self) -> None:
-        """The body turns commanded velocities into root motion; contacts are resolved."""
+        """The body turns commanded velocities into root motion; contacts are resolved; bodies are posed."""
         root, heading = self.body.animate(self.crowd, self._new_vel, self.dt, coupled=self.coupled)
         self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user)
         self._root_heading = heading
+        self.body.compose(self.crowd, self._root, heading, dt=self.dt, t=self.t + self.dt,
+                          coupled=self.coupled,
+                          state_names=np.asarray(self.bfsm.names + ("",))[self.behavior.state])
 
     def _sync(self) -> None:
         """The 2D agent takes the position and heading of its body's root (the body is the truth)."""
@@ -339,6 +367,7 @@ class Simulation:
 
     def _record(self, prev_vel: np.ndarray, prev_heading: np.ndarray) -> None:
         self.metrics.observe(self.crowd, prev_vel=prev_vel, prev_heading=prev_heading, dt=self.dt)
+        self.metrics.observe_body(self.crowd, pelvis=self.body.state.world_pos[:, 0])
         if self.recording is not None:
             self.recording.add(self.t, self.crowd)
 
@@ -373,6 +402,7 @@ class Simulation:
             return
         keep = ~drop
         self.crowd.keep(keep)
+        self.body.keep(keep)
         self.behavior.keep(keep)
         self.paths = [p for p, k in zip(self.paths, keep, strict=True) if k]
         self.sequences = [s for s, k in zip(self.sequences, keep, strict=True) if k]
@@ -397,4 +427,5 @@ class Simulation:
             "user_spheres_reached": None if self.user is None else self.user.sphere,
             "user_spheres_total": None if self.user is None else int(self.user.route.shape[0]),
         })
+        out.update(self.metrics.body_summary(slides=self.body.skate.slides(), steps=self.body.step_log))
         return out

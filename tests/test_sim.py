@@ -52,7 +52,10 @@ def test_deflection_grows_with_responsibility(trials: dict[float, dict]) -> None
     dev = [float(trials[r]["agent_dev"][trials[r]["ahead"]].max()) for r in (0.0, 0.25, 0.5, 1.0)]
     gaps = [trials[r]["min_gap"] for r in (0.0, 0.25, 0.5, 1.0)]
     assert dev == sorted(dev) and dev[0] < dev[-1] - 0.1, dev
-    assert gaps == sorted(gaps), gaps
+    # Once the agent takes any share it keeps the discs apart: the gaps then sit at
+    # contact distance and may differ by micrometres only.
+    assert all(b >= a - 1e-4 for a, b in zip(gaps, gaps[1:], strict=False)), gaps
+    assert gaps[0] < gaps[-1] or gaps[0] >= 0.5 - 0.01, gaps
 
 
 @pytest.mark.parametrize("scene", ["shibuya_crossing", "bidirectional_flow"])

@@ -1,0 +1,140 @@
+"""ADAPT's coordinator: choreographers, the pose dataflow graph, weights and messages (ADAPT §4).
+
+A :class:`Choreographer` declares what it is (a *generator* poses a shadow
+from nothing, a *transformer* takes the pose flowing through the graph) and
+which joints it affects (its mask, and whether it moves the pelvis). The
+:class:`Coordinator` chains them with two-input blend nodes: the pose starts
+at the rest pose and each choreographer's shadow is blended in, on its
+masked joints, with its per-agent weight. Later nodes win (ADAPT §4.3).
+
+The default order is ADAPT §4.5's: ascending specificity ``S = depth /
+coverage`` (depth: the most joints between an affected joint and the
+pelvis; coverage: the number of affected joints), so broad choreographers
+(locomotion) come first and narrow ones (reach) last; ties keep
+registration order. Pass ``order=`` to override.
+
+Weights move linearly toward their targets, reaching them in ``smoothing``
+seconds (0.5 s: ADAPT smooths weight changes over several frames).
+Messages are named per-agent flags any choreographer may post and read
+(e.g. locomotion posts ``running``; gaze restricts the torso when it
+reads it) without knowing who posted them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pedvr.body import pose as ps
+from pedvr.body import skeleton as sk
+from pedvr.errors import UsageError
+
+MESSAGES = ("running", "walking", "sitting", "gesturing", "reaching")
+
+
+@dataclass(frozen=True)
+class Choreographer:
+    name: str
+    kind: str  # "generator" | "transformer"
+    mask: np.ndarray  # (J,) bool
+    moves_pelvis: bool = False
+
+    @property
+    def coverage(self) -> int:
+        return int(self.mask.sum())
+
+    @property
+    def depth(self) -> int:
+        return max(sk.depth_of(int(j)) for j in np.flatnonzero(self.mask))
+
+    @property
+    def specificity(self) -> float:
+        return self.depth / self.coverage
+
+
+def _mask(*names: str) -> np.ndarray:
+    m = np.zeros(sk.J, np.bool_)
+    for n in names:
+        m[sk.IDX[n]] = True
+    return m
+
+
+def default_choreographers() -> list[Choreographer]:
+    """Locomotion and sitting (whole body), gestures (upper body), idle noise, gaze, reach."""
+    everything = np.ones(sk.J, np.bool_)
+    arms = ("LCollar", "LShoulder", "LElbow", "LWrist", "LHand", "RCollar", "RShoulder", "RElbow",
+            "RWrist", "RHand")
+    return [
+        Choreographer("locomotion", "generator", everything, True),
+        Choreographer("sitting", "generator", everything, True),
+        Choreographer("gesture", "generator", ps.UPPER_MASK.copy()),
+        Choreographer("idle", "transformer", _mask("Pelvis", "Spine2", "Neck", "Head", "LShoulder",
+                                                   "RShoulder"), True),
+        Choreographer("gaze", "transformer", _mask("Spine1", "Spine2", "Spine3", "Neck", "Head", "LEye",
+                                                   "REye")),
+        Choreographer("reach", "transformer", _mask(*arms)),
+    ]
+
+
+def order_by_specificity(chs: list[Choreographer]) -> list[str]:
+    """ADAPT §4.5: ascending ``depth / coverage``; ties keep the given order."""
+    ranked = sorted(enumerate(chs), key=lambda kv: (kv[1].specificity, kv[0]))
+    return [c.name for _, c in ranked]
+
+
+class Coordinator:
+    """Blend graph over per-agent weights ``(N, C)`` (C choreographers)."""
+
+    def __init__(self, choreographers: list[Choreographer], *, order: list[str] | None = None,
+                 smoothing: float = 0.5) -> None:
+        self.choreographers = {c.name: c for c in choreographers}
+        self.index = {c.name: k for k, c in enumerate(choreographers)}
+        order = order_by_specificity(choreographers) if order is None else list(order)
+        unknown = [o for o in order if o not in self.choreographers]
+        if unknown or sorted(order) != sorted(self.choreographers):
+            raise UsageError(f"coordinator order {order}: must name each of "
+                             f"{', '.join(self.choreographers)} once")
+        self.order = order
+        self.smoothing = float(smoothing)
+        c = len(choreographers)
+        self.weights = np.zeros((0, c))
+        self.targets = np.zeros((0, c))
+        self.messages = np.zeros((0, len(MESSAGES)), np.bool_)
+        self._base = [self.index[n] for n in ("locomotion", "idle", "gaze") if n in self.index]
+
+    def append(self, n: int) -> None:
+        w = np.zeros((n, len(self.index)))
+        w[:, self._base] = 1.0  # always on: they return to neutral by themselves
+        self.weights = np.concatenate([self.weights, w])
+        self.targets = np.concatenate([self.targets, w.copy()])
+        self.messages = np.concatenate([self.messages, np.zeros((n, len(MESSAGES)), np.bool_)])
+
+    def keep(self, mask: np.ndarray) -> None:
+        self.weights = self.weights[mask]
+        self.targets = self.targets[mask]
+        self.messages = self.messages[mask]
+
+    def set_target(self, name: str, value: np.ndarray | float) -> None:
+        self.targets[:, self.index[name]] = value
+
+    def smooth(self, dt: float) -> None:
+        step = dt / max(self.smoothing, 1e-9)
+        d = np.clip(self.targets - self.weights, -step, step)
+        self.weights += d
+
+    def clear_messages(self) -> None:
+        self.messages[:] = False
+
+    def post(self, message: str, rows: np.ndarray) -> None:
+        self.messages[:, MESSAGES.index(message)] |= rows
+
+    def has(self, message: str) -> np.ndarray:
+        return np.ascontiguousarray(self.messages[:, MESSAGES.index(message)])
+
+    def blend(self, name: str, pose_q: np.ndarray, pose_p: np.ndarray, shadow_q: np.ndarray,
+              shadow_p: np.ndarray) -> None:
+        """The blend node after choreographer ``name``: in place on ``pose``."""
+        c = self.choreographers[name]
+        w = np.ascontiguousarray(self.weights[:, self.index[name]])
+        ps.blend_kernel(pose_q, pose_p, shadow_q, shadow_p, w, c.mask, c.moves_pelvis)

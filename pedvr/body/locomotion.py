@@ -1,0 +1,360 @@
+"""Footstep-based procedural walking (PedVR §3.4/§4.1 coupling; Huang & Terzopoulos App. C).
+
+Everything here is in 2D ground coordinates (x, y) plus a height; the pose
+module lifts it to 3D. A foot is described by its *ground reference* (the
+point under the ankle when the foot is flat), its yaw (a 2D heading) and
+its pitch ψ (positive: heel up, rotating about the ball joint; negative:
+toes up, rotating about the heel contact). A *planted* foot's reference and
+yaw never change while it is planted: that is why the coupled mode does not
+skate.
+
+Gait (coupled mode, and the user's body). A step starts when the swing foot
+leaves the double support: the previous stance foot stays planted (heel
+rising) for ``DS`` of the step, swings on a lift curve, and lands at ``s = 1``
+where it becomes the stance foot. The landing target is re-planned every
+frame from the root's current velocity (speed changes within a stride):
+``landing = root + v·τ + v·T/2 + lateral``, τ the time left in the step, T
+the step duration from the cadence law; it is kept at least ``MIN_WIDTH``
+to its own side of the stance foot (no crossing over when side-stepping) and
+within ``MAX_STEP`` of it. Standing, a step is taken when a foot is more than
+``RESTEP_DIST`` or ``RESTEP_YAW`` away from where it should stand (turning on
+the spot, small shuffles); walking starts when the root moves faster than
+``V_WALK`` and stops, with the feet together, when it slows below it.
+
+Cadence law: ``f = F0 · (v / 1.35)^0.42 · scale^-0.35`` steps/s, clamped to
+``[F_MIN, F_MAX]``; step length = v / f. At 1.3–1.4 m/s this gives
+1.8–2.1 steps/s and steps of 0.65–0.75 m for heights 1.55–1.95 m.
+
+Decoupled mode (the study baseline): the root follows the disc rigidly and
+the legs play a cycle authored at ``V_CLIP`` in the root's frame, its
+playback rate scaled by speed but clamped to ``[RATE_MIN, RATE_MAX]`` (as
+animation blending does); turning rotates the planted feet with the root,
+contact pushes drag them, slow walking slides them. The same contact flags
+and metrics apply to both modes.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+F0 = 1.93  # steps/s at 1.35 m/s for the 1.75 m reference adult
+F_MIN, F_MAX = 1.3, 2.6
+V_WALK = 0.12  # m/s: below this the body stands (and steps only to re-square its feet)
+T_INPLACE = 0.55  # s: duration of a step taken standing (turn on the spot, shuffle)
+DS = 0.2  # fraction of a step in double support
+MIN_WIDTH = 0.07  # m: swing foot lands at least this far to its own side of the stance foot
+MAX_STEP = 0.8  # m (reference adult): farthest landing from the stance foot
+LIFT_WALK = 0.085  # m (reference adult): swing-foot clearance at a walk
+LIFT_STEP = 0.05  # m: clearance of a step taken standing
+PEAK_AT = 0.4  # fraction of the swing where the foot is highest (Ashida Fig. 6)
+HEEL_STRIKE = 0.26  # rad (15°): toes up at heel strike
+HEEL_MID = 0.2  # rad: heel lift of the stance foot at the other foot's heel strike
+TOE_OFF = 0.6  # rad (35°): heel lift at toe-off
+HEEL_ROCKER = 0.1  # s: heel strike to foot flat
+TOE_OUT = 0.09  # rad (5°): feet point slightly outward
+HURRY_AT = 0.08  # m (reference adult): a planted foot this much farther from the root than the
+# gait puts it (half a step behind plus the hip width) hurries the step, or lifts a trailing foot early
+FAR = 0.46  # m (reference adult): a stance foot never waits farther than this from the root
+FAR_TRAIL = 0.56  # m: nor a trailing foot (heel up, its ankle higher and nearer)
+RESTEP_DIST = 0.07  # m (reference adult)
+RESTEP_YAW = 0.35  # rad
+V_CLIP = 1.35  # m/s: speed the decoupled cycle was "authored" at
+RATE_MIN, RATE_MAX = 0.5, 1.5
+VEL_SMOOTH = 0.08  # s: time constant of the velocity the planner uses (contact jitter)
+
+LEFT, RIGHT = 0, 1
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def cadence(speed, scale):  # type: ignore[no-untyped-def]
+    f = F0 * (max(speed, 1e-3) / 1.35) ** 0.42 * scale ** -0.35
+    return min(max(f, F_MIN), F_MAX)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def wrap(a):  # type: ignore[no-untyped-def]
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def ease(u):  # type: ignore[no-untyped-def]
+    u = min(max(u, 0.0), 1.0)
+    return u * u * (3.0 - 2.0 * u)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def lift_curve(u):  # type: ignore[no-untyped-def]
+    """Swing height profile in [0, 1], peak at ``PEAK_AT`` of the swing."""
+    u = min(max(u, 0.0), 1.0)
+    g = math.log(0.5) / math.log(PEAK_AT)
+    return math.sin(math.pi * u ** g)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def stand_ref(rx, ry, heading, side, half_width):  # type: ignore[no-untyped-def]
+    """Where a foot stands: beside the root, anatomical left is 2D heading − π/2."""
+    lx, ly = math.sin(heading), -math.cos(heading)
+    sgn = 1.0 if side == LEFT else -1.0
+    return rx + sgn * half_width * lx, ry + sgn * half_width * ly
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def foot_yaw_for(heading, side):  # type: ignore[no-untyped-def]
+    return heading - TOE_OUT if side == LEFT else heading + TOE_OUT
+
+
+@njit(cache=True, fastmath=True)
+def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_width,
+                vel_s, stepping, s, swing, foot_ref, foot_yaw, foot_pitch, foot_lift,
+                since_land, lift_ref, lift_yaw, lift_pitch, trail_pitch0, roll, phase, amp, planted,
+                step_events, n_events):  # type: ignore[no-untyped-def]
+    """Advance every body's feet one step of ``dt`` given its final root.
+
+    ``root (N,2)`` is where the root is after this step (the contact pass
+    included), ``root_prev (N,2)`` where it was; ``heading (N,)`` the body's
+    facing. State arrays are updated in place (this kernel *is* the commit
+    of the gait state; it reads nothing else that changes). ``planted
+    (N,2)`` is written: 1 where a foot is on the ground. Completed steps are
+    appended to ``step_events (M,4)`` as ``(row, duration s, root distance m,
+    mean speed m/s)``; the count is returned (rows past the capacity are dropped).
+    """
+    n = root.shape[0]
+    ne = n_events
+    a_v = 1.0 - math.exp(-dt / VEL_SMOOTH)
+    for i in range(n):
+        sc = scale[i]
+        hw = half_width[i]
+        vx = (root[i, 0] - root_prev[i, 0]) / dt
+        vy = (root[i, 1] - root_prev[i, 1]) / dt
+        vel_s[i, 0] += (vx - vel_s[i, 0]) * a_v
+        vel_s[i, 1] += (vy - vel_s[i, 1]) * a_v
+        svx, svy = vel_s[i, 0], vel_s[i, 1]
+        speed = math.sqrt(svx * svx + svy * svy)
+        h = heading[i]
+        fx, fy = math.cos(h), math.sin(h)
+        fwd_speed = svx * fx + svy * fy
+        # Heel-toe roll grows with forward speed; steps back or sideways are flat-footed.
+        roll_t = min(max(fwd_speed / 1.0, 0.0), 1.0)
+        roll[i] += (roll_t - roll[i]) * (1.0 - math.exp(-dt / 0.2))
+        amp_t = min(speed / 1.3, 1.3)
+        amp[i] += (amp_t - amp[i]) * (1.0 - math.exp(-dt / 0.25))
+        walking = speed > V_WALK
+        if coupled or is_user[i]:
+            T = 1.0 / cadence(speed, sc) if walking else T_INPLACE
+        else:
+            T = 1.0 / cadence(V_CLIP, sc)
+        if not (coupled or is_user[i]):
+            # ---- decoupled: a cycle in the root frame, playback rate clamped.
+            rate = min(max(speed / V_CLIP, RATE_MIN), RATE_MAX) if walking else 0.0
+            if walking:
+                stepping[i] = True
+            s_old = s[i]
+            s[i] += rate * dt / T
+            if s[i] >= 1.0:
+                s[i] -= 1.0
+                swing[i] = 1 - swing[i]
+                since_land[i, 1 - swing[i]] = 0.0
+                if ne < step_events.shape[0]:
+                    step_events[ne, 0] = i
+                    step_events[ne, 1] = T / max(rate, 1e-9)
+                    step_events[ne, 2] = speed * T / max(rate, 1e-9)
+                    step_events[ne, 3] = speed
+                    ne += 1
+            L = V_CLIP * T
+            lx, ly = math.sin(h), -math.cos(h)
+            for f in range(2):
+                sgn = 1.0 if f == LEFT else -1.0
+                st = 1 - swing[i]
+                if not walking and not stepping[i]:
+                    z = 0.0
+                    lift = 0.0
+                    pitch = 0.0
+                    planted[i, f] = 1
+                elif f == st:
+                    z = L * (0.5 - s[i])
+                    lift = 0.0
+                    pitch = HEEL_MID * ease((s[i] - 0.55) / 0.45) - HEEL_STRIKE * (1.0 - ease(s[i] / 0.15))
+                    planted[i, f] = 1
+                elif s[i] < DS:
+                    z = -L * (0.5 + s[i])
+                    lift = 0.0
+                    pitch = HEEL_MID + (TOE_OFF - HEEL_MID) * ease(s[i] / DS)
+                    planted[i, f] = 1
+                else:
+                    u = (s[i] - DS) / (1.0 - DS)
+                    e = ease(u)
+                    z = -L * (0.5 + DS) + L * (1.0 + DS) * e
+                    lift = LIFT_WALK * sc * lift_curve(u)
+                    pitch = TOE_OFF * (1.0 - e) - HEEL_STRIKE * e
+                    planted[i, f] = 0
+                if not walking:
+                    # The cycle freezes; the feet blend back under the body, sliding.
+                    if stepping[i]:
+                        stepping[i] = False
+                    k = 1.0 - math.exp(-dt / 0.15)
+                    tx = root[i, 0] + sgn * hw * lx
+                    ty = root[i, 1] + sgn * hw * ly
+                    foot_ref[i, f, 0] += (tx - foot_ref[i, f, 0]) * k
+                    foot_ref[i, f, 1] += (ty - foot_ref[i, f, 1]) * k
+                    foot_pitch[i, f] *= 1.0 - k
+                    foot_lift[i, f] *= 1.0 - k
+                    foot_yaw[i, f] = foot_yaw_for(h, f)
+                    planted[i, f] = 1
+                else:
+                    foot_ref[i, f, 0] = root[i, 0] + z * fx + sgn * hw * lx
+                    foot_ref[i, f, 1] = root[i, 1] + z * fy + sgn * hw * ly
+                    foot_pitch[i, f] = pitch * roll[i]
+                    foot_lift[i, f] = lift
+                    foot_yaw[i, f] = foot_yaw_for(h, f)
+                since_land[i, f] += dt
+            phase[i] = math.pi * (s[i] + (1.0 if (1 - swing[i]) == RIGHT else 0.0))
+            continue
+
+        # ---- coupled: footsteps in the world, planted feet pinned.
+        since_land[i, 0] += dt
+        since_land[i, 1] += dt
+        if not stepping[i]:
+            worst = 0.0
+            pick = -1
+            for f in range(2):
+                tx, ty = stand_ref(root[i, 0] + svx * T, root[i, 1] + svy * T, h, f, hw)
+                d = math.hypot(foot_ref[i, f, 0] - tx, foot_ref[i, f, 1] - ty)
+                dyaw = abs(wrap(foot_yaw[i, f] - foot_yaw_for(h, f)))
+                err = d / (RESTEP_DIST * sc) + dyaw / RESTEP_YAW
+                if err > worst:
+                    worst = err
+                    pick = f
+            if walking or worst > 1.0:
+                stepping[i] = True
+                s[i] = 0.0
+                swing[i] = pick
+        if stepping[i]:
+            sw = swing[i]
+            st = 1 - sw
+            # a stance foot left far behind (a push, a sharp turn) hurries the step
+            T_nom = T
+            dst = math.hypot(foot_ref[i, st, 0] - root[i, 0], foot_ref[i, st, 1] - root[i, 1])
+            l_nom = speed * T_nom
+            over = (dst - min(0.5 * l_nom + hw + HURRY_AT * sc, FAR * sc)) / (0.1 * sc)
+            if over > 0.0:
+                T = T / min(1.0 + 4.0 * over, 5.0)
+            s_old = s[i]
+            if s_old <= 0.0:
+                trail_pitch0[i] = foot_pitch[i, sw]
+            s[i] += dt / T
+            if s[i] < DS:
+                # the trailing foot lifts early when the body has run ahead of it
+                dtr = math.hypot(foot_ref[i, sw, 0] - root[i, 0], foot_ref[i, sw, 1] - root[i, 1])
+                if dtr > min((0.5 + DS) * l_nom + hw + HURRY_AT * sc, FAR_TRAIL * sc):
+                    s[i] = DS
+            if s_old < DS <= s[i]:
+                lift_ref[i, 0] = foot_ref[i, sw, 0]
+                lift_ref[i, 1] = foot_ref[i, sw, 1]
+                lift_yaw[i] = foot_yaw[i, sw]
+                lift_pitch[i] = foot_pitch[i, sw]
+            tau = max(0.0, 1.0 - s[i]) * T
+            # Landing target from the current velocity (re-planned every frame).
+            px = root[i, 0] + svx * (tau + 0.5 * T_nom)
+            py = root[i, 1] + svy * (tau + 0.5 * T_nom)
+            tx, ty = stand_ref(px, py, h, sw, hw)
+            lx, ly = math.sin(h), -math.cos(h)
+            sgn = 1.0 if sw == LEFT else -1.0
+            # stay on its own side of the stance foot
+            lat = (tx - foot_ref[i, st, 0]) * lx + (ty - foot_ref[i, st, 1]) * ly
+            if sgn * lat < MIN_WIDTH:
+                corr = sgn * MIN_WIDTH - lat
+                tx += corr * lx
+                ty += corr * ly
+            dx = tx - foot_ref[i, st, 0]
+            dy = ty - foot_ref[i, st, 1]
+            dd = math.hypot(dx, dy)
+            lim = MAX_STEP * sc
+            if dd > lim:
+                tx = foot_ref[i, st, 0] + dx * lim / dd
+                ty = foot_ref[i, st, 1] + dy * lim / dd
+            tyaw = foot_yaw_for(h, sw)
+            r = roll[i]
+            # stance foot: heel rocker after landing, then the heel rises
+            hs = -HEEL_STRIKE * r * (1.0 - ease(since_land[i, st] / HEEL_ROCKER))
+            ho = HEEL_MID * r * ease((s[i] - 0.55) / 0.45) if walking else 0.0
+            foot_pitch[i, st] = hs if hs < -1e-9 else ho
+            planted[i, st] = 1
+            if s[i] < DS:
+                # trailing foot: still planted, heel rising toward toe-off
+                p0 = max(trail_pitch0[i], 0.0)
+                target = max(TOE_OFF * r, p0) if walking else p0
+                foot_pitch[i, sw] = p0 + (target - p0) * ease(s[i] / DS)
+                planted[i, sw] = 1
+                foot_lift[i, sw] = 0.0
+            elif s[i] < 1.0:
+                u = (s[i] - DS) / (1.0 - DS)
+                e = ease(u)
+                foot_ref[i, sw, 0] = lift_ref[i, 0] + (tx - lift_ref[i, 0]) * e
+                foot_ref[i, sw, 1] = lift_ref[i, 1] + (ty - lift_ref[i, 1]) * e
+                foot_yaw[i, sw] = lift_yaw[i] + wrap(tyaw - lift_yaw[i]) * e
+                travel = math.hypot(tx - lift_ref[i, 0], ty - lift_ref[i, 1])
+                clear = LIFT_STEP * sc + (LIFT_WALK - LIFT_STEP) * sc * min(1.0, travel / (0.8 * sc))
+                foot_lift[i, sw] = clear * lift_curve(u)
+                foot_pitch[i, sw] = lift_pitch[i] * (1.0 - e) - HEEL_STRIKE * r * e
+                planted[i, sw] = 0
+            else:
+                # heel strike: the swing foot lands and becomes the stance foot
+                foot_ref[i, sw, 0] = tx
+                foot_ref[i, sw, 1] = ty
+                foot_yaw[i, sw] = tyaw
+                foot_lift[i, sw] = 0.0
+                foot_pitch[i, sw] = -HEEL_STRIKE * r
+                since_land[i, sw] = 0.0
+                planted[i, sw] = 1
+                if ne < step_events.shape[0] and walking:
+                    # the stance foot landed when this step began: its time down is the step's duration
+                    step_events[ne, 0] = i
+                    step_events[ne, 1] = since_land[i, st]
+                    step_events[ne, 2] = speed * since_land[i, st]
+                    step_events[ne, 3] = speed
+                    ne += 1
+                # another step? the other foot is now behind, or the body still moves
+                ox, oy = stand_ref(root[i, 0], root[i, 1], h, st, hw)
+                d = math.hypot(foot_ref[i, st, 0] - ox, foot_ref[i, st, 1] - oy)
+                dyaw = abs(wrap(foot_yaw[i, st] - foot_yaw_for(h, st)))
+                if walking or d > 0.5 * RESTEP_DIST * sc or dyaw > 0.5 * RESTEP_YAW:
+                    s[i] = s[i] - 1.0 if walking else 0.0
+                    swing[i] = st
+                    trail_pitch0[i] = foot_pitch[i, st]
+                else:
+                    stepping[i] = False
+                    s[i] = 0.0
+        else:
+            for f in range(2):
+                planted[i, f] = 1
+                foot_lift[i, f] = 0.0
+                # standing: a heel still up comes down, a toe still up comes down
+                if foot_pitch[i, f] != 0.0:
+                    k = 1.0 - math.exp(-dt / 0.08)
+                    foot_pitch[i, f] *= 1.0 - k
+                    if abs(foot_pitch[i, f]) < 1e-4:
+                        foot_pitch[i, f] = 0.0
+        st = 1 - swing[i]
+        phase[i] = math.pi * (s[i] + (1.0 if st == RIGHT else 0.0))
+    return ne
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def foot_pose(ref_x, ref_y, yaw, pitch, lift, heel_z, ball_z, ball_h, ankle_h):  # type: ignore[no-untyped-def]
+    """Ankle position (3D, Y up) of a foot given reference, yaw, pitch and lift.
+
+    ψ > 0 rotates about the ball joint (heel up), ψ < 0 about the heel
+    contact (toes up). Returns ``(x, y, z)`` of the ankle.
+    """
+    fx, fy = math.cos(yaw), math.sin(yaw)
+    if pitch >= 0.0:
+        pf, pu = ball_z, ball_h  # pivot in the foot's sagittal frame (fwd, up)
+    else:
+        pf, pu = heel_z, 0.0
+    rf, ru = -pf, ankle_h - pu  # ankle relative to the pivot
+    c, s = math.cos(pitch), math.sin(pitch)
+    af = pf + rf * c + ru * s
+    au = pu - rf * s + ru * c + lift
+    return ref_x + af * fx, au, ref_y + af * fy

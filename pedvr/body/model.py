@@ -1,0 +1,833 @@
+"""The full body layer: per-agent body state as arrays and the :class:`FullBody` model.
+
+One :class:`FullBody` serves the whole crowd; its rows align with
+:class:`~pedvr.crowd.state.CrowdState` rows (``append``/``keep`` follow the
+crowd's). Each simulation step it is asked, in order:
+
+1. ``fill_limits`` (avoid phase): what each body can do now (PedVR §4.1);
+2. ``animate`` (animate phase): the root motion the body makes of the
+   commanded velocity — the proposed root the contact pass then corrects;
+3. ``compose`` (animate phase, after contacts): the footsteps (gait state
+   commit), the choreographers, the coordinator's blend, the leg-IK node and
+   forward kinematics; contact and step metrics.
+
+See :mod:`pedvr.body` for the pose API the renderer reads.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields
+from enum import Enum
+from typing import Any, cast
+
+import numpy as np
+
+from pedvr.body import actions as act
+from pedvr.body import pose as ps
+from pedvr.body import skeleton as sk
+from pedvr.body.coordinator import Coordinator, default_choreographers
+from pedvr.body.locomotion import DS, V_WALK, gait_kernel
+from pedvr.body.metrics import SkateMeter
+from pedvr.body.quat import fk_kernel, matrices_kernel
+from pedvr.body.simple import SimpleBody
+from pedvr.body.style import N_EMOTIONS, blend_style, draw_emotions, speed_factor
+from pedvr.crowd.state import (
+    LIMIT_ACCEL,
+    LIMIT_BACKWARD,
+    LIMIT_DECEL,
+    LIMIT_SIDEWAYS,
+    LIMIT_TURN_STANDING,
+    LIMIT_TURN_WALKING,
+    CrowdState,
+)
+from pedvr.errors import UsageError
+
+FOV_HALF = math.radians(100.0)  # half field of view for the gaze rule (human ≈ 200° horizontal)
+STEP_EVENT_CAP = 4096
+RUNNING_SPEED = 2.2  # m/s: above this the "running" message is posted
+GAZE_NONE, GAZE_POINT, GAZE_AGENT, GAZE_USER = 0, 1, 2, 3
+ACTION_TICK = 1.0 / 30.0  # s: the subconscious scheduler runs at the decision rate
+BODY_ORDER = ("locomotion", "sitting", "gesture", "idle", "gaze", "reach")
+ARM_ACTIONS = np.array([act.A_HEAD_TOUCH, act.A_HEAD_SCRATCH, act.A_YAWN, act.A_BODY_TOUCH,
+                        act.A_BODY_SCRATCH])
+
+
+def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors ``v (M,3)`` by unit quaternions ``q (M,4)`` (x, y, z, w)."""
+    u, w = q[:, :3], q[:, 3:4]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+@dataclass
+class BodyState:
+    """Per-agent body arrays (row i = crowd row i). Units SI, angles radians.
+
+    Shapes: N agents, J = 26 joints, K = 33 nodes (joints + end sites).
+    ``local_q (N,J,4)`` and ``pelvis (N,3)`` are the final blended pose;
+    ``world_pos (N,K,3)``/``world_q (N,K,4)`` its forward kinematics (3D, Y up).
+    """
+
+    dims: np.ndarray  # (N,4) height m, sex (0 m / 1 f), build [0,1], scale
+    base_limits: np.ndarray  # (N,6) the profile's motion limits (crowd.state LIMIT_* columns)
+    offsets: np.ndarray  # (N,K,3) rest offsets, m
+    half_width: np.ndarray  # (N,) m, hip joint lateral offset
+    pelvis_rest: np.ndarray  # (N,) m, standing pelvis height
+    emotion: np.ndarray  # (N,6) weights over style.EMOTIONS
+    style: np.ndarray  # (N,11,5) Ashida style table
+    tiredness0: np.ndarray  # (N,) in [0,1] at t = 0
+    fear: np.ndarray  # (N,)
+    boredom: np.ndarray  # (N,)
+    speaking: np.ndarray  # (N,) bool
+    right_handed: np.ndarray  # (N,) bool
+    noise_seed: np.ndarray  # (N,) Perlin offset
+    root: np.ndarray  # (N,2) m, ground root (after contacts)
+    root_prev: np.ndarray  # (N,2) m
+    heading: np.ndarray  # (N,) rad, 2D facing
+    vel_s: np.ndarray  # (N,2) smoothed root velocity the planner uses
+    stepping: np.ndarray  # (N,) bool
+    s: np.ndarray  # (N,) step progress [0,1)
+    swing: np.ndarray  # (N,) int64: 0 left, 1 right
+    foot_ref: np.ndarray  # (N,2,2) ground reference under each ankle
+    foot_yaw: np.ndarray  # (N,2) 2D heading of each foot
+    foot_pitch: np.ndarray  # (N,2) + heel up, - toes up
+    foot_lift: np.ndarray  # (N,2) m
+    since_land: np.ndarray  # (N,2) s
+    lift_ref: np.ndarray  # (N,2)
+    lift_yaw: np.ndarray  # (N,)
+    lift_pitch: np.ndarray  # (N,)
+    trail_pitch0: np.ndarray  # (N,)
+    roll: np.ndarray  # (N,) heel-toe roll amount [0,1]
+    phase: np.ndarray  # (N,) gait phase, 0 at left heel strike
+    amp: np.ndarray  # (N,) gait amplitude (speed / 1.3, smoothed)
+    planted: np.ndarray  # (N,2) int8
+    h_prev: np.ndarray  # (N,) m, pelvis height last step
+    ik_miss: np.ndarray  # (N,2) m, ankle left short of its target
+    gaze_ang: np.ndarray  # (N,5,2) lumbar, thorax, neck, head, eyes × (yaw, pitch)
+    gaze_kind: np.ndarray  # (N,) int64 GAZE_*
+    gaze_point: np.ndarray  # (N,3) world target of GAZE_POINT
+    gaze_agent: np.ndarray  # (N,) int64 agent id of GAZE_AGENT
+    gaze_rule: np.ndarray  # (N,) bool: the PedVR rule holds now
+    g_kind: np.ndarray  # (N,) int64 gesture clip
+    g_start: np.ndarray  # (N,) s
+    g_dur: np.ndarray  # (N,) s
+    g_next: np.ndarray  # (N,) s: earliest time of the next BFSM-state gesture
+    sitting: np.ndarray  # (N,) bool target posture
+    reach_on: np.ndarray  # (N,2) bool per arm (capability)
+    reach_pt: np.ndarray  # (N,2,3) world target
+    q_kind: np.ndarray  # (N,Q) int64
+    q_prio: np.ndarray
+    q_wait: np.ndarray
+    q_planned: np.ndarray
+    q_dur: np.ndarray
+    run_kind: np.ndarray  # (N,4) int64
+    run_end: np.ndarray  # (N,4)
+    run_mask: np.ndarray  # (N,4) int64
+    run_start: np.ndarray  # (N,4)
+    itch: np.ndarray  # (N,A)
+    local_q: np.ndarray  # (N,J,4)
+    pelvis: np.ndarray  # (N,3)
+    world_pos: np.ndarray  # (N,K,3)
+    world_q: np.ndarray  # (N,K,4)
+
+    @classmethod
+    def rows(cls, n: int) -> BodyState:
+        z = np.zeros
+        ident = np.zeros((n, sk.J, 4))
+        ident[..., 3] = 1.0
+        wq = np.zeros((n, sk.K, 4))
+        wq[..., 3] = 1.0
+        return cls(
+            dims=z((n, sk.N_DIMS)), base_limits=z((n, 6)), offsets=z((n, sk.K, 3)), half_width=z(n),
+            pelvis_rest=z(n),
+            emotion=z((n, N_EMOTIONS)), style=z((n, 11, 5)), tiredness0=z(n), fear=z(n), boredom=z(n),
+            speaking=z(n, np.bool_), right_handed=np.ones(n, np.bool_), noise_seed=z(n),
+            root=z((n, 2)), root_prev=z((n, 2)), heading=z(n), vel_s=z((n, 2)),
+            stepping=z(n, np.bool_), s=z(n), swing=z(n, np.int64), foot_ref=z((n, 2, 2)),
+            foot_yaw=z((n, 2)), foot_pitch=z((n, 2)), foot_lift=z((n, 2)), since_land=np.full((n, 2), 10.0),
+            lift_ref=z((n, 2)), lift_yaw=z(n), lift_pitch=z(n), trail_pitch0=z(n), roll=z(n), phase=z(n),
+            amp=z(n), planted=np.ones((n, 2), np.int8), h_prev=z(n), ik_miss=z((n, 2)),
+            gaze_ang=z((n, 5, 2)), gaze_kind=z(n, np.int64), gaze_point=z((n, 3)),
+            gaze_agent=np.full(n, -1, np.int64), gaze_rule=z(n, np.bool_),
+            g_kind=z(n, np.int64), g_start=z(n), g_dur=z(n), g_next=z(n), sitting=z(n, np.bool_),
+            reach_on=z((n, 2), np.bool_), reach_pt=z((n, 2, 3)),
+            q_kind=np.full((n, act.QUEUE), act.EMPTY, np.int64), q_prio=z((n, act.QUEUE)),
+            q_wait=z((n, act.QUEUE)), q_planned=z((n, act.QUEUE), np.bool_), q_dur=z((n, act.QUEUE)),
+            run_kind=np.full((n, act.N_RES), -1, np.int64), run_end=z((n, act.N_RES)),
+            run_mask=z((n, act.N_RES), np.int64), run_start=z((n, act.N_RES)),
+            itch=z((n, act.N_ACTIONS)), local_q=ident, pelvis=z((n, 3)),
+            world_pos=z((n, sk.K, 3)), world_q=wq,
+        )
+
+    def __len__(self) -> int:
+        return int(self.dims.shape[0])
+
+    def append(self, other: BodyState) -> None:
+        for f in fields(self):
+            setattr(self, f.name, np.concatenate([getattr(self, f.name), getattr(other, f.name)]))
+
+    def keep(self, mask: np.ndarray) -> None:
+        for f in fields(self):
+            setattr(self, f.name, np.ascontiguousarray(getattr(self, f.name)[mask]))
+
+
+class Status(Enum):
+    RUNNING = "running"
+    SUCCESS = "success"
+    FAILURE = "failure"
+
+
+@dataclass
+class Handle:
+    """What a body capability returns (ADAPT's Body layer): poll :attr:`status`.
+
+    A handle is updated by the body at each ``compose``; a handle whose
+    agent has been removed reports FAILURE. Starting the same capability
+    again on the agent (or calling it with target ``None``) ends the old
+    handle with SUCCESS (stopped) unless it had already finished.
+    """
+
+    capability: str
+    agent: int
+    target: object
+    started: float
+    status: Status = Status.RUNNING
+    detail: str = ""
+
+    @property
+    def running(self) -> bool:
+        return self.status is Status.RUNNING
+
+
+@dataclass
+class GestureSets:
+    """PedVR §4.3: a set of gestures per BFSM state and a selection policy.
+
+    ``by_state`` maps a BFSM state name to ``(gesture names, weights)``;
+    ``standing`` is used for states without an entry while the agent stands,
+    ``walking`` while it walks. ``rate`` is gestures per second per agent
+    (Poisson); the clip is drawn by weight (the policy).
+    """
+
+    by_state: dict[str, tuple[tuple[str, ...], tuple[float, ...]]] = field(default_factory=dict)
+    standing: tuple[tuple[str, ...], tuple[float, ...]] = (("check_phone", "hands_in_pockets", "shrug"),
+                                                          (0.4, 0.4, 0.2))
+    walking: tuple[tuple[str, ...], tuple[float, ...]] = (("hands_in_pockets", "wave"), (0.8, 0.2))
+    rate: float = 1.0 / 20.0
+    duration: tuple[float, float] = (2.0, 4.0)
+
+
+class FullBody:
+    """Full-body motion synthesis for the whole crowd (issue 3).
+
+    Keyword-only: ``rng`` — the simulation's generator; the body draws from
+    a child stream spawned from it (``rng.spawn(1)``), so its draws do not
+    shift the behavior layer's. ``gestures`` — the per-state gesture sets.
+    """
+
+    def __init__(self, *, rng: np.random.Generator, gestures: GestureSets | None = None,
+                 navigate: Callable[[int, tuple[float, float] | None], None] | None = None) -> None:
+        self.rng = rng.spawn(1)[0]
+        self.state = BodyState.rows(0)
+        # ADAPT §4.5's heuristic ranks our two-arm reach (S = 8/10) before gaze (S = 6/7); ADAPT's own
+        # graph (Fig. 3) has gaze first, and the reach must see the thorax the gaze turned: override.
+        self.coordinator = Coordinator(default_choreographers(), order=list(BODY_ORDER))
+        self.gestures = gestures or GestureSets()
+        self.navigate = navigate
+        self._simple = SimpleBody()
+        self._steps = np.zeros((STEP_EVENT_CAP, 4))
+        self.step_log: list[np.ndarray] = []  # completed steps: (row id, duration, distance, speed)
+        self.skate = SkateMeter()
+        self.handles: list[Handle] = []
+        self.ids = np.zeros(0, np.int64)
+        self._action_clock = 0.0
+        self._shadow: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._t = 0.0
+        self.hmd_position: np.ndarray | None = None
+        self.state_names: tuple[str, ...] = ()
+
+    # -- rows ------------------------------------------------------------------------------
+
+    def append(self, n: int, *, ids: np.ndarray, pos: np.ndarray, heading: np.ndarray, is_user: bool,
+               limits: np.ndarray | None = None, emotion: np.ndarray | None = None,
+               dims: np.ndarray | None = None) -> np.ndarray:
+        """Add ``n`` bodies; returns their preferred-speed factors ``(n,)`` (emotion).
+
+        Draws (documented order, from the body's stream): dims
+        (:func:`skeleton.draw_dims`), emotions (:func:`style.draw_emotions`),
+        then agent model: tiredness0 U(0, 0.6), fear (0 w.p. 0.8 else U(0, 1)),
+        boredom U(0, 0.3), speaking (p 0.1), right-handed (p 0.9), noise seed
+        U(0, 1000). The user's body is the reference adult, neutral.
+        """
+        rows = BodyState.rows(n)
+        g = self.rng
+        if is_user:
+            rows.dims[:] = sk.user_dims(n) if dims is None else dims
+            rows.emotion[:, 0] = 1.0
+        else:
+            rows.dims[:] = sk.draw_dims(g, n) if dims is None else dims
+            rows.emotion[:] = draw_emotions(g, n) if emotion is None else emotion
+            rows.tiredness0[:] = g.uniform(0.0, 0.6, n)
+            rows.fear[:] = np.where(g.random(n) < 0.8, 0.0, g.random(n))
+            rows.boredom[:] = g.uniform(0.0, 0.3, n)
+            rows.speaking[:] = g.random(n) < 0.1
+            rows.right_handed[:] = g.random(n) < 0.9
+            rows.noise_seed[:] = g.uniform(0.0, 1000.0, n)
+        if emotion is not None and is_user:
+            rows.emotion[:] = emotion
+        rows.offsets[:] = sk.dims_offsets(rows.dims)
+        rows.half_width[:] = rows.offsets[:, sk.L_HIP, 0]
+        rows.pelvis_rest[:] = rows.offsets[:, sk.PELVIS, 1]
+        rows.h_prev[:] = rows.pelvis_rest
+        rows.style[:] = blend_style(rows.emotion)
+        p = np.asarray(pos, np.float64).reshape(n, 2)
+        h = np.asarray(heading, np.float64).reshape(n)
+        h = np.where(np.isnan(h), 0.0, h)
+        rows.root[:] = p
+        rows.root_prev[:] = p
+        rows.heading[:] = h
+        for f in range(2):
+            left = np.stack([np.sin(h), -np.cos(h)], 1) * (1.0 if f == 0 else -1.0)
+            rows.foot_ref[:, f] = p + left * rows.half_width[:, None]
+            rows.foot_yaw[:, f] = h - 0.09 if f == 0 else h + 0.09
+        if limits is not None:
+            rows.base_limits[:] = np.asarray(limits, np.float64).reshape(n, -1)
+        self.state.append(rows)
+        self.ids = np.concatenate([self.ids, np.asarray(ids, np.int64).reshape(n)])
+        self.coordinator.append(n)
+        self.skate.append(n)
+        self._shadow.clear()
+        return speed_factor(rows.emotion)
+
+    def keep(self, mask: np.ndarray) -> None:
+        """Keep only the rows where ``mask`` is true (follows ``CrowdState.keep``)."""
+        gone = set(int(i) for i in self.ids[~mask])
+        for hd in self.handles:
+            if hd.running and hd.agent in gone:
+                hd.status, hd.detail = Status.FAILURE, "agent removed"
+        self.handles = [hd for hd in self.handles if hd.running]
+        self.state.keep(mask)
+        self.ids = self.ids[mask]
+        self.coordinator.keep(mask)
+        self.skate.keep(mask)
+        self._shadow.clear()
+
+    def set_emotion(self, agent_id: int, emotion: np.ndarray) -> None:
+        """Set an agent's emotion weights ``(6,)`` (style follows; speed is the caller's)."""
+        r = self._row(agent_id)
+        self.state.emotion[r] = emotion
+        self.state.style[r] = blend_style(self.state.emotion[r:r + 1])[0]
+
+    def _row(self, agent_id: int) -> int:
+        hit = np.flatnonzero(self.ids == agent_id)
+        if hit.size == 0:
+            raise UsageError(f"agent {agent_id}: no such body; known ids: {self.ids.tolist()[:20]}")
+        return int(hit[0])
+
+    # -- avoid: limits ------------------------------------------------------------------------
+
+    def fill_limits(self, crowd: CrowdState, out: np.ndarray) -> None:
+        """Motion limits per agent for this step (never above the profile's).
+
+        Acceleration and deceleration are the profile's (avoidance relies on
+        braking; modulating acceleration by phase changed contact outcomes
+        at the micrometre level without visible benefit); the walking
+        turn rate is full at foot contact, 80 % mid-swing; stepping back is
+        allowed fully when slow, less the faster the body walks forward
+        (down to 40 %). User rows are left as they are.
+        """
+        b = self.state
+        if len(b) != len(crowd):
+            return
+        base = b.base_limits
+
+        swing_air = b.stepping & (b.s >= DS)
+        mid = np.where(swing_air, np.sin(np.pi * np.clip((b.s - DS) / (1 - DS), 0, 1)), 0.0)
+        fwd = (crowd.vel[:, 0] * np.cos(crowd.heading) + crowd.vel[:, 1] * np.sin(crowd.heading))
+        frac = np.clip(fwd / np.maximum(crowd.pref_speed, 1e-6), 0.0, 1.0)
+        res = base.copy()
+        res[:, LIMIT_ACCEL] = base[:, LIMIT_ACCEL]
+        res[:, LIMIT_DECEL] = base[:, LIMIT_DECEL]  # braking is never reduced: avoidance depends on it
+        res[:, LIMIT_TURN_STANDING] = base[:, LIMIT_TURN_STANDING]
+        res[:, LIMIT_TURN_WALKING] = base[:, LIMIT_TURN_WALKING] * (1.0 - 0.2 * mid)
+        res[:, LIMIT_BACKWARD] = base[:, LIMIT_BACKWARD] * (1.0 - 0.6 * frac)
+        res[:, LIMIT_SIDEWAYS] = base[:, LIMIT_SIDEWAYS]
+        out[:] = np.where(crowd.is_user[:, None], base, res)
+
+    # -- animate --------------------------------------------------------------------------------
+
+    def animate(self, crowd: CrowdState, new_vel: np.ndarray, dt: float, *,
+                coupled: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Proposed root ``(N,2)`` and heading ``(N,)`` for the commanded velocities.
+
+        Coupled: the root moves with the commanded velocity (already inside
+        this body's limits) and turns no faster than the turn rate allows;
+        decoupled: the root is the disc and faces its velocity. The user's
+        root is its input pose.
+        """
+        saved = crowd.limits
+        if len(self.state) == len(crowd):
+            crowd.limits = self.state.base_limits  # turn rates: the profile's, as the heading rule expects
+        try:
+            return self._simple.animate(crowd, new_vel, dt, coupled=coupled)
+        finally:
+            crowd.limits = saved
+
+    def compose(self, crowd: CrowdState, root: np.ndarray, heading: np.ndarray, *, dt: float, t: float,
+                coupled: bool, state_names: np.ndarray | None = None) -> None:
+        """Commit the gait for the final roots and pose every body (after the contact pass)."""
+        b = self.state
+        n = len(b)
+        if n == 0:
+            return
+        b.root_prev[:] = b.root
+        b.root[:] = root
+        b.heading[:] = heading
+        ne = gait_kernel(coupled, dt, t, b.root, b.root_prev, b.heading, crowd.is_user,
+                         b.dims[:, sk.DIM_SCALE].copy(), b.half_width, b.vel_s, b.stepping, b.s, b.swing,
+                         b.foot_ref, b.foot_yaw, b.foot_pitch, b.foot_lift, b.since_land, b.lift_ref,
+                         b.lift_yaw, b.lift_pitch, b.trail_pitch0, b.roll, b.phase, b.amp, b.planted,
+                         self._steps, 0)
+        if ne:
+            ev = self._steps[:ne].copy()
+            ev[:, 0] = self.ids[ev[:, 0].astype(np.int64)]
+            self.step_log.append(ev)
+        self._behaviour_tick(crowd, dt=dt, t=t, state_names=state_names)
+        self._pose(crowd, dt=dt, t=t)
+        self.skate.observe(b.world_pos, b.planted, b.foot_pitch, b.foot_lift, ~crowd.is_user)
+        self._update_handles(t)
+
+    # -- choreographers + coordinator -----------------------------------------------------------
+
+    def _buf(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        n = len(self.state)
+        got = self._shadow.get(name)
+        if got is None or got[0].shape[0] != n:
+            q = np.zeros((n, sk.J, 4))
+            q[..., 3] = 1.0
+            got = (q, np.zeros((n, 3)))
+            self._shadow[name] = got
+        return got
+
+    def _pose(self, crowd: CrowdState, *, dt: float, t: float) -> None:
+        b = self.state
+        co = self.coordinator
+        scale = np.ascontiguousarray(b.dims[:, sk.DIM_SCALE])
+        speed = np.linalg.norm(b.vel_s, axis=1)
+        co.clear_messages()
+        co.post("running", speed > RUNNING_SPEED)
+        co.post("walking", (speed > V_WALK) & (speed <= RUNNING_SPEED))
+        co.post("sitting", b.sitting)
+        # weights
+        co.set_target("sitting", b.sitting.astype(np.float64))
+        g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur)
+        g_env = np.clip(np.minimum(t - b.g_start, b.g_start + b.g_dur - t) / 0.4, 0.0, 1.0)
+        co.set_target("gesture", np.where(g_active, g_env, 0.0))
+        arm_act = np.isin(b.run_kind, ARM_ACTIONS).any(axis=1)
+        reach_any = b.reach_on.any(axis=1) | arm_act
+        co.set_target("reach", reach_any.astype(np.float64))
+        co.smooth(dt)
+        pose_q = b.local_q
+        pose_p = b.pelvis
+        pose_q[:] = 0.0
+        pose_q[..., 3] = 1.0
+        pose_p[:] = 0.0
+        for name in co.order:
+            sq, sp = self._buf(name)
+            if name == "locomotion":
+                ps.loco_shadow_kernel(b.phase, b.amp, b.style, scale, b.pelvis_rest, sq, sp)
+            elif name == "sitting":
+                ps.sit_shadow_kernel(scale, b.pelvis_rest, sq, sp)
+            elif name == "gesture":
+                kind = np.where(g_active, b.g_kind, 0)
+                ps.gesture_kernel(t, kind, b.g_start, b.g_dur, b.offsets, sq, sp)
+            elif name == "idle":
+                w = np.clip(1.0 - speed / 0.3, 0.0, 1.0) * (~b.sitting)
+                ps.idle_kernel(t, b.noise_seed, w, scale, ps.PERM, pose_q, pose_p, sq, sp)
+            elif name == "gaze":
+                has, target = self._gaze_targets(crowd)
+                running = co.has("running")
+                ps.gaze_kernel(dt, has, target, self._head_pos(), self._root_yaw(), running, ps.GAZE_SHARE,
+                               ps.GAZE_YAW_LIMIT, ps.GAZE_PITCH_LIMIT, ps.GAZE_SPEED, ps.GAZE_TAU,
+                               b.gaze_ang, pose_q, sq)
+            elif name == "reach":
+                wp, wq = self._fk_of(pose_q, pose_p)
+                active, target = self._reach_targets(wp, wq, t)
+                ps.reach_kernel(active, target, wp, wq, b.offsets, pose_q, sq)
+            co.blend(name, pose_q, pose_p, sq, sp)
+        ps.leg_ik_kernel(dt, b.root, self._root_yaw(), b.offsets, b.foot_ref, b.foot_yaw, b.foot_pitch,
+                         b.foot_lift, b.planted, b.stepping, b.s, b.swing, b.h_prev, pose_q, pose_p,
+                         b.ik_miss)
+        root3 = np.stack([b.root[:, 0], np.zeros(len(b)), b.root[:, 1]], 1)
+        fk_kernel(sk.PARENTS, b.offsets, pose_q, root3, self._root_yaw(), pose_p, b.world_pos, b.world_q)
+
+    def _root_yaw(self) -> np.ndarray:
+        return np.ascontiguousarray(0.5 * np.pi - self.state.heading)
+
+    def _head_pos(self) -> np.ndarray:
+        b = self.state
+        hp = b.world_pos[:, sk.HEAD]
+        fresh = np.all(hp == 0.0, axis=1)
+        if fresh.any():  # before the first FK: the standing head height
+            hp = hp.copy()
+            hp[fresh] = np.stack([b.root[fresh, 0], b.offsets[fresh, sk.PELVIS, 1] + 0.62 * b.dims[fresh, 3],
+                                  b.root[fresh, 1]], 1)
+        return np.ascontiguousarray(hp)
+
+    def _fk_of(self, pose_q: np.ndarray, pose_p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        b = self.state
+        n = len(b)
+        wp = np.empty((n, sk.K, 3))
+        wq = np.empty((n, sk.K, 4))
+        root3 = np.stack([b.root[:, 0], np.zeros(n), b.root[:, 1]], 1)
+        fk_kernel(sk.PARENTS, b.offsets, pose_q, root3, self._root_yaw(), pose_p, wp, wq)
+        return wp, wq
+
+    def _gaze_targets(self, crowd: CrowdState) -> tuple[np.ndarray, np.ndarray]:
+        b = self.state
+        n = len(b)
+        target = np.zeros((n, 3))
+        has = b.gaze_kind != GAZE_NONE
+        pt = b.gaze_kind == GAZE_POINT
+        target[pt] = b.gaze_point[pt]
+        heads = self._head_pos()
+        ag = b.gaze_kind == GAZE_AGENT
+        if ag.any():
+            rows = np.searchsorted(self.ids, b.gaze_agent[ag])
+            ok = (rows < n) & (self.ids[np.minimum(rows, n - 1)] == b.gaze_agent[ag])
+            sel = np.flatnonzero(ag)
+            target[sel[ok]] = heads[rows[ok]]
+            has[sel[~ok]] = False
+        us = (b.gaze_kind == GAZE_USER) | (b.gaze_rule & (b.gaze_kind == GAZE_NONE))
+        if us.any():
+            urow = np.flatnonzero(crowd.is_user)
+            if urow.size:
+                target[us] = self.user_head(crowd)
+                has |= us
+        # subconscious head actions, when nothing else holds the gaze
+        look = self._look_targets(heads)
+        free = ~has & ~np.isnan(look[:, 0])
+        target[free] = look[free]
+        has |= free
+        return has, target
+
+    def user_head(self, crowd: CrowdState) -> np.ndarray:
+        """The user's head (HMD) position, 3D.
+
+        ``hmd_position`` (3,) if the backend set it, else the user body's head.
+        """
+        hmd = getattr(self, "hmd_position", None)
+        if hmd is not None:
+            return np.asarray(hmd, np.float64)
+        u = int(np.flatnonzero(crowd.is_user)[0])
+        return self._head_pos()[u]
+
+    def _look_targets(self, heads: np.ndarray) -> np.ndarray:
+        b = self.state
+        n = len(b)
+        out = np.full((n, 3), np.nan)
+        h = b.heading
+        fwd = np.stack([np.cos(h), np.sin(h)], 1)
+        for a, make in ((act.A_LOOK_AROUND, "around"), (act.A_LOOK_DOWN, "down")):
+            slot = (b.run_kind == a)
+            rows = np.flatnonzero(slot.any(axis=1))
+            if rows.size == 0:
+                continue
+            if make == "around":
+                start = (b.run_start * slot).sum(axis=1)[rows]
+                ang = 1.0 * np.sin(1.3 * (self._t - start) + 0.5)
+                d = np.stack([np.cos(h[rows] + ang), np.sin(h[rows] + ang)], 1)
+                out[rows] = np.stack([heads[rows, 0] + 3 * d[:, 0],
+                                      heads[rows, 1] + 0.1 * np.sin(self._t - start),
+                                      heads[rows, 2] + 3 * d[:, 1]], 1)
+            else:
+                out[rows] = np.stack([b.root[rows, 0] + 1.2 * fwd[rows, 0], np.zeros(rows.size),
+                                      b.root[rows, 1] + 1.2 * fwd[rows, 1]], 1)
+        return out
+
+    def _reach_targets(self, wp: np.ndarray, wq: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Per arm: capability reach targets, else subconscious-action hand goals.
+
+        Action goals are defined relative to body segments (Ashida §4.2):
+        the head for touching/scratching it and yawning, the chest or hip
+        for the body, so the hand follows a moving head.
+        """
+        b = self.state
+        len(b)
+        active = b.reach_on.copy()
+        target = b.reach_pt.copy()
+        sc = b.dims[:, sk.DIM_SCALE]
+        for slot in range(act.N_RES):
+            kind = b.run_kind[:, slot]
+            mask = b.run_mask[:, slot]
+            for a, seg, local, osc in ((act.A_HEAD_TOUCH, sk.HEAD, (0.09, 0.03, 0.05), 0.0),
+                                       (act.A_HEAD_SCRATCH, sk.HEAD, (0.07, 0.11, -0.02), 0.02),
+                                       (act.A_YAWN, sk.HEAD, (0.0, -0.02, 0.13), 0.0),
+                                       (act.A_BODY_TOUCH, sk.SPINE3, (0.06, -0.02, 0.13), 0.0),
+                                       (act.A_BODY_SCRATCH, sk.SPINE1, (0.12, -0.05, 0.10), 0.02)):
+                rows = np.flatnonzero(kind == a)
+                for side, bit in ((0, act.LEFT_ARM), (1, act.RIGHT_ARM)):
+                    r = rows[(mask[rows] & bit) != 0]
+                    r = r[~b.reach_on[r, side]]
+                    if r.size == 0:
+                        continue
+                    sgn = 1.0 if side == 0 else -1.0
+                    lx = sgn * local[0] * sc[r]
+                    ly = local[1] * sc[r] + osc * np.sin(2 * np.pi * 4.0 * t + r)
+                    lz = local[2] * sc[r]
+                    target[r, side] = wp[r, seg] + _rotate(wq[r, seg], np.stack([lx, ly, lz], 1))
+                    active[r, side] = True
+        return active, target
+
+    # -- behaviour: gestures and subconscious actions ---------------------------------------------
+
+    def _behaviour_tick(self, crowd: CrowdState, *, dt: float, t: float,
+                        state_names: np.ndarray | None) -> None:
+        self._t = t
+        b = self.state
+        n = len(b)
+        self._action_clock += dt
+        if self._action_clock + 1e-12 < ACTION_TICK:
+            return
+        tick = self._action_clock
+        self._action_clock = 0.0
+        g = self.rng
+        virt = ~crowd.is_user
+        speed = np.linalg.norm(b.vel_s, axis=1)
+        standing = speed < V_WALK
+        b.boredom[:] = np.clip(b.boredom + np.where(standing, tick / 60.0, -tick / 30.0), 0.0, 1.0)
+        tired = np.clip(b.tiredness0 + t / 3600.0, 0.0, 1.0)
+        rates = act.modulated_rates(tiredness=tired, boredom=b.boredom, fear=b.fear, speaking=b.speaking,
+                                    emotion=b.emotion) * virt[:, None]
+        u = g.random((n, act.N_ACTIONS))
+        dur = g.gamma(4.0, act.MEAN_DURATION / 4.0, (n, act.N_ACTIONS))
+        blocked = np.where((b.gaze_rule | (b.gaze_kind != GAZE_NONE)), act.HEAD, 0).astype(np.int64)
+        blocked |= np.where(b.sitting, 0, 0)
+        # a planned gesture holds the arms, torso and head while it plays
+        g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur)
+        blocked |= np.where(g_active, act.LEFT_ARM | act.RIGHT_ARM | act.UPPER_TORSO, 0)
+        blocked |= np.where(b.reach_on[:, 0], act.LEFT_ARM, 0) | np.where(b.reach_on[:, 1], act.RIGHT_ARM, 0)
+        before = b.run_kind.copy()
+        act.schedule_kernel(t, tick, rates, u, dur, b.right_handed, blocked, b.q_kind, b.q_prio, b.q_wait,
+                            b.q_planned, b.q_dur, b.run_kind, b.run_end, b.run_mask, act.ALTERNATIVES, b.itch)
+        started = (b.run_kind >= 0) & (b.run_kind != before)
+        b.run_start[started] = t
+        # subconscious gestures play through the gesture choreographer
+        for a, clip in ((act.A_TALK, ps.G_TALK), (act.A_SHRUG, ps.G_SHRUG)):
+            rows = np.flatnonzero(((b.run_kind == a) & started).any(axis=1) & ~g_active)
+            b.g_kind[rows] = clip
+            b.g_start[rows] = t
+            b.g_dur[rows] = ((b.run_end - t) * (b.run_kind == a)).max(axis=1)[rows]
+        # PedVR §4.3: gestures from the BFSM state's set, Poisson with the set's rate
+        gs = self.gestures
+        p = 1.0 - math.exp(-gs.rate * tick)
+        fire = virt & ~g_active & (g.random(n) < p) & (t >= b.g_next) & ~b.sitting
+        pick = g.random(n)
+        durs = g.uniform(*gs.duration, n)
+        for row in np.flatnonzero(fire):  # only the few agents starting a gesture at this tick
+            name = None if state_names is None else str(state_names[row])
+            names, weights = gs.by_state.get(name or "", gs.standing if standing[row] else gs.walking)
+            cw = np.cumsum(weights) / np.sum(weights)
+            chosen = names[int(np.searchsorted(cw, pick[row], side="right").clip(0, len(names) - 1))]
+            b.g_kind[row] = ps.GESTURES.index(chosen)
+            b.g_start[row] = t
+            b.g_dur[row] = durs[row]
+            b.g_next[row] = t + durs[row] + 5.0
+
+    # -- the PedVR gaze rule -------------------------------------------------------------------
+
+    def gaze_rule(self, crowd: CrowdState, *, t: float, visibility: object, d1: float, d2: float,
+                  enabled: bool) -> list[dict[str, object]]:
+        """PedVR §4.2 eqs. 1–3 with DESIGN.md's closing speed; returns start/end events.
+
+        Agent i gazes at the user u when ``|p_u − p_i| < D1``, ``0 < w < D2``
+        with ``w = (v_i − v_u)·(p_u − p_i)/|p_u − p_i|``, the user is inside
+        i's field of view (±``FOV_HALF`` about its heading) and the segment
+        i–u is clear of walls (2D visibility). Off (and every ongoing gaze
+        ended) when ``enabled`` is False.
+        """
+        b = self.state
+        n = len(crowd)
+        g = np.zeros(n, np.bool_)
+        user = np.flatnonzero(crowd.is_user)
+        if enabled and user.size and n > 1:
+            u = int(user[0])
+            d = crowd.pos[u] - crowd.pos
+            dist = np.linalg.norm(d, axis=1)
+            dhat = np.divide(d, dist[:, None], out=np.zeros_like(d), where=dist[:, None] > 1e-9)
+            w = np.einsum("ij,ij->i", crowd.vel - crowd.vel[u], dhat)
+            fwd = np.stack([np.cos(crowd.heading), np.sin(crowd.heading)], 1)
+            in_fov = np.einsum("ij,ij->i", fwd, dhat) >= math.cos(FOV_HALF)
+            cand = ~crowd.is_user & (dist < d1) & (w > 0.0) & (w < d2) & in_fov & (dist > 1e-9)
+            idx = np.flatnonzero(cand)
+            if idx.size:
+                vis = visibility.visible(crowd.pos[idx], np.repeat(crowd.pos[u:u + 1], idx.size, 0))  # type: ignore[attr-defined]
+                g[idx] = vis
+        events: list[dict[str, object]] = []
+        for row in np.flatnonzero(g != b.gaze_rule):
+            events.append({"agent": int(self.ids[row]), "t": round(float(t), 6),
+                           "event": "start" if g[row] else "end", "target": "user"})
+        b.gaze_rule[:] = g
+        return events
+
+    # -- capabilities (ADAPT's Body layer) -------------------------------------------------------
+
+    def _start(self, capability: str, agent_id: int, target: object) -> Handle:
+        for hd in self.handles:
+            if hd.running and hd.agent == agent_id and hd.capability == capability:
+                hd.status, hd.detail = Status.SUCCESS, "stopped"
+        hd = Handle(capability, agent_id, target, getattr(self, "_t", 0.0))
+        self.handles.append(hd)
+        return hd
+
+    def go_to(self, agent_id: int, target: tuple[float, float] | None, *, arrive_dist: float = 0.3,
+              timeout: float = 60.0) -> Handle:
+        """Walk to ``target`` (2D) through the simulation's navigation (``navigate``); None stops."""
+        row = self._row(agent_id)
+        hd = self._start("go_to", agent_id, target)
+        if self.navigate is None:
+            hd.status, hd.detail = Status.FAILURE, "no navigator"
+            return hd
+        try:
+            self.navigate(row, target)
+        except Exception as exc:  # the navigator's error is the handle's failure, reported
+            hd.status, hd.detail = Status.FAILURE, f"{type(exc).__name__}: {exc}"
+            return hd
+        if target is None:
+            hd.status, hd.detail = Status.SUCCESS, "stopped"
+        hd.target = (target, arrive_dist, timeout)
+        return hd
+
+    def gaze_at(self, agent_id: int, target: object) -> Handle:
+        """Gaze at a 3D point ``(x, y, z)``, ``("agent", id)`` or ``"user"``; None stops.
+
+        Succeeds when head and eyes are within 5° of the target; keeps gazing
+        until stopped.
+        """
+        row = self._row(agent_id)
+        b = self.state
+        hd = self._start("gaze_at", agent_id, target)
+        if target is None:
+            b.gaze_kind[row] = GAZE_NONE
+            hd.status, hd.detail = Status.SUCCESS, "stopped"
+        elif isinstance(target, str) and target == "user":
+            b.gaze_kind[row] = GAZE_USER
+        elif isinstance(target, tuple) and len(target) == 2 and target[0] == "agent":
+            b.gaze_kind[row] = GAZE_AGENT
+            b.gaze_agent[row] = int(target[1])  # type: ignore[arg-type]
+        else:
+            p = np.asarray(target, np.float64).reshape(3)
+            b.gaze_kind[row] = GAZE_POINT
+            b.gaze_point[row] = p
+        return hd
+
+    def reach_for(self, agent_id: int, target: tuple[float, float, float] | None, *,
+                  side: str = "right") -> Handle:
+        """Put the hand on a 3D world point; fails if it stays out of reach for 2 s. None releases."""
+        row = self._row(agent_id)
+        s = 1 if side == "right" else 0
+        hd = self._start("reach_for", agent_id, (target, s))
+        if target is None:
+            self.state.reach_on[row, s] = False
+            hd.status, hd.detail = Status.SUCCESS, "released"
+        else:
+            self.state.reach_on[row, s] = True
+            self.state.reach_pt[row, s] = np.asarray(target, np.float64)
+        return hd
+
+    def gesture(self, agent_id: int, name: str | None, *, duration: float = 2.5) -> Handle:
+        """Play a gesture clip (``pose.GESTURES``); None stops the current one."""
+        row = self._row(agent_id)
+        b = self.state
+        hd = self._start("gesture", agent_id, name)
+        if name is None:
+            b.g_dur[row] = max(0.0, self._t - b.g_start[row]) if hasattr(self, "_t") else 0.0
+            hd.status, hd.detail = Status.SUCCESS, "stopped"
+            return hd
+        if name not in ps.GESTURES[1:]:
+            raise UsageError(f"gesture {name!r}: unknown; known: {', '.join(ps.GESTURES[1:])}")
+        b.g_kind[row] = ps.GESTURES.index(name)
+        b.g_start[row] = getattr(self, "_t", 0.0)
+        b.g_dur[row] = duration
+        return hd
+
+    def sit_down(self, agent_id: int) -> Handle:
+        """Sit where the agent stands (fails while it walks)."""
+        row = self._row(agent_id)
+        hd = self._start("sit_down", agent_id, None)
+        if np.linalg.norm(self.state.vel_s[row]) > V_WALK:
+            hd.status, hd.detail = Status.FAILURE, "walking"
+            return hd
+        self.state.sitting[row] = True
+        return hd
+
+    def stand_up(self, agent_id: int) -> Handle:
+        row = self._row(agent_id)
+        hd = self._start("stand_up", agent_id, None)
+        self.state.sitting[row] = False
+        return hd
+
+    def _update_handles(self, t: float) -> None:
+        if not self.handles:
+            return
+        b = self.state
+        ci = self.coordinator.index
+        for hd in self.handles:
+            if not hd.running:
+                continue
+            hit = np.flatnonzero(self.ids == hd.agent)
+            if hit.size == 0:
+                hd.status, hd.detail = Status.FAILURE, "agent removed"
+                continue
+            r = int(hit[0])
+            if hd.capability == "go_to":
+                goal, arrive, timeout = cast(tuple[Any, float, float], hd.target)
+                if np.hypot(*(b.root[r] - np.asarray(goal))) <= arrive:
+                    hd.status = Status.SUCCESS
+                elif t - hd.started > timeout:
+                    hd.status, hd.detail = Status.FAILURE, "timeout"
+            elif hd.capability == "gaze_at":
+                if abs(b.gaze_ang[r, :, 0].sum() - self._gaze_goal_yaw(r)) < math.radians(5.0):
+                    hd.status = Status.SUCCESS
+            elif hd.capability == "reach_for":
+                point, arm = cast(tuple[Any, int], hd.target)
+                tip = sk.L_HAND if arm == 0 else sk.R_HAND
+                miss = float(np.linalg.norm(b.world_pos[r, tip] - np.asarray(point)))
+                if miss < 0.03:
+                    hd.status = Status.SUCCESS
+                elif t - hd.started > 2.0:
+                    hd.status, hd.detail = Status.FAILURE, f"out of reach by {miss:.2f} m"
+            elif hd.capability == "gesture":
+                if t >= b.g_start[r] + b.g_dur[r]:
+                    hd.status = Status.SUCCESS
+            elif hd.capability in ("sit_down", "stand_up"):
+                w = self.coordinator.weights[r, ci["sitting"]]
+                if (hd.capability == "sit_down" and w >= 1.0) or (hd.capability == "stand_up" and w <= 0.0):
+                    hd.status = Status.SUCCESS
+        self.handles = [hd for hd in self.handles if hd.running]
+
+    def _gaze_goal_yaw(self, r: int) -> float:
+        b = self.state
+        k = b.gaze_kind[r]
+        if k == GAZE_POINT:
+            tgt = b.gaze_point[r]
+        else:
+            return float(b.gaze_ang[r, :, 0].sum())
+        d = tgt - self._head_pos()[r]
+        ry = 0.5 * np.pi - b.heading[r]
+        c, s = math.cos(-ry), math.sin(-ry)
+        return math.atan2(c * d[0] + s * d[2], -s * d[0] + c * d[2])
+
+    # -- the renderer's view ------------------------------------------------------------------------
+
+    def joint_matrices(self, out: np.ndarray | None = None) -> np.ndarray:
+        """World transforms of the 26 joints, ``(N, J, 4, 4) float32``, column vectors."""
+        b = self.state
+        n = len(b)
+        if out is None:
+            out = np.empty((n, sk.J, 4, 4), np.float32)
+        matrices_kernel(b.world_pos, b.world_q, sk.J, out)
+        return out
+

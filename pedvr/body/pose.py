@@ -1,0 +1,599 @@
+"""Choreographer kernels: each poses a shadow ``(N, J, 4)`` local rotations + ``(N, 3)`` pelvis.
+
+Generators write a whole shadow (locomotion, sitting, gestures); transformers
+take the pose flowing through the coordinator's graph and write their shadow
+from it (idle noise, gaze, reach). The final leg-IK node
+(:func:`leg_ik_kernel`) is ADAPT's shadow post-processing filter: it lowers
+the pelvis as far as the planted feet require and solves the legs so the
+feet sit exactly where the footstep planner put them, whatever the blend
+did to the pelvis.
+
+Angles are radians. Local rotation conventions follow
+:mod:`pedvr.body.skeleton` (+Y up, +Z forward, +X left): flexion of the
+spine and pitch-down of the head are +X rotations, arm and elbow flexion
+(forward) are −X, yaw toward the left is +Y.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from pedvr.body import skeleton as sk
+from pedvr.body.locomotion import DS, foot_pose
+from pedvr.body.quat import euler_yxz4, frame_quat, qmul4, qrot3
+from pedvr.body.style import PA, PB, Pa, Pb, Pp
+
+PELVIS_YAW = 0.07  # rad: transverse pelvic rotation at a walk (±4°)
+PELVIS_LIST = 0.05  # rad: pelvic obliquity (±3°)
+PELVIS_TILT = 0.03  # rad: forward tilt at a walk
+SWAY = 0.02  # m (reference adult): lateral pelvis sway toward the stance foot
+BOB = 0.02  # m (reference adult): nominal vertical bob (the reach limit adds the rest)
+KNEE_BEND = 0.012  # m (reference adult): standing pelvis below a straight-leg height
+LEG_REACH = 0.995  # fraction of thigh + shin the IK may use
+RISE_RATE = 0.4  # m/s: fastest the pelvis rises (it falls as fast as the feet need)
+PELVIS_FLOOR = 0.8  # fraction of the standing pelvis height the reach limit may not go below
+
+# Gaze controller (SmartBody-like). Order: lumbar, thorax, neck, head, eyes.
+GAZE_LUMBAR, GAZE_THORAX, GAZE_NECK, GAZE_HEAD, GAZE_EYES = 0, 1, 2, 3, 4
+GAZE_SHARE = np.array([0.1, 0.15, 0.3, 0.45])  # share of the remaining rotation, body joints
+GAZE_YAW_LIMIT = np.radians([10.0, 15.0, 35.0, 45.0, 35.0])  # neck + head = 80° on the trunk
+GAZE_PITCH_LIMIT = np.radians([5.0, 8.0, 20.0, 25.0, 25.0])
+GAZE_SPEED = np.radians([30.0, 45.0, 100.0, 200.0, 600.0])  # °/s caps; head-on-trunk ≤ 300 °/s
+GAZE_TAU = np.array([0.45, 0.35, 0.22, 0.15, 0.03])  # s: smoothing time constants (eyes lead)
+RUNNING_TORSO = 0.3  # while "running", lumbar and thorax keep this fraction of their limits
+
+UPPER_MASK = np.zeros(sk.J, np.bool_)
+UPPER_MASK[sk.SPINE1:sk.J] = True
+
+# Gesture clips (PedVR §4.3).
+GESTURES = ("none", "wave", "point", "shrug", "check_phone", "hands_in_pockets", "talk")
+G_NONE, G_WAVE, G_POINT, G_SHRUG, G_PHONE, G_POCKETS, G_TALK = range(7)
+
+_PERM = np.random.default_rng(0x9E11).permutation(256)
+PERM = np.concatenate([_PERM, _PERM]).astype(np.int64)
+"""Fixed permutation of the 1D improved-Perlin kernel (a constant, not state)."""
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def spow(x, p):  # type: ignore[no-untyped-def]
+    return math.copysign(abs(x) ** p, x) if p != 1.0 else x
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _put(q, i, j, t):  # type: ignore[no-untyped-def]
+    q[i, j, 0] = t[0]
+    q[i, j, 1] = t[1]
+    q[i, j, 2] = t[2]
+    q[i, j, 3] = t[3]
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _dof(style, i, d, t, amp):  # type: ignore[no-untyped-def]
+    return (style[i, d, PA] * amp * spow(math.sin(style[i, d, Pa] * t + style[i, d, Pb]), style[i, d, Pp])
+            + style[i, d, PB])
+
+
+@njit(cache=True, fastmath=True)
+def loco_shadow_kernel(phase, amp, style, scale, pelvis_rest, out_q, out_p):  # type: ignore[no-untyped-def]
+    """Locomotion's shadow: pelvis gait rotation, sway and bob; Ashida's upper body.
+
+    ``phase (N,)`` gait phase (0 at left heel strike), ``amp (N,)`` gait
+    amplitude (speed / 1.3, smoothed), ``style (N,11,5)``, ``pelvis_rest
+    (N,)`` standing pelvis height. Legs are left at identity (the IK node
+    solves them).
+    """
+    n = phase.shape[0]
+    for i in range(n):
+        t = phase[i]
+        a = amp[i]
+        sc = scale[i]
+        for j in range(out_q.shape[1]):
+            out_q[i, j, 0] = 0.0
+            out_q[i, j, 1] = 0.0
+            out_q[i, j, 2] = 0.0
+            out_q[i, j, 3] = 1.0
+        py = -PELVIS_YAW * math.cos(t) * a
+        pl = PELVIS_LIST * math.sin(t) * a
+        pt = PELVIS_TILT * min(a, 1.0)
+        _put(out_q, i, sk.PELVIS, euler_yxz4(py, pt, pl))
+        out_p[i, 0] = SWAY * sc * math.sin(t) * a
+        bob = BOB * sc * min(a, 1.0) * 0.5 * (1.0 + math.cos(2.0 * t))
+        out_p[i, 1] = pelvis_rest[i] - KNEE_BEND * sc - bob
+        out_p[i, 2] = 0.0
+        # lower spine: counter-rotate the pelvis (spread over Spine1, Spine2) + style
+        lf = _dof(style, i, 8, t, a)
+        lb = _dof(style, i, 9, t, a)
+        lt = _dof(style, i, 10, t, a)
+        q = euler_yxz4(0.5 * (lt - py), 0.5 * (lf - pt), 0.5 * (lb - pl))
+        _put(out_q, i, sk.SPINE1, q)
+        _put(out_q, i, sk.SPINE2, q)
+        uf = _dof(style, i, 5, t, a)
+        ub = _dof(style, i, 6, t, a)
+        ut = _dof(style, i, 7, t, a)
+        q = euler_yxz4(0.5 * ut, 0.5 * uf, 0.5 * ub)
+        _put(out_q, i, sk.SPINE3, q)
+        _put(out_q, i, sk.NECK, q)
+        for side in range(2):
+            ts = t + math.pi * side  # right side: same curve shifted by π
+            sgn = 1.0 if side == 0 else -1.0
+            elbow = _dof(style, i, 0, ts, a)  # DOFs 0..MIRRORED-1 are the mirrored arm DOFs
+            sflex = _dof(style, i, 1, ts, a)
+            sabd = _dof(style, i, 2, ts, a)
+            celev = _dof(style, i, 3, ts, a)
+            cprot = _dof(style, i, 4, ts, a)
+            c = sk.L_COLLAR if side == 0 else sk.R_COLLAR
+            _put(out_q, i, c, euler_yxz4(-sgn * cprot, 0.0, sgn * celev))
+            _put(out_q, i, c + 1, euler_yxz4(0.0, -sflex, sgn * sabd))
+            _put(out_q, i, c + 2, euler_yxz4(0.0, -elbow, 0.0))
+
+
+@njit(cache=True, fastmath=True)
+def sit_shadow_kernel(scale, pelvis_rest, out_q, out_p):  # type: ignore[no-untyped-def]
+    """Sitting: pelvis down and back, trunk upright, forearms on the thighs."""
+    n = scale.shape[0]
+    for i in range(n):
+        sc = scale[i]
+        for j in range(out_q.shape[1]):
+            out_q[i, j, 0] = 0.0
+            out_q[i, j, 1] = 0.0
+            out_q[i, j, 2] = 0.0
+            out_q[i, j, 3] = 1.0
+        out_p[i, 0] = 0.0
+        out_p[i, 1] = 0.50 * sc
+        out_p[i, 2] = -0.30 * sc
+        _put(out_q, i, sk.PELVIS, euler_yxz4(0.0, -0.08, 0.0))
+        _put(out_q, i, sk.SPINE1, euler_yxz4(0.0, 0.06, 0.0))
+        for c in (sk.L_COLLAR, sk.R_COLLAR):
+            _put(out_q, i, c + 1, euler_yxz4(0.0, -0.35, 0.0))
+            _put(out_q, i, c + 2, euler_yxz4(0.0, -1.0, 0.0))
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _fade(t):  # type: ignore[no-untyped-def]
+    return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+
+
+@njit(cache=True, fastmath=True)
+def perlin1d(x, perm):  # type: ignore[no-untyped-def]
+    """Improved Perlin noise in 1D (Perlin 2002): fade 6t⁵−15t⁴+10t³, gradients ±1; in [-1, 1]."""
+    xf = math.floor(x)
+    i0 = int(xf) & 255
+    f = x - xf
+    g0 = f if (perm[i0] & 1) == 0 else -f
+    g1 = (f - 1.0) if (perm[i0 + 1] & 1) == 0 else (1.0 - f)
+    return 2.0 * (g0 + _fade(f) * (g1 - g0))
+
+
+@njit(cache=True, fastmath=True)
+def idle_kernel(t, seed, weight, scale, perm, in_q, in_p, out_q, out_p):  # type: ignore[no-untyped-def]
+    """Perlin idle (Huang & Terzopoulos App. C): weight shift, breathing-slow trunk and head drift.
+
+    ``weight (N,)`` is 1 for a standing body, 0 walking.
+    """
+    n = in_q.shape[0]
+    for i in range(n):
+        for j in range(in_q.shape[1]):
+            for k in range(4):
+                out_q[i, j, k] = in_q[i, j, k]
+        for k in range(3):
+            out_p[i, k] = in_p[i, k]
+        w = weight[i]
+        if w <= 0.0:
+            continue
+        s = seed[i]
+        sc = scale[i]
+        out_p[i, 0] += w * 0.012 * sc * perlin1d(0.25 * t + s, perm)
+        out_p[i, 2] += w * 0.006 * sc * perlin1d(0.21 * t + s + 17.3, perm)
+        out_p[i, 1] -= w * 0.004 * sc * (1.0 + perlin1d(0.3 * t + s + 5.1, perm))
+        for j, f, ay, ap, ar, off in ((sk.SPINE2, 0.3, 0.015, 0.012, 0.01, 31.7),
+                                      (sk.NECK, 0.35, 0.06, 0.03, 0.01, 47.9),
+                                      (sk.HEAD, 0.45, 0.05, 0.04, 0.02, 63.1),
+                                      (sk.L_SHOULDER, 0.4, 0.0, 0.03, 0.01, 80.3),
+                                      (sk.R_SHOULDER, 0.4, 0.0, 0.03, 0.01, 96.7)):
+            dy = w * ay * perlin1d(f * t + s + off, perm)
+            dp = w * ap * perlin1d(f * t + s + off + 3.3, perm)
+            dr = w * ar * perlin1d(f * t + s + off + 7.7, perm)
+            gx, gy, gz, gw = euler_yxz4(dy, dp, dr)
+            x, y, z, ww = qmul4(gx, gy, gz, gw, in_q[i, j, 0], in_q[i, j, 1], in_q[i, j, 2], in_q[i, j, 3])
+            out_q[i, j, 0] = x
+            out_q[i, j, 1] = y
+            out_q[i, j, 2] = z
+            out_q[i, j, 3] = ww
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _approach(cur, target, tau, cap, dt):  # type: ignore[no-untyped-def]
+    """Exponential approach (frame-rate independent), then the speed cap."""
+    d = (target - cur) * (1.0 - math.exp(-dt / tau))
+    lim = cap * dt
+    if d > lim:
+        d = lim
+    elif d < -lim:
+        d = -lim
+    return cur + d
+
+
+@njit(cache=True, fastmath=True)
+def gaze_kernel(dt, has_target, target, head_pos, root_yaw, running, share, yaw_lim, pitch_lim,
+                speed, tau, ang, in_q, out_q):  # type: ignore[no-untyped-def]
+    """SmartBody-like gaze: lumbar → thorax → neck → head → eyes.
+
+    The rotation toward the target (measured from the head, in the body's
+    facing frame) is shared out joint by joint: each takes its share of what
+    is still to go, clamped to its limits; the head takes the rest within
+    its limit. Each joint approaches its target exponentially (time constant
+    ``tau``) under an angular speed cap. The eyes aim at what the body
+    joints have *actually* reached so far, so they lead and the head catches
+    up. ``ang (N,5,2)`` (yaw, pitch) is the controller's state, updated in place.
+    With no target every joint returns to 0.
+    """
+    n = in_q.shape[0]
+    for i in range(n):
+        for j in range(in_q.shape[1]):
+            for k in range(4):
+                out_q[i, j, k] = in_q[i, j, k]
+        yaw_t = 0.0
+        pitch_t = 0.0
+        if has_target[i]:
+            dx = target[i, 0] - head_pos[i, 0]
+            dy = target[i, 1] - head_pos[i, 1]
+            dz = target[i, 2] - head_pos[i, 2]
+            c, s = math.cos(-root_yaw[i]), math.sin(-root_yaw[i])
+            lx = c * dx + s * dz  # R_y(-yaw) applied to d
+            lz = -s * dx + c * dz
+            yaw_t = math.atan2(lx, lz)
+            pitch_t = math.atan2(-dy, math.hypot(lx, lz))
+        for ax in range(2):
+            goal = yaw_t if ax == 0 else pitch_t
+            rem = goal
+            wsum = 0.0
+            for k in range(4):
+                wsum += share[k]
+            for k in range(4):
+                lim = yaw_lim[k] if ax == 0 else pitch_lim[k]
+                if k < 2 and running[i]:
+                    lim *= RUNNING_TORSO
+                part = rem * share[k] / wsum if k < 3 else rem
+                wsum -= share[k]
+                part = min(max(part, -lim), lim)
+                rem -= part
+                ang[i, k, ax] = _approach(ang[i, k, ax], part, tau[k], speed[k], dt)
+            reached = ang[i, 0, ax] + ang[i, 1, ax] + ang[i, 2, ax] + ang[i, 3, ax]
+            lim = yaw_lim[4] if ax == 0 else pitch_lim[4]
+            eye = min(max(goal - reached, -lim), lim)
+            ang[i, 4, ax] = _approach(ang[i, 4, ax], eye, tau[4], speed[4], dt)
+        for k, j, frac in ((0, sk.SPINE1, 1.0), (1, sk.SPINE2, 0.5), (1, sk.SPINE3, 0.5),
+                           (2, sk.NECK, 1.0), (3, sk.HEAD, 1.0), (4, sk.L_EYE, 1.0), (4, sk.R_EYE, 1.0)):
+            gx, gy, gz, gw = euler_yxz4(frac * ang[i, k, 0], frac * ang[i, k, 1], 0.0)
+            x, y, z, w = qmul4(gx, gy, gz, gw, in_q[i, j, 0], in_q[i, j, 1], in_q[i, j, 2], in_q[i, j, 3])
+            out_q[i, j, 0] = x
+            out_q[i, j, 1] = y
+            out_q[i, j, 2] = z
+            out_q[i, j, 3] = w
+
+
+@njit(cache=True, fastmath=True)
+def two_bone(sx, sy, sz, tx, ty, tz, px, py, pz, l1, l2, reach, bend_forward, q1, q2):  # type: ignore[no-untyped-def]
+    """Analytic two-bone IK in one frame.
+
+    Root joint at ``s``, end target ``t``, pole ``p`` (the middle joint
+    points toward it), bone lengths ``l1, l2`` along the bones' local −Y.
+    Writes ``q1`` (root joint rotation in this frame) and ``q2`` (middle
+    joint's local hinge rotation about X: +X bends the end backward (knee),
+    −X forward (elbow), chosen by ``bend_forward``). Returns the distance
+    actually reached to the target (0 when reachable).
+    """
+    dx, dy, dz = tx - sx, ty - sy, tz - sz
+    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+    dmax = reach * (l1 + l2)
+    dmin = abs(l1 - l2) + 1e-4
+    miss = 0.0
+    if d > dmax:
+        miss = d - dmax
+    dc = min(max(d, dmin), dmax)
+    if d < 1e-9:
+        ux, uy, uz = 0.0, -1.0, 0.0
+    else:
+        ux, uy, uz = dx / d, dy / d, dz / d
+    # pole component perpendicular to u
+    pd = px * ux + py * uy + pz * uz
+    qx, qy, qz = px - pd * ux, py - pd * uy, pz - pd * uz
+    qn = math.sqrt(qx * qx + qy * qy + qz * qz)
+    if qn < 1e-9:
+        qx, qy, qz = 0.0, 0.0, 1.0
+        pd = uz
+        qx, qy, qz = -pd * ux, -pd * uy, 1.0 - pd * uz
+        qn = math.sqrt(qx * qx + qy * qy + qz * qz)
+    qx /= qn
+    qy /= qn
+    qz /= qn
+    ca = (l1 * l1 + dc * dc - l2 * l2) / (2.0 * l1 * dc)
+    ca = min(max(ca, -1.0), 1.0)
+    sa = math.sqrt(1.0 - ca * ca)
+    # first bone direction
+    ax = ca * ux + sa * qx
+    ay = ca * uy + sa * qy
+    az = ca * uz + sa * qz
+    # interior angle at the middle joint -> hinge angle
+    cb = (l1 * l1 + l2 * l2 - dc * dc) / (2.0 * l1 * l2)
+    cb = min(max(cb, -1.0), 1.0)
+    hinge = math.pi - math.acos(cb)
+    # the end bends away from the pole: local +Z of the first bone is the pole side
+    # for a knee (the end swings back, -Z) and the opposite side for an elbow.
+    if bend_forward:
+        frame_quat(-ax, -ay, -az, -qx, -qy, -qz, q1)
+        half = -0.5 * hinge
+    else:
+        frame_quat(-ax, -ay, -az, qx, qy, qz, q1)
+        half = 0.5 * hinge
+    q2[0] = math.sin(half)
+    q2[1] = 0.0
+    q2[2] = 0.0
+    q2[3] = math.cos(half)
+    return miss
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _qinv_mul(ax, ay, az, aw, bx, by, bz, bw):  # type: ignore[no-untyped-def]
+    """a⁻¹ ∘ b for unit a."""
+    return qmul4(-ax, -ay, -az, aw, bx, by, bz, bw)
+
+
+@njit(cache=True, fastmath=True)
+def leg_ik_kernel(dt, root, root_yaw, offsets, foot_ref, foot_yaw, foot_pitch, foot_lift, planted,
+                  stepping, s, swing, h_prev, pose_q, pose_p, miss):  # type: ignore[no-untyped-def]
+    """Final node: pelvis height from the planted feet's reach, then analytic leg IK.
+
+    ``root (N,2)`` ground root, ``root_yaw (N,)`` rotation about +Y;
+    ``pose_q/pose_p`` the blended pose, updated in place (legs and pelvis
+    height). ``h_prev (N,)`` the last pelvis height, updated. ``miss
+    (N,2)`` is written: how far each ankle stayed from its target (0 when
+    reached; a planted foot with a miss slides).
+    """
+    n = root.shape[0]
+    q1 = np.empty(4)
+    q2 = np.empty(4)
+    anks = np.empty((2, 3))
+    hips = np.empty((2, 3))
+    for i in range(n):
+        ry = root_yaw[i]
+        rqx, rqy, rqz, rqw = 0.0, math.sin(0.5 * ry), 0.0, math.cos(0.5 * ry)
+        pqx, pqy, pqz, pqw = qmul4(rqx, rqy, rqz, rqw, pose_q[i, 0, 0], pose_q[i, 0, 1], pose_q[i, 0, 2],
+                                   pose_q[i, 0, 3])
+        # pelvis position in the world, height still free
+        ox, oy, oz = qrot3(rqx, rqy, rqz, rqw, pose_p[i, 0], 0.0, pose_p[i, 2])
+        pelx, pelz = root[i, 0] + ox, root[i, 1] + oz
+        h = pose_p[i, 1]
+        heel_z = offsets[i, sk.L_HEEL, 2]
+        ankle_h = -offsets[i, sk.L_HEEL, 1]
+        ball_z = offsets[i, sk.L_TOE, 2]
+        ball_h = ankle_h + offsets[i, sk.L_TOE, 1]
+        for f in range(2):
+            hipk = sk.L_HIP if f == 0 else sk.R_HIP
+            ax, ay, az = foot_pose(foot_ref[i, f, 0], foot_ref[i, f, 1], foot_yaw[i, f], foot_pitch[i, f],
+                                   foot_lift[i, f], heel_z, ball_z, ball_h, ankle_h)
+            anks[f, 0], anks[f, 1], anks[f, 2] = ax, ay, az
+            hx, hy, hz = qrot3(pqx, pqy, pqz, pqw, offsets[i, hipk, 0], offsets[i, hipk, 1],
+                               offsets[i, hipk, 2])
+            hips[f, 0], hips[f, 1], hips[f, 2] = pelx + hx, hy, pelz + hz
+            l1 = -offsets[i, hipk + 1, 1]
+            l2 = -offsets[i, hipk + 2, 1]
+            R = LEG_REACH * (l1 + l2) * 0.999
+            # how much this foot constrains the pelvis height
+            if planted[i, f]:
+                w = 1.0
+            elif stepping[i] and f == swing[i]:
+                u = (s[i] - DS) / (1.0 - DS)
+                w = max(min(max((u - 0.5) / 0.5, 0.0), 1.0), 1.0 - min(max(u / 0.3, 0.0), 1.0))
+            else:
+                w = 0.0
+            if w > 0.0:
+                ddx = hips[f, 0] - ax
+                ddz = hips[f, 2] - az
+                dxz2 = ddx * ddx + ddz * ddz
+                top = ay + math.sqrt(max(R * R - dxz2, 0.0)) - hy
+                cap = (1.0 - w) * h + w * top
+                if cap < h:
+                    h = cap
+        # never crouch to save a foot: below this the foot slides (and the metrics see it)
+        h = max(h, min(pose_p[i, 1], PELVIS_FLOOR * offsets[i, sk.PELVIS, 1]))
+        h = min(h, h_prev[i] + RISE_RATE * dt)
+        h_prev[i] = h
+        pose_p[i, 1] = h
+        pely = h
+        for f in range(2):
+            hipk = sk.L_HIP if f == 0 else sk.R_HIP
+            l1 = -offsets[i, hipk + 1, 1]
+            l2 = -offsets[i, hipk + 2, 1]
+            hx, hy, hz = hips[f, 0], hips[f, 1] + pely, hips[f, 2]
+            fy = foot_yaw[i, f]
+            px, pz = math.cos(fy), math.sin(fy)  # knee points along the foot
+            miss[i, f] = two_bone(hx, hy, hz, anks[f, 0], anks[f, 1], anks[f, 2], px, 0.0, pz, l1, l2,
+                                  LEG_REACH, False, q1, q2)
+            # hip world rotation q1 -> local to the pelvis
+            x, y, z, w = _qinv_mul(pqx, pqy, pqz, pqw, q1[0], q1[1], q1[2], q1[3])
+            pose_q[i, hipk, 0], pose_q[i, hipk, 1], pose_q[i, hipk, 2], pose_q[i, hipk, 3] = x, y, z, w
+            pose_q[i, hipk + 1, 0], pose_q[i, hipk + 1, 1] = q2[0], q2[1]
+            pose_q[i, hipk + 1, 2], pose_q[i, hipk + 1, 3] = q2[2], q2[3]
+            kx, ky, kz, kw = qmul4(q1[0], q1[1], q1[2], q1[3], q2[0], q2[1], q2[2], q2[3])
+            # foot world rotation: yaw about +Y (3D angle π/2 − yaw), then pitch about X
+            phi = 0.5 * math.pi - fy
+            pitch = foot_pitch[i, f]
+            fx_, fy_, fz_, fw_ = qmul4(0.0, math.sin(0.5 * phi), 0.0, math.cos(0.5 * phi),
+                                       math.sin(0.5 * pitch), 0.0, 0.0, math.cos(0.5 * pitch))
+            x, y, z, w = _qinv_mul(kx, ky, kz, kw, fx_, fy_, fz_, fw_)
+            ak = hipk + 2
+            pose_q[i, ak, 0], pose_q[i, ak, 1], pose_q[i, ak, 2], pose_q[i, ak, 3] = x, y, z, w
+            tp = -pitch if pitch > 0.0 else 0.0  # toes stay flat while the heel is up
+            pose_q[i, ak + 1, 0] = math.sin(0.5 * tp)
+            pose_q[i, ak + 1, 1] = 0.0
+            pose_q[i, ak + 1, 2] = 0.0
+            pose_q[i, ak + 1, 3] = math.cos(0.5 * tp)
+
+
+@njit(cache=True, fastmath=True)
+def arm_to(i, side, thorax_q, thorax_p, tx, ty, tz, offsets, pose_q, q1, q2):  # type: ignore[no-untyped-def]
+    """Solve one arm so the hand reaches world point ``t``, given the thorax (Spine3) world frame."""
+    c = sk.L_COLLAR if side == 0 else sk.R_COLLAR
+    sgn = 1.0 if side == 0 else -1.0
+    # collar world
+    cqx, cqy, cqz, cqw = qmul4(thorax_q[0], thorax_q[1], thorax_q[2], thorax_q[3],
+                               pose_q[i, c, 0], pose_q[i, c, 1], pose_q[i, c, 2], pose_q[i, c, 3])
+    ox, oy, oz = qrot3(thorax_q[0], thorax_q[1], thorax_q[2], thorax_q[3], offsets[i, c, 0], offsets[i, c, 1],
+                       offsets[i, c, 2])
+    cx, cy, cz = thorax_p[0] + ox, thorax_p[1] + oy, thorax_p[2] + oz
+    ox, oy, oz = qrot3(cqx, cqy, cqz, cqw, offsets[i, c + 1, 0], offsets[i, c + 1, 1], offsets[i, c + 1, 2])
+    sx, sy, sz = cx + ox, cy + oy, cz + oz
+    l1 = -offsets[i, c + 2, 1]
+    l2 = -offsets[i, c + 3, 1] - offsets[i, c + 4, 1]  # to the hand joint
+    # elbow points down, back and out, in the thorax frame
+    px, py, pz = qrot3(thorax_q[0], thorax_q[1], thorax_q[2], thorax_q[3], sgn * 0.5, -1.0, -0.4)
+    two_bone(sx, sy, sz, tx, ty, tz, px, py, pz, l1, l2, 0.999, True, q1, q2)
+    x, y, z, w = _qinv_mul(cqx, cqy, cqz, cqw, q1[0], q1[1], q1[2], q1[3])
+    pose_q[i, c + 1, 0], pose_q[i, c + 1, 1], pose_q[i, c + 1, 2], pose_q[i, c + 1, 3] = x, y, z, w
+    for k in range(4):
+        pose_q[i, c + 2, k] = q2[k]
+    for j in (c + 3, c + 4):
+        pose_q[i, j, 0], pose_q[i, j, 1], pose_q[i, j, 2], pose_q[i, j, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@njit(cache=True, fastmath=True)
+def gesture_kernel(t, kind, start, duration, offsets, out_q, out_p):  # type: ignore[no-untyped-def]
+    """Gesture clips on the upper body (a generator: posed in the body frame).
+
+    Hand targets are relative to the thorax, so a clip follows the trunk
+    wherever the blend puts it. ``kind (N,)`` (``G_*``), ``start``/``duration (N,)`` s.
+    """
+    n = kind.shape[0]
+    q1 = np.empty(4)
+    q2 = np.empty(4)
+    tq = np.array([0.0, 0.0, 0.0, 1.0])
+    tp = np.zeros(3)
+    for i in range(n):
+        for j in range(out_q.shape[1]):
+            out_q[i, j, 0] = 0.0
+            out_q[i, j, 1] = 0.0
+            out_q[i, j, 2] = 0.0
+            out_q[i, j, 3] = 1.0
+        out_p[i, 0] = 0.0
+        out_p[i, 1] = 0.0
+        out_p[i, 2] = 0.0
+        g = kind[i]
+        if g == 0:
+            continue
+        tau = t - start[i]
+        sc = offsets[i, sk.PELVIS, 1] / 0.98
+        # thorax frame at rest: body frame, origin at Spine3
+        tp[0] = 0.0
+        tp[1] = offsets[i, sk.PELVIS, 1] + offsets[i, sk.SPINE1, 1] + offsets[i, sk.SPINE2, 1] \
+            + offsets[i, sk.SPINE3, 1]
+        tp[2] = offsets[i, sk.SPINE1, 2]
+        shy = tp[1] + offsets[i, sk.L_COLLAR, 1] + offsets[i, sk.L_SHOULDER, 1]
+        shx = offsets[i, sk.L_COLLAR, 0] + offsets[i, sk.L_SHOULDER, 0]
+        if g == G_WAVE:
+            osc = 0.08 * sc * math.sin(2.0 * math.pi * 2.0 * tau)
+            arm_to(i, 1, tq, tp, -shx - 0.12 * sc + osc, shy + 0.32 * sc, 0.12 * sc, offsets, out_q, q1, q2)
+            _put(out_q, i, sk.HEAD, euler_yxz4(-0.1, -0.05, 0.0))
+        elif g == G_POINT:
+            arm_to(i, 1, tq, tp, -shx + 0.05 * sc, shy + 0.02 * sc, 0.62 * sc, offsets, out_q, q1, q2)
+        elif g == G_SHRUG:
+            k = math.sin(math.pi * min(max(tau / max(duration[i], 1e-3), 0.0), 1.0))
+            for side in range(2):
+                sg = 1.0 if side == 0 else -1.0
+                c = sk.L_COLLAR if side == 0 else sk.R_COLLAR
+                _put(out_q, i, c, euler_yxz4(0.0, 0.0, sg * 0.25 * k))
+                _put(out_q, i, c + 1, euler_yxz4(0.0, -0.2 * k, sg * 0.35 * k))
+                _put(out_q, i, c + 2, euler_yxz4(-sg * 0.4 * k, -1.3 * k, 0.0))
+            _put(out_q, i, sk.HEAD, euler_yxz4(0.0, 0.0, 0.12 * k))
+        elif g == G_PHONE:
+            arm_to(i, 1, tq, tp, -0.05 * sc, tp[1] - 0.12 * sc, 0.32 * sc, offsets, out_q, q1, q2)
+            arm_to(i, 0, tq, tp, 0.06 * sc, tp[1] - 0.16 * sc, 0.28 * sc, offsets, out_q, q1, q2)
+            _put(out_q, i, sk.NECK, euler_yxz4(0.0, 0.25, 0.0))
+            _put(out_q, i, sk.HEAD, euler_yxz4(0.0, 0.3, 0.0))
+        elif g == G_POCKETS:
+            hy = offsets[i, sk.PELVIS, 1] - 0.06 * sc
+            arm_to(i, 0, tq, tp, 0.17 * sc, hy, 0.03 * sc, offsets, out_q, q1, q2)
+            arm_to(i, 1, tq, tp, -0.17 * sc, hy, 0.03 * sc, offsets, out_q, q1, q2)
+        elif g == G_TALK:
+            k = 0.06 * sc * math.sin(2.0 * math.pi * 1.2 * tau)
+            arm_to(i, 1, tq, tp, -0.12 * sc, tp[1] - 0.25 * sc + k, 0.35 * sc, offsets, out_q, q1, q2)
+            arm_to(i, 0, tq, tp, 0.14 * sc, tp[1] - 0.3 * sc - k, 0.25 * sc, offsets, out_q, q1, q2)
+
+
+@njit(cache=True, fastmath=True)
+def reach_kernel(active, target, world_pos, world_q, offsets, in_q, out_q):  # type: ignore[no-untyped-def]
+    """Reach (transformer): per agent and arm, put the hand at ``target (N,2,3)`` (world).
+
+    ``world_pos/world_q`` are the FK of the input pose (thorax frame).
+    """
+    n = in_q.shape[0]
+    q1 = np.empty(4)
+    q2 = np.empty(4)
+    tq = np.empty(4)
+    tp = np.empty(3)
+    for i in range(n):
+        for j in range(in_q.shape[1]):
+            for k in range(4):
+                out_q[i, j, k] = in_q[i, j, k]
+        for side in range(2):
+            if not active[i, side]:
+                continue
+            for k in range(4):
+                tq[k] = world_q[i, sk.SPINE3, k]
+            for k in range(3):
+                tp[k] = world_pos[i, sk.SPINE3, k]
+            arm_to(i, side, tq, tp, target[i, side, 0], target[i, side, 1], target[i, side, 2], offsets,
+                   out_q, q1, q2)
+
+
+@njit(cache=True, fastmath=True)
+def blend_kernel(pose_q, pose_p, shadow_q, shadow_p, weight, mask, mask_pelvis_pos):  # type: ignore[no-untyped-def]
+    """Two-input blend node, in place: ``pose ← (1−w)·pose + w·shadow`` on masked joints.
+
+    Quaternions are put in the hemisphere ``w ≥ 0`` before the weighted sum
+    and normalized after, so the result does not depend on input order.
+    """
+    n = pose_q.shape[0]
+    nj = pose_q.shape[1]
+    for i in range(n):
+        w = weight[i]
+        if w <= 0.0:
+            continue
+        for j in range(nj):
+            if not mask[j]:
+                continue
+            sa = 1.0 if pose_q[i, j, 3] >= 0.0 else -1.0
+            sb = 1.0 if shadow_q[i, j, 3] >= 0.0 else -1.0
+            nn = 0.0
+            for k in range(4):
+                v = (1.0 - w) * sa * pose_q[i, j, k] + w * sb * shadow_q[i, j, k]
+                pose_q[i, j, k] = v
+                nn += v * v
+            nn = math.sqrt(nn)
+            for k in range(4):
+                pose_q[i, j, k] /= nn
+        if mask_pelvis_pos:
+            for k in range(3):
+                pose_p[i, k] = (1.0 - w) * pose_p[i, k] + w * shadow_p[i, k]
+
+
+@njit(cache=True, fastmath=True)
+def blend_many(qs, ws, out):  # type: ignore[no-untyped-def]
+    """Multi-input blend node: ``out (N,J,4) = normalize(Σ_m w_m · q_m)``, hemisphere w ≥ 0."""
+    m = qs.shape[0]
+    n = qs.shape[1]
+    nj = qs.shape[2]
+    acc = np.zeros(4)
+    for i in range(n):
+        for j in range(nj):
+            acc[:] = 0.0
+            for c in range(m):
+                sg = 1.0 if qs[c, i, j, 3] >= 0.0 else -1.0
+                for k in range(4):
+                    acc[k] += ws[c, i] * sg * qs[c, i, j, k]
+            nn = math.sqrt(acc[0] ** 2 + acc[1] ** 2 + acc[2] ** 2 + acc[3] ** 2)
+            for k in range(4):
+                out[i, j, k] = acc[k] / nn if nn > 0.0 else (1.0 if k == 3 else 0.0)
