@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pedvr.crowd import orca
-from pedvr.crowd.state import CrowdState, N_LIMITS
+from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.scene.config import SteeringParams
 from pedvr.world.obstacles import ObstacleSet
