@@ -78,7 +78,7 @@ class Simulation:
         self.goal_mesh = self.navmesh_for(max(radii))
         self.steering = Steering(scene.steering, self.obstacles, coupled=self.coupled)
         self.bfsm = BFSM(scene.behavior, self.goal_mesh)
-        self.body = FullBody(rng=self.rng)
+        self.body = FullBody(rng=self.rng, navigate=self._navigate)
 
         self.crowd = CrowdState.empty()
         self.behavior = BehaviorState.rows(0)
@@ -263,6 +263,21 @@ class Simulation:
         for row in np.flatnonzero(d.goal_changed & ~d.leaving):
             self._replan(int(row))
         self._leaving = d.leaving
+
+    def _navigate(self, row: int, target: tuple[float, float] | None) -> None:
+        """The body's ``go_to`` capability: walk ``row`` to ``target`` along the navmesh.
+
+        It sets the agent's goal directly; the BFSM may set another at its next
+        transition (a behavior that uses go_to owns the agent's goal meanwhile).
+        Raises NavigationError when the target cannot be reached.
+        """
+        if target is None:
+            self.behavior.goal[row] = np.nan
+        else:
+            mesh = self.navmesh_for(float(self.crowd.radius[row]))
+            mesh.find_path(tuple(self.crowd.pos[row]), target)  # unreachable: the handle fails
+            self.behavior.goal[row] = target
+        self._replan(row)
 
     def _replan(self, row: int) -> None:
         goal = self.behavior.goal[row]

@@ -117,3 +117,20 @@ def test_bad_options_are_clear() -> None:
         Simulation(scene, condition="fast")
     with pytest.raises(UsageError, match=r"responsibility 2\.0: expected a number in \[0, 1\]"):
         Simulation(scene, responsibility=2.0)
+
+
+def test_go_to_capability_walks_the_agent_there() -> None:
+    """ADAPT's GoTo through the simulation's navigation: running, then success."""
+    sim = Simulation(load_scene(resolve_scene("headon_corridor")))
+    agent = int(sim.crowd.ids[~sim.crowd.is_user][0])
+    # The scene's BFSM counts arrival at 0.4 m and then stands the agent still.
+    handle = sim.body.go_to(agent, (3.0, -0.4), arrive_dist=0.5)
+    assert handle.status.name == "RUNNING"
+    sim.advance_to(4.0)
+    row = sim.crowd.index_of(agent)
+    assert np.linalg.norm(sim.crowd.pos[row] - (3.0, -0.4)) < 0.5
+    assert handle.status.name == "SUCCESS"
+    with pytest.raises(KeyError):
+        sim.crowd.index_of(10**6)
+    failed = sim.body.go_to(agent, (50.0, 0.0))  # outside the world: snapped, or unreachable
+    assert failed.status.name in ("RUNNING", "FAILURE")
