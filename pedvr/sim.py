@@ -20,6 +20,7 @@ import shapely
 
 from pedvr.behavior.bfsm import BFSM, BehaviorState
 from pedvr.body import FullBody
+from pedvr.body.model import GestureSets
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ScriptedUser, StandingUser, UserAgent, UserInput
@@ -78,7 +79,9 @@ class Simulation:
         self.goal_mesh = self.navmesh_for(max(radii))
         self.steering = Steering(scene.steering, self.obstacles, coupled=self.coupled)
         self.bfsm = BFSM(scene.behavior, self.goal_mesh)
-        self.body = FullBody(rng=self.rng, navigate=self._navigate)
+        gestures = GestureSets(by_state={n: st.gestures for n, st in scene.behavior.states.items()
+                                         if st.gestures is not None})
+        self.body = FullBody(rng=self.rng, gestures=gestures, navigate=self._navigate)
 
         self.crowd = CrowdState.empty()
         self.behavior = BehaviorState.rows(0)

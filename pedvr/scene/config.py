@@ -18,6 +18,7 @@ from typing import Literal
 Vec2 = tuple[float, float]
 
 CONDITIONS = ("decoupled", "pedvr", "pedvr+g")
+GESTURE_CLIPS = ("wave", "point", "shrug", "check_phone", "hands_in_pockets", "talk")
 Condition = Literal["decoupled", "pedvr", "pedvr+g"]
 
 
@@ -125,6 +126,8 @@ class StateConfig:
     speed_scale: float = 1.0
     arrive_dist: float = 0.3
     final: bool = False  # entering a final state removes the agent (it has left)
+    # PedVR §4.3: the gesture set of this state, (clip names, weights); None: the body's defaults
+    gestures: tuple[tuple[str, ...], tuple[float, ...]] | None = None
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ from shapely.geometry import Point, Polygon, box
 from pedvr.behavior.goals import selectors, validate_params
 from pedvr.errors import SceneError
 from pedvr.scene.config import (
+    GESTURE_CLIPS,
     AgentProfile,
     BehaviorConfig,
     GoalSelector,
@@ -413,7 +414,8 @@ def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
         if not isinstance(s, dict):
             c.bad(path, s, "expected a table")
             continue
-        c.known(s, path, ("goal", "transitions", "speed_scale", "arrive_dist", "final"))
+        c.known(s, path, ("goal", "transitions", "speed_scale", "arrive_dist", "final", "gestures"))
+        gestures = _gestures(c, s.get("gestures", MISSING), f"{path}.gestures")
         goal = _goal(c, s.get("goal", MISSING), f"{path}.goal", goal_sets)
         trans = []
         raw_t = s.get("transitions", [])
@@ -432,8 +434,32 @@ def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
         if "goal" in s:
             states[sname] = StateConfig(name=sname, goal=goal, transitions=tuple(trans),
                                         speed_scale=speed_scale or 1.0, arrive_dist=arrive or 0.3,
-                                        final=final)
+                                        final=final, gestures=gestures)
     return BehaviorConfig(states=states, goal_sets=goal_sets, decision_hz=hz or 30.0)
+
+
+def _gestures(c: _Checker, g: object, path: str) -> tuple[tuple[str, ...], tuple[float, ...]] | None:
+    """``{clips = ["wave", ...], weights = [...]}``: the state's gesture set (PedVR §4.3)."""
+    if g is MISSING:
+        return None
+    if not isinstance(g, dict):
+        c.bad(path, g, 'expected a table such as {clips = ["wave", "shrug"], weights = [1, 1]}')
+        return None
+    c.known(g, path, ("clips", "weights"))
+    clips = g.get("clips", MISSING)
+    if not isinstance(clips, list) or not clips or not all(isinstance(x, str) for x in clips):
+        c.bad(f"{path}.clips", clips, f"expected a list of gesture names from {', '.join(GESTURE_CLIPS)}")
+        return None
+    unknown = [x for x in clips if x not in GESTURE_CLIPS]
+    if unknown:
+        c.bad(f"{path}.clips", clips, f"unknown gesture {unknown[0]!r}; known: {', '.join(GESTURE_CLIPS)}")
+        return None
+    w = g.get("weights", [1.0] * len(clips))
+    if not isinstance(w, list) or len(w) != len(clips) or not all(is_num(x) and x >= 0 for x in w) \
+            or sum(w) <= 0:
+        c.bad(f"{path}.weights", w, f"expected {len(clips)} numbers >= 0 with a positive sum")
+        return None
+    return tuple(clips), tuple(float(x) for x in w)
 
 
 def _goal(c: _Checker, g: object, path: str, goal_sets: dict[str, GoalSet]) -> GoalSelector | None:

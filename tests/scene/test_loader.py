@@ -63,6 +63,18 @@ def test_good_scene_loads_with_inheritance(tmp_path: Path) -> None:
     assert s.behavior.states["wait"].goal is None
     assert s.behavior.states["wait"].transitions[0].after == (1.0, 2.0)
     assert len(s.content_hash) == 16
+    assert s.behavior.states["wait"].gestures is None
+
+
+def test_state_gesture_sets_reach_the_body(tmp_path: Path) -> None:
+    """PedVR §4.3: a gesture set per BFSM state, drawn by weight."""
+    from pedvr.sim import Simulation
+
+    data = patched(behavior__states__wait__gestures={"clips": ["check_phone", "wave"], "weights": [3, 1]})
+    s = load_scene(write(tmp_path, data))
+    assert s.behavior.states["wait"].gestures == (("check_phone", "wave"), (3.0, 1.0))
+    sim = Simulation(s)
+    assert sim.body.gestures.by_state == {"wait": (("check_phone", "wave"), (3.0, 1.0))}
 
 
 @pytest.mark.parametrize("changes, message", [
@@ -100,6 +112,10 @@ def test_good_scene_loads_with_inheritance(tmp_path: Path) -> None:
     ({"user__speed": 9}, r"user\.speed = 9: must be in \(0, 3\] m/s"),
     ({"steering": {"user_responsibility": 1.5}}, r"steering\.user_responsibility = 1\.5: must be in \[0, 1\]"),
     ({"colour": "blue"}, r"x\.toml: colour = 'blue': unknown key"),
+    ({"behavior__states__wait__gestures": {"clips": ["juggle"]}},
+     r"behavior\.states\.wait\.gestures\.clips = \[\"juggle\"\]: unknown gesture 'juggle'; known: wave, point"),
+    ({"behavior__states__wait__gestures": {"clips": ["wave", "shrug"], "weights": [1]}},
+     r"behavior\.states\.wait\.gestures\.weights = \[1\]: expected 2 numbers >= 0"),
 ])
 def test_each_problem_has_its_message(tmp_path: Path, changes: dict, message: str) -> None:
     with pytest.raises(SceneError, match=message):
