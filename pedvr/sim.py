@@ -274,27 +274,31 @@ class Simulation:
         transition (a behavior that uses go_to owns the agent's goal meanwhile).
         Raises NavigationError when the target cannot be reached.
         """
-        if target is None:
-            self.behavior.goal[row] = np.nan
-        else:
-            mesh = self.navmesh_for(float(self.crowd.radius[row]))
-            mesh.find_path(tuple(self.crowd.pos[row]), target)  # unreachable: the handle fails
-            self.behavior.goal[row] = target
-        self._replan(row)
+        previous = self.behavior.goal[row].copy()
+        self.behavior.goal[row] = np.nan if target is None else target
+        try:
+            self._replan(row, strict=True)
+        except NavigationError:
+            self.behavior.goal[row] = previous  # the handle fails; the agent keeps its goal
+            self._replan(row)
+            raise
 
-    def _replan(self, row: int) -> None:
+    def _replan(self, row: int, *, strict: bool = False) -> None:
+        """A new path to the row's goal; unreachable goals leave it standing (or raise, if strict)."""
         goal = self.behavior.goal[row]
-        if np.isnan(goal[0]):
-            self.paths[row] = np.zeros((0, 2))
-        else:
-            mesh = self.navmesh_for(float(self.crowd.radius[row]))
-            try:
-                self.paths[row] = mesh.find_path(tuple(self.crowd.pos[row]), (float(goal[0]), float(goal[1])))
-            except NavigationError:
-                self.unreachable_goals += 1
-                self.paths[row] = np.zeros((0, 2))
         self.cursor[row] = 1
         self._flat = None
+        if np.isnan(goal[0]):
+            self.paths[row] = np.zeros((0, 2))
+            return
+        mesh = self.navmesh_for(float(self.crowd.radius[row]))
+        try:
+            self.paths[row] = mesh.find_path(tuple(self.crowd.pos[row]), (float(goal[0]), float(goal[1])))
+        except NavigationError:
+            self.paths[row] = np.zeros((0, 2))
+            if strict:
+                raise
+            self.unreachable_goals += 1
 
     def _flat_paths(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self._flat is None:
