@@ -2,7 +2,8 @@
 
 Stereo at ``width × height`` per eye (both eyes in one side-by-side pass),
 offscreen through EGL. Agents walk on a grid in front of the user, so all of
-them are in view. Per frame: the procedural pose (``pose_ms``), the texture
+them are in view, posed by the body layer (its cost is the simulation's and is not counted here).
+Per frame: preparing the body's joint matrices (``pose_ms``), the texture
 uploads (``upload_ms``), the draw submission (``submit_ms``, CPU time to issue
 the draw calls), and the whole frame including ``glFinish`` (``frame_ms``).
 ``draw_calls`` is per frame and must not grow with the number of agents.
@@ -17,21 +18,47 @@ import time
 
 import numpy as np
 
+from pedvr.body import FullBody
+from pedvr.crowd.state import CrowdState
 from pedvr.render.math3d import desktop_stereo_eyes
 from pedvr.render.renderer import OffscreenTarget, Renderer, create_offscreen_context, gl_renderer_name
 from pedvr.render.snapshot import Snapshot
 from pedvr.scene.config import WorldConfig
 
 
-def _crowd(agents: int, t: float) -> Snapshot:
-    side = math.ceil(math.sqrt(agents))
-    k = np.arange(agents)
-    base = np.stack([2.0 + (k // side) * 0.9, (k % side - side / 2) * 0.9], axis=1)
-    heading = np.where(k % 2 == 0, 0.0, math.pi) + 0.1 * np.sin(k)
-    vel = 1.3 * np.stack([np.cos(heading), np.sin(heading)], axis=1)
-    pos = base + 0.2 * np.sin(t + k)[:, None] * vel / 1.3
-    gaze = np.tile([0.0, 1.65, 0.0], (agents, 1))
-    return Snapshot.of_agents(pos=pos, heading=heading, vel=vel, gaze_target=gaze, t=t)
+class _Crowd:
+    """Agents on a grid, walking back and forth, posed by a real :class:`~pedvr.body.FullBody`."""
+
+    def __init__(self, agents: int) -> None:
+        side = math.ceil(math.sqrt(agents))
+        k = np.arange(agents)
+        self.base = np.stack([2.0 + (k // side) * 0.9, (k % side - side / 2) * 0.9], axis=1)
+        self.heading = np.where(k % 2 == 0, 0.0, math.pi) + 0.1 * np.sin(k)
+        self.k = k
+        ids = k.astype(np.int64)
+        self.body = FullBody(rng=np.random.default_rng(0))
+        self.body.append(agents, ids=ids, pos=self.base, heading=self.heading, is_user=False)
+        for i in range(0, agents, 3):
+            self.body.gaze_at(int(i), (0.0, 1.65, 0.0))
+        n = agents
+        self.crowd = CrowdState(
+            ids=ids, pos=self.base.copy(), vel=np.zeros((n, 2)), pref_vel=np.zeros((n, 2)),
+            heading=self.heading.copy(), pref_heading=self.heading.copy(), radius=np.full(n, 0.25),
+            pref_speed=np.full(n, 1.3), max_speed=np.full(n, 1.6), responsibility=np.full(n, 0.5),
+            is_user=np.zeros(n, np.bool_), limits=np.zeros((n, 6)),
+        )
+
+    def step(self, t: float, dt: float) -> Snapshot:
+        """Advance the bodies to ``t`` (the body's cost is the simulation's, not timed here)."""
+        fwd = np.stack([np.cos(self.heading), np.sin(self.heading)], axis=1)
+        pos = self.base + 0.3 * np.sin(t + self.k)[:, None] * fwd
+        vel = (pos - self.crowd.pos) / dt
+        self.body.compose(self.crowd, pos, self.heading, dt=dt, t=t, coupled=True)
+        self.crowd.pos, self.crowd.vel = pos, vel
+        return Snapshot.of_agents(
+            pos=pos, heading=self.heading, vel=vel, ids=self.crowd.ids, bones=self.body.joint_matrices(),
+            dims=self.body.state.dims, t=t,
+        )
 
 
 def run_render_bench(
@@ -47,8 +74,9 @@ def run_render_bench(
     target = OffscreenTarget(ctx, (2 * width, height))
     eyes = desktop_stereo_eyes(pos=np.zeros(2), heading=0.0, aspect=width / height)
     pose, upload, submit, frame, calls = [], [], [], [], []
+    crowd = _Crowd(agents)
     for i in range(warmup + frames):
-        snap = _crowd(agents, i / 90.0)
+        snap = crowd.step((i + 1) / 90.0, 1.0 / 90.0)
         t0 = time.perf_counter()
         r.begin_frame()
         r.update(snap)

@@ -1,23 +1,24 @@
-"""Person-shaped figures: a skeleton, body segments per bone, per-agent looks, and a procedural pose.
+"""Person-shaped figures on the body layer's 26-joint skeleton; per-agent looks; a standing fallback.
 
-The renderer draws a crowd from two arrays: bone matrices ``(N, J, 4, 4)``
-(bone-local to world, per agent and joint) and a palette ``(N, 4, 3)``
-(skin, top, trousers, hair/shoes; linear RGB). A :class:`Skeleton` says
-which segments (boxes and ellipsoids shaped like a head, torso, limbs, eyes
-with pupils) hang on which bone; the mesh of all segments is drawn instanced,
-one draw call for the whole crowd (DESIGN.md "render").
+The renderer draws a crowd from two arrays: bone matrices ``(N, 26, 4, 4)``
+(joint frame to world, per agent and joint; ``sim.body.joint_matrices()``,
+DESIGN.md "body") and a palette ``(N, 4, 3)`` (skin, top, trousers,
+hair/shoes; linear RGB). :data:`BODY` says which segments (boxes and
+ellipsoids shaped like a head, torso, limbs, shoes, eyes with pupils) hang on
+which joint; the mesh of all segments is drawn instanced, one draw call for
+the whole crowd (DESIGN.md "render").
 
-Until the body layer (DESIGN.md "body": 26 joints, footsteps, gaze
-controller) provides world transforms, :class:`ProceduralPoser` derives a
-16-joint pose from the 2D state (PedVR §3.6: the skeleton follows the
-agent's position, heading and speed): a walk cycle whose phase advances
-with distance walked, and a head and eyes turned toward each agent's gaze
-target (eyes lead within ±35°, the head takes the rest within ±70°). Swapping
-in the body layer means a second :class:`Skeleton` with that layer's joint
-names and segments, and passing its ``(N, J, 4, 4)`` array instead.
+Segments are sized for the body layer's 1.75 m reference adult in each
+joint's own frame (the bind pose has identity rotations, so joint frames share
+the body frame's axes: **+Y up, +Z forward, +X the character's left**); the
+renderer scales each agent's joint rotations by its ``dims`` scale
+(height / 1.75), so a shorter person has a smaller head and thinner limbs as
+well as shorter bones. Eye segments hang on ``LEye``/``REye`` with the pupil
+on their local +Z, so the pupils show where the body's gaze controller aims.
 
-Character frame: ``+X`` forward, ``+Y`` up, ``+Z`` to the character's right
-(see :mod:`pedvr.render.math3d`); ``_l`` joints are on its left (``−Z``).
+A renderer fed without a body (hand-made snapshots in tests and tools) draws
+each agent standing in the bind pose at its position and heading
+(:func:`standing_bones`): there is no second animation path.
 """
 
 from __future__ import annotations
@@ -27,17 +28,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pedvr.body import JOINTS, PARENTS, rest_positions
 from pedvr.render.math3d import ground_to_world
 
 # Colour slots of a segment; 0-3 vary per agent (the palette), 4-5 are fixed in the shader.
 SKIN, TOP, TROUSERS, HAIR, EYE_WHITE, PUPIL = range(6)
-NOMINAL_HEIGHT = 1.76  # m, top of the head of the unscaled procedural skeleton
-EYE_HEIGHT_FRACTION = 1.652 / NOMINAL_HEIGHT  # eye height / body height of the procedural skeleton
-STEP_LENGTH = 0.7  # m per step at a normal walk: the cycle (two steps) advances 2π per 1.4 m
-EYE_YAW_LIMIT = math.radians(35.0)
-EYE_PITCH_LIMIT = math.radians(25.0)
-HEAD_YAW_LIMIT = math.radians(70.0)
-HEAD_PITCH_LIMIT = math.radians(35.0)
+REFERENCE_HEIGHT = 1.75  # m: the body layer's reference adult, for whom the segments are sized
 
 
 @dataclass(frozen=True)
@@ -79,73 +75,39 @@ class Skeleton:
         return self.names.index(name)
 
 
-def _procedural_skeleton() -> Skeleton:
-    names = (
-        "root",
-        "pelvis",
-        "spine",
-        "chest",
-        "neck",
-        "head",
-        "eye_l",
-        "eye_r",
-        "upper_arm_l",
-        "forearm_l",
-        "upper_arm_r",
-        "forearm_r",
-        "thigh_l",
-        "shin_l",
-        "thigh_r",
-        "shin_r",
-    )
-    parents = (-1, 0, 1, 2, 3, 4, 5, 5, 3, 8, 3, 10, 1, 12, 1, 14)
+def _body_skeleton() -> Skeleton:
+    """Segments on the body layer's joints (reference adult: hips 0.93 m, eyes 1.64 m, head top 1.75 m)."""
+    names = tuple(JOINTS)
+    parents = tuple(int(p) for p in PARENTS[: len(names)])
     j = {n: i for i, n in enumerate(names)}
     segs = [
-        Segment(j["pelvis"], "box", (0.0, 0.0, 0.0), (0.2, 0.2, 0.34), TROUSERS),
-        Segment(j["spine"], "box", (0.0, 0.13, 0.0), (0.19, 0.28, 0.33), TOP),
-        Segment(j["chest"], "box", (0.0, 0.04, 0.0), (0.22, 0.24, 0.42), TOP),
-        Segment(j["neck"], "box", (0.0, 0.04, 0.0), (0.1, 0.12, 0.1), SKIN),
-        Segment(j["head"], "ellipsoid", (0.0, 0.072, 0.0), (0.2, 0.245, 0.18), SKIN),
-        Segment(j["head"], "ellipsoid", (-0.025, 0.115, 0.0), (0.2, 0.19, 0.19), HAIR),
-        Segment(j["head"], "box", (0.1, 0.04, 0.0), (0.035, 0.045, 0.025), SKIN),  # nose
-        Segment(j["eye_l"], "ellipsoid", (0.0, 0.0, 0.0), (0.036, 0.036, 0.036), EYE_WHITE),
-        Segment(j["eye_l"], "ellipsoid", (0.014, 0.0, 0.0), (0.014, 0.018, 0.018), PUPIL),
-        Segment(j["eye_r"], "ellipsoid", (0.0, 0.0, 0.0), (0.036, 0.036, 0.036), EYE_WHITE),
-        Segment(j["eye_r"], "ellipsoid", (0.014, 0.0, 0.0), (0.014, 0.018, 0.018), PUPIL),
+        Segment(j["Pelvis"], "box", (0.0, -0.03, -0.005), (0.32, 0.2, 0.2), TROUSERS),
+        Segment(j["Spine1"], "box", (0.0, 0.06, 0.0), (0.29, 0.16, 0.19), TOP),
+        Segment(j["Spine2"], "box", (0.0, 0.07, 0.005), (0.32, 0.16, 0.21), TOP),
+        Segment(j["Spine3"], "box", (0.0, 0.055, 0.0), (0.37, 0.17, 0.2), TOP),
+        Segment(j["Neck"], "box", (0.0, 0.05, 0.0), (0.1, 0.12, 0.1), SKIN),
+        Segment(j["Head"], "ellipsoid", (0.0, 0.045, 0.005), (0.165, 0.215, 0.2), SKIN),
+        Segment(j["Head"], "ellipsoid", (0.0, 0.085, -0.015), (0.182, 0.17, 0.21), HAIR),
+        Segment(j["Head"], "box", (0.0, 0.005, 0.1), (0.024, 0.04, 0.03), SKIN),  # nose
     ]
-    for side in "lr":
+    for side in "LR":
+        sign = 1.0 if side == "L" else -1.0
         segs += [
-            Segment(j[f"upper_arm_{side}"], "box", (0.0, -0.14, 0.0), (0.09, 0.3, 0.09), TOP),
-            Segment(j[f"forearm_{side}"], "box", (0.0, -0.13, 0.0), (0.075, 0.27, 0.075), SKIN),
-            Segment(j[f"forearm_{side}"], "ellipsoid", (0.0, -0.3, 0.0), (0.08, 0.1, 0.06), SKIN),
-            Segment(j[f"thigh_{side}"], "box", (0.0, -0.22, 0.0), (0.13, 0.46, 0.13), TROUSERS),
-            Segment(j[f"shin_{side}"], "box", (0.0, -0.22, 0.0), (0.1, 0.44, 0.1), TROUSERS),
-            Segment(j[f"shin_{side}"], "box", (0.05, -0.445, 0.0), (0.25, 0.07, 0.1), HAIR),
+            Segment(j[f"{side}Eye"], "ellipsoid", (0.0, 0.0, 0.0), (0.03, 0.03, 0.03), EYE_WHITE),
+            Segment(j[f"{side}Eye"], "ellipsoid", (0.0, 0.0, 0.0125), (0.015, 0.015, 0.01), PUPIL),
+            Segment(j[f"{side}Shoulder"], "ellipsoid", (-0.01 * sign, -0.01, 0.0), (0.12, 0.12, 0.12), TOP),
+            Segment(j[f"{side}Shoulder"], "box", (0.0, -0.145, 0.0), (0.095, 0.3, 0.1), TOP),
+            Segment(j[f"{side}Elbow"], "box", (0.0, -0.125, 0.0), (0.075, 0.26, 0.08), SKIN),
+            Segment(j[f"{side}Wrist"], "ellipsoid", (0.0, -0.085, 0.0), (0.04, 0.17, 0.085), SKIN),
+            Segment(j[f"{side}Hip"], "box", (0.0, -0.215, 0.0), (0.15, 0.45, 0.15), TROUSERS),
+            Segment(j[f"{side}Knee"], "box", (0.0, -0.2, 0.0), (0.11, 0.42, 0.11), TROUSERS),
+            Segment(j[f"{side}Ankle"], "box", (0.0, -0.045, 0.035), (0.1, 0.07, 0.2), HAIR),  # shoe
+            Segment(j[f"{side}Toe"], "box", (0.0, 0.0, 0.03), (0.095, 0.04, 0.07), HAIR),  # toe cap
         ]
     return Skeleton(names=names, parents=parents, segments=tuple(segs))
 
 
-PROCEDURAL = _procedural_skeleton()
-
-# Rest offsets of each procedural joint from its parent (parent frame, unscaled metres).
-_REST = {
-    "root": (0.0, 0.0, 0.0),
-    "pelvis": (0.0, 0.95, 0.0),
-    "spine": (0.0, 0.07, 0.0),
-    "chest": (0.0, 0.3, 0.0),
-    "neck": (0.0, 0.18, 0.0),
-    "head": (0.0, 0.08, 0.0),
-    "eye_l": (0.085, 0.072, -0.033),
-    "eye_r": (0.085, 0.072, 0.033),
-    "upper_arm_l": (0.0, 0.14, -0.2),
-    "forearm_l": (0.0, -0.29, 0.0),
-    "upper_arm_r": (0.0, 0.14, 0.2),
-    "forearm_r": (0.0, -0.29, 0.0),
-    "thigh_l": (0.0, -0.02, -0.09),
-    "shin_l": (0.0, -0.45, 0.0),
-    "thigh_r": (0.0, -0.02, 0.09),
-    "shin_r": (0.0, -0.45, 0.0),
-}
+BODY = _body_skeleton()
 
 
 # -- looks -----------------------------------------------------------------------------------
@@ -219,144 +181,38 @@ def agent_looks(ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return palette.astype(np.float32), height
 
 
-# -- the procedural pose -----------------------------------------------------------------------
 
 
-def _rot(axis: str, a: np.ndarray) -> np.ndarray:
-    """(N, 4, 4) rotations about a local axis by angles ``a`` (N,)."""
-    n = a.shape[0]
-    m = np.zeros((n, 4, 4))
-    m[:, 3, 3] = 1.0
-    c, s = np.cos(a), np.sin(a)
-    i, k = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
-    m[:, "xyz".index(axis), "xyz".index(axis)] = 1.0
-    m[:, i, i], m[:, i, k], m[:, k, i], m[:, k, k] = c, -s, s, c
-    return m
+# -- without a body ----------------------------------------------------------------------------
 
 
-def _translate(n: int, offset: tuple[float, float, float]) -> np.ndarray:
-    m = np.tile(np.eye(4), (n, 1, 1))
-    m[:, :3, 3] = offset
-    return m
+def default_dims(ids: np.ndarray) -> np.ndarray:
+    """Body dims ``(N, 4)`` (height, sex, build, scale) for agents that have no body: height from the id."""
+    _, height = agent_looks(ids)
+    dims = np.zeros((len(height), 4))
+    dims[:, 0], dims[:, 2], dims[:, 3] = height, 0.5, height / REFERENCE_HEIGHT
+    return dims
 
 
-def _aim_angles(local_dir: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Yaw (about +Y) and pitch (about +Z) turning local +X onto ``local_dir`` (N, 3)."""
-    dx, dy, dz = local_dir[:, 0], local_dir[:, 1], local_dir[:, 2]
-    return np.arctan2(-dz, dx), np.arctan2(dy, np.hypot(dx, dz))
+def standing_bones(pos: np.ndarray, heading: np.ndarray, dims: np.ndarray) -> np.ndarray:
+    """World joint matrices ``(N, 26, 4, 4)`` float32 of people standing in the bind pose.
 
-
-class ProceduralPoser:
-    """Bone matrices from the 2D state: walk cycle plus head and eyes toward a gaze target.
-
-    Keeps a walk phase per agent id (render-side state only; it reads the
-    simulation, never writes it). Call :meth:`pose` once per rendered frame
-    with the time elapsed since the last call.
+    Agent ``i`` stands at 2D ``pos[i]`` facing 2D ``heading[i]`` (the body
+    layer's convention: a rotation about +Y by π/2 − θ turns its +Z forward
+    onto 3D ``(cos θ, 0, sin θ)``); its eyes look straight ahead.
     """
-
-    skeleton = PROCEDURAL
-
-    def __init__(self) -> None:
-        self._phase: dict[int, float] = {}
-
-    def pose(
-        self,
-        *,
-        ids: np.ndarray,
-        pos: np.ndarray,
-        heading: np.ndarray,
-        vel: np.ndarray,
-        height: np.ndarray,
-        gaze_target: np.ndarray | None = None,
-        dt: float = 0.0,
-    ) -> np.ndarray:
-        """World transforms ``(N, J, 4, 4)`` float32 of every agent's joints.
-
-        ``gaze_target`` is ``(N, 3)`` world points (NaN rows: look ahead) the
-        head and eyes turn toward. ``dt`` advances the walk phase.
-        """
-        ids = np.asarray(ids, dtype=np.int64)
-        n = ids.shape[0]
-        speed = np.linalg.norm(np.asarray(vel, dtype=np.float64).reshape(n, 2), axis=1)
-        phase = np.fromiter((self._phase.get(int(i), 0.37 * float(i)) for i in ids), np.float64, n)
-        phase = phase + 2.0 * math.pi * speed * dt / (2.0 * STEP_LENGTH)
-        self._phase = {int(i): float(p % (2 * math.pi)) for i, p in zip(ids, phase, strict=True)}
-        return procedural_pose(
-            pos=pos, heading=heading, speed=speed, height=height, phase=phase, gaze_target=gaze_target
-        )
-
-
-def procedural_pose(
-    *,
-    pos: np.ndarray,
-    heading: np.ndarray,
-    speed: np.ndarray,
-    height: np.ndarray,
-    phase: np.ndarray,
-    gaze_target: np.ndarray | None = None,
-) -> np.ndarray:
-    """Stateless core of :class:`ProceduralPoser`: world bone matrices ``(N, J, 4, 4)`` float32."""
-    sk = PROCEDURAL
-    n = int(np.asarray(heading).shape[0])
-    pos = np.asarray(pos, dtype=np.float64).reshape(n, 2)
-    heading = np.asarray(heading, dtype=np.float64).reshape(n)
-    scale = np.asarray(height, dtype=np.float64).reshape(n) / NOMINAL_HEIGHT
-    amp = 0.45 * np.clip(np.asarray(speed, dtype=np.float64) / 1.3, 0.0, 1.0)
-    s = np.sin(phase)
-
-    root = _rot("y", -heading)  # heading θ -> yaw −θ (math3d)
-    root[:, :3, :3] *= scale[:, None, None]
-    root[:, :3, 3] = ground_to_world(pos)
-
-    local = {name: _translate(n, off) for name, off in _REST.items()}
-    local["pelvis"][:, 1, 3] -= 0.025 * amp * (1.0 - np.abs(np.cos(phase)))
-    local["thigh_l"] = local["thigh_l"] @ _rot("z", amp * s)
-    local["thigh_r"] = local["thigh_r"] @ _rot("z", -amp * s)
-    local["shin_l"] = local["shin_l"] @ _rot("z", -1.2 * amp * np.maximum(0.0, -np.cos(phase)))
-    local["shin_r"] = local["shin_r"] @ _rot("z", -1.2 * amp * np.maximum(0.0, np.cos(phase)))
-    local["upper_arm_l"] = local["upper_arm_l"] @ _rot("z", -0.7 * amp * s) @ _rot("x", np.full(n, -0.06))
-    local["upper_arm_r"] = local["upper_arm_r"] @ _rot("z", 0.7 * amp * s) @ _rot("x", np.full(n, 0.06))
-    local["forearm_l"] = local["forearm_l"] @ _rot("z", np.full(n, 0.2) + 0.3 * amp)
-    local["forearm_r"] = local["forearm_r"] @ _rot("z", np.full(n, 0.2) + 0.3 * amp)
-
-    world = np.empty((n, sk.joints, 4, 4))
-    world[:, 0] = root
-    head_j = sk.index("head")
-    for j in range(1, head_j):
-        world[:, j] = world[:, sk.parents[j]] @ local[sk.names[j]]
-
-    # Gaze: the head turns toward the target within its limits, the eyes take the rest (eyes lead).
-    head_yaw = np.zeros(n)
-    head_pitch = np.zeros(n)
-    eye_yaw = np.zeros(n)
-    eye_pitch = np.zeros(n)
-    if gaze_target is not None:
-        g = np.asarray(gaze_target, dtype=np.float64).reshape(n, 3)
-        has = np.all(np.isfinite(g), axis=1)
-        if has.any():
-            neck = world[:, sk.index("neck")]
-            head_frame = neck @ local["head"]
-            mid_eye = head_frame @ np.array([0.085, 0.072, 0.0, 1.0])
-            d_world = g - mid_eye[:, :3]
-            # Into the neck's frame (rotation only; the scale is uniform and drops out of the angles).
-            d_local = np.einsum("nji,nj->ni", neck[:, :3, :3], np.where(has[:, None], d_world, 1.0))
-            yaw, pitch = _aim_angles(d_local)
-            head_yaw = np.where(has, np.clip(yaw, -HEAD_YAW_LIMIT, HEAD_YAW_LIMIT) * 0.7, 0.0)
-            head_pitch = np.where(has, np.clip(pitch, -HEAD_PITCH_LIMIT, HEAD_PITCH_LIMIT) * 0.6, 0.0)
-            eye_yaw = np.where(has, np.clip(yaw - head_yaw, -EYE_YAW_LIMIT, EYE_YAW_LIMIT), 0.0)
-            eye_pitch = np.where(has, np.clip(pitch - head_pitch, -EYE_PITCH_LIMIT, EYE_PITCH_LIMIT), 0.0)
-    local["head"] = local["head"] @ _rot("y", head_yaw) @ _rot("z", head_pitch)
-    eye_rot = _rot("y", eye_yaw) @ _rot("z", eye_pitch)
-    local["eye_l"] = local["eye_l"] @ eye_rot
-    local["eye_r"] = local["eye_r"] @ eye_rot
-    for j in range(head_j, sk.joints):
-        world[:, j] = world[:, sk.parents[j]] @ local[sk.names[j]]
-    return world.astype(np.float32)
-
-
-def eye_height_of(height: float | np.ndarray) -> float | np.ndarray:
-    """Eye height of a procedural figure of body ``height`` (the first-person camera's height)."""
-    return height * EYE_HEIGHT_FRACTION
+    pos = np.asarray(pos, np.float64).reshape(-1, 2)
+    n = pos.shape[0]
+    a = math.pi / 2 - np.asarray(heading, np.float64).reshape(n)
+    c, s = np.cos(a), np.sin(a)
+    rot = np.zeros((n, 3, 3))
+    rot[:, 0, 0], rot[:, 0, 2], rot[:, 1, 1], rot[:, 2, 0], rot[:, 2, 2] = c, s, 1.0, -s, c
+    rest = rest_positions(dims)[:, : len(JOINTS)]
+    out = np.zeros((n, len(JOINTS), 4, 4))
+    out[:, :, :3, :3] = rot[:, None]
+    out[:, :, :3, 3] = np.einsum("nij,nkj->nki", rot, rest) + ground_to_world(pos)[:, None, :]
+    out[:, :, 3, 3] = 1.0
+    return out.astype(np.float32)
 
 
 # -- the mesh ----------------------------------------------------------------------------------

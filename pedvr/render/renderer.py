@@ -3,9 +3,10 @@
 OpenGL 3.3 core; every program comes from a file in ``shaders/``
 (:mod:`pedvr.render.shaders`). Per frame:
 
-1. :meth:`Renderer.update` takes a :class:`~pedvr.render.snapshot.Snapshot`,
-   poses every visible agent (:class:`~pedvr.render.figures.ProceduralPoser`
-   until the body layer lands), and uploads bone matrices ``(N, J, 4, 4)``,
+1. :meth:`Renderer.update` takes a :class:`~pedvr.render.snapshot.Snapshot`
+   carrying the body layer's joint world matrices ``(N, 26, 4, 4)`` (agents
+   of a hand-made snapshot without a body stand in the bind pose), scales
+   each agent's joint frames by its body scale, and uploads bone matrices,
    palettes and shadow discs into float textures: one ``texture.write`` each.
 2. :meth:`Renderer.draw_scene` draws floor, walls and obstacles, the red
    target sphere, the crowd and its contact shadows for one eye or, with two
@@ -32,7 +33,7 @@ import numpy as np
 
 from pedvr.errors import BackendUnavailableError
 from pedvr.render.environment import environment_mesh, sphere_vertices
-from pedvr.render.figures import ProceduralPoser, Skeleton, agent_looks, skeleton_mesh
+from pedvr.render.figures import BODY, agent_looks, default_dims, skeleton_mesh, standing_bones
 from pedvr.render.math3d import EyeView, overhead_transform
 from pedvr.render.overhead import BACKGROUND, disc_fan, frame_geometry, static_triangles
 from pedvr.render.shaders import SHADER_DIR, compile_program
@@ -101,9 +102,8 @@ class OffscreenTarget:
 class Renderer:
     """Draws one world and its crowd. Keyword-only options:
 
-    ``shader_dir``: where the GLSL files are. ``skeleton``: the skeleton the
-    bone matrices refer to (default: the procedural one). ``hide_user``: do
-    not draw the user's own body (first person, issue 4).
+    ``shader_dir``: where the GLSL files are. ``hide_user``: do not draw the
+    user's own body (first person, issue 4).
     """
 
     def __init__(
@@ -112,20 +112,17 @@ class Renderer:
         *,
         world: WorldConfig,
         shader_dir: Path = SHADER_DIR,
-        skeleton: Skeleton | None = None,
         hide_user: bool = True,
     ) -> None:
         self.ctx = ctx
         self.world = world
-        self.poser = ProceduralPoser()
-        self.skeleton = skeleton or self.poser.skeleton
+        self.skeleton = BODY
         self.hide_user = hide_user
         self.stats = FrameStats()
         self._n = 0
         self._capacity = 0
         self._sphere: np.ndarray | None = None
         self._sphere_radius = 0.25
-        self._last_t: float | None = None
         self._snap: Snapshot | None = None
 
         names = ("crowd", "environment", "shadow", "overlay", "discs", "panel", "composite")
@@ -199,37 +196,30 @@ class Renderer:
         """Reset the per-frame draw-call count."""
         self.stats.draw_calls = 0
 
-    def update(self, snap: Snapshot, *, bones: np.ndarray | None = None) -> None:
-        """Pose (or take ``bones`` ``(N, J, 4, 4)`` from the body layer) and upload the crowd of ``snap``."""
+    def update(self, snap: Snapshot) -> None:
+        """Upload the crowd of ``snap``: its body poses (``snap.bones``), looks and shadow discs."""
         t0 = time.perf_counter()
         show = ~snap.is_user if self.hide_user else np.ones(len(snap), np.bool_)
         rows = np.flatnonzero(show)
         n = int(rows.size)
-        palette, height = agent_looks(snap.ids)
-        dt = 0.0 if self._last_t is None else max(0.0, snap.t - self._last_t)
-        self._last_t = snap.t
-        if bones is None:
-            gaze = None if snap.gaze_target is None else snap.gaze_target
-            world = self.poser.pose(
-                ids=snap.ids,
-                pos=snap.pos,
-                heading=snap.heading,
-                vel=snap.vel,
-                height=height,
-                gaze_target=gaze,
-                dt=dt,
-            )
+        palette, _ = agent_looks(snap.ids)
+        dims = default_dims(snap.ids) if snap.dims is None else np.asarray(snap.dims, np.float64)
+        if snap.bones is None:
+            world = standing_bones(snap.pos[rows], snap.heading[rows], dims[rows])
         else:
-            world = np.asarray(bones, dtype=np.float32)
-            if world.shape != (len(snap), self.skeleton.joints, 4, 4):
+            bones = np.asarray(snap.bones)
+            if bones.shape != (len(snap), self.skeleton.joints, 4, 4):
                 raise ValueError(
-                    f"bones shape {world.shape}: expected ({len(snap)}, {self.skeleton.joints}, 4, 4)"
+                    f"bones shape {bones.shape}: expected ({len(snap)}, {self.skeleton.joints}, 4, 4)"
                 )
+            world = bones[rows].astype(np.float32)  # a copy: the caller's array is not touched
+        # Segments are sized for the reference adult: scale each agent's joint frames by its body scale.
+        world[:, :, :3, :3] *= dims[rows, 3].astype(np.float32)[:, None, None, None]
         t1 = time.perf_counter()
         self._ensure_capacity(max(n, 1))
         if n:
             # Column-major: texel 4j + k of row i is column k of agent i's joint j.
-            cols = np.ascontiguousarray(world[rows].transpose(0, 1, 3, 2), dtype=np.float32)
+            cols = np.ascontiguousarray(world.transpose(0, 1, 3, 2), dtype=np.float32)
             self._bones.write(cols.tobytes(), viewport=(0, 0, 4 * self.skeleton.joints, n))
             pal = np.zeros((n, 4, 4), np.float32)
             pal[:, :, :3] = palette[rows]

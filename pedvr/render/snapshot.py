@@ -22,9 +22,12 @@ SPHERE_HEIGHT = 1.4  # m: the red target sphere floats just below eye level
 class Snapshot:
     """Per-agent arrays (rows as in the crowd; the user row, if any, flagged in ``is_user``).
 
-    ``gaze_target`` is ``(N, 3)`` world points each agent looks at (NaN rows:
-    none); until the behaviour layer's gaze rule (PedVR §4.2) and the body's
-    gaze controller provide it, callers pass it explicitly or leave it None.
+    ``bones`` ``(N, 26, 4, 4) float32`` are the body layer's joint world
+    matrices (``sim.body.joint_matrices()``) and ``dims`` ``(N, 4)`` its body
+    dimensions (height, sex, build, scale); a snapshot without them (made by
+    hand) is drawn with everyone standing (:func:`~pedvr.render.figures.standing_bones`).
+    ``gaze_target`` is ``(N, 3)`` world points for the overhead view's gaze
+    lines (NaN rows: none); the figures' eyes follow ``bones``, not this.
     ``sphere`` is the next red target sphere on the ground, or None when the
     route is done; ``route`` all spheres.
     """
@@ -37,6 +40,8 @@ class Snapshot:
     radius: np.ndarray
     is_user: np.ndarray
     gaze_target: np.ndarray | None = None
+    bones: np.ndarray | None = None
+    dims: np.ndarray | None = None
     sphere: np.ndarray | None = None
     sphere_radius: float = 0.5
     route: np.ndarray | None = None
@@ -71,6 +76,8 @@ class Snapshot:
             radius=c.radius.copy(),
             is_user=c.is_user.copy(),
             gaze_target=None if gaze_target is None else np.asarray(gaze_target, dtype=np.float64),
+            bones=sim.body.joint_matrices(),
+            dims=sim.body.state.dims.copy(),
             sphere=sphere,
             sphere_radius=radius,
             route=route,
@@ -88,10 +95,15 @@ class Snapshot:
         radius: float = 0.25,
         is_user: np.ndarray | None = None,
         gaze_target: np.ndarray | None = None,
+        bones: np.ndarray | None = None,
+        dims: np.ndarray | None = None,
         sphere: np.ndarray | None = None,
         t: float = 0.0,
     ) -> Snapshot:
-        """A hand-made snapshot (tests, benchmarks): agents at ``pos`` facing ``heading``."""
+        """A hand-made snapshot (tests, benchmarks): agents at ``pos`` facing ``heading``.
+
+        Pass ``bones`` and ``dims`` of a :class:`~pedvr.body.FullBody` to draw its poses.
+        """
         pos = np.asarray(pos, dtype=np.float64).reshape(-1, 2)
         n = pos.shape[0]
         return cls(
@@ -103,5 +115,7 @@ class Snapshot:
             radius=np.full(n, radius),
             is_user=np.zeros(n, np.bool_) if is_user is None else np.asarray(is_user, np.bool_),
             gaze_target=gaze_target,
+            bones=bones,
+            dims=dims,
             sphere=None if sphere is None else np.asarray(sphere, np.float64),
         )

@@ -7,6 +7,7 @@ image and an amplified difference are written next to the test's tmp_path and na
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from pathlib import Path
@@ -19,20 +20,24 @@ from PIL import Image
 from pedvr.render.math3d import desktop_stereo_eyes, first_person_eye
 from pedvr.render.renderer import OffscreenTarget, Renderer, gl_renderer_name
 from pedvr.render.snapshot import Snapshot
-from tests.render.conftest import WORLD
+from tests.render.conftest import WORLD, posed
 
 GOLDEN = Path(__file__).parent / "golden"
 W, H = 64, 48
 
 
 def _snapshot() -> Snapshot:
-    return Snapshot.of_agents(
-        pos=[[2.5, 0.4], [4.0, -0.8], [6.0, 1.2]],
-        heading=[math.pi, 2.5, -2.0],
-        vel=[[-1.2, 0.0], [0.0, 0.0], [0.5, -1.0]],
+    """Three bodies from the body layer: two walking (one toward the camera), one standing gazing at it."""
+    snap, _ = posed(
+        [[3.7, 0.4], [4.0, -0.8], [5.4, 1.8]],
+        [math.pi, 2.5, -2.0],
+        vel=[[-1.2, 0.0], [0.0, 0.0], [-0.45, -0.9]],
+        seconds=1.0,
+        gaze={0: (0.0, 1.6, 0.0), 1: (0.0, 1.6, 0.0)},
         sphere=np.array([5.0, 0.0]),
-        gaze_target=np.array([[0.0, 1.6, 0.0], [np.nan] * 3, [0.0, 1.6, 0.0]]),
     )
+    gaze = np.array([[0.0, 1.6, 0.0], [0.0, 1.6, 0.0], [np.nan] * 3])
+    return dataclasses.replace(snap, gaze_target=gaze)
 
 
 CAMERAS = {

@@ -8,12 +8,13 @@ import moderngl
 import numpy as np
 import pytest
 
-from pedvr.render.figures import NOMINAL_HEIGHT, agent_looks, eye_height_of, procedural_pose
+from pedvr.body import skeleton as sk
 from pedvr.render.math3d import EyeView, desktop_stereo_eyes, first_person_eye, first_person_rotation, project
 from pedvr.render.overhead import USER
 from pedvr.render.renderer import OffscreenTarget, Renderer
 from pedvr.render.snapshot import Snapshot
 from pedvr.render.text import Hud
+from tests.render.conftest import posed
 
 W, H = 96, 64
 D = 2.2  # m in front of the camera
@@ -25,11 +26,10 @@ def render(
     eyes: list[EyeView],
     *,
     size: tuple[int, int] = (W, H),
-    bones: np.ndarray | None = None,
 ) -> np.ndarray:
     t = OffscreenTarget(renderer.ctx, size)
     renderer.begin_frame()
-    renderer.update(snap, bones=bones)
+    renderer.update(snap)
     renderer.draw_scene(eyes, framebuffer=t.fbo)
     img = t.read().astype(np.int32)
     t.release()
@@ -51,13 +51,15 @@ def changed(a: np.ndarray, b: np.ndarray, *, threshold: int = 12) -> np.ndarray:
 def test_a_character_in_front_covers_the_pixels_its_body_projects_to(renderer: Renderer) -> None:
     eye = first_person_eye(pos=np.zeros(2), heading=0.0, eye_height=1.6, aspect=W / H)
     empty = render(renderer, nobody(), [eye])
-    img = render(renderer, one_agent(D), [eye])
+    snap, body = posed([[D, 0.0]], [math.pi])  # the body layer's pose: standing, facing the camera
+    img = render(renderer, snap, [eye])
     mask = changed(img, empty)
     rows, cols = np.nonzero(mask)
     assert mask.sum() > 150
     # The body spans the projected feet (floor) to the top of the head, about its width, centred.
-    _, height = agent_looks(np.array([3]))
-    top = project(eye.view_projection, np.array([D, height[0], 0.0]), width=W, height=H)
+    head_top = body.state.world_pos[0, sk.HEAD_TOP]
+    assert head_top[1] == pytest.approx(body.state.dims[0, sk.DIM_HEIGHT], abs=0.03)
+    top = project(eye.view_projection, head_top, width=W, height=H)
     feet = project(eye.view_projection, np.array([D, 0.0, 0.0]), width=W, height=H)
     half_w = project(eye.view_projection, np.array([D, 1.0, 0.35]), width=W, height=H)[0] - W / 2
     assert rows.min() == pytest.approx(top[1], abs=2.5)
@@ -71,11 +73,13 @@ def test_a_character_in_front_covers_the_pixels_its_body_projects_to(renderer: R
 
 def test_the_user_body_is_hidden_in_first_person(renderer: Renderer) -> None:
     eye = first_person_eye(pos=np.zeros(2), heading=0.0, eye_height=1.6, aspect=W / H)
-    snap = Snapshot.of_agents(
-        pos=[[0.0, 0.0], [3.0, 0.0]], heading=[0.0, math.pi], ids=[0, 3], is_user=np.array([True, False])
+    snap, _ = posed([[0.0, 0.0], [3.0, 0.0]], [0.0, math.pi], is_user=np.array([True, False]))
+    assert snap.bones is not None and snap.dims is not None
+    others = Snapshot.of_agents(
+        pos=snap.pos[1:], heading=snap.heading[1:], ids=snap.ids[1:], bones=snap.bones[1:], dims=snap.dims[1:]
     )
     with_user = render(renderer, snap, [eye])
-    without = render(renderer, one_agent(3.0), [eye])
+    without = render(renderer, others, [eye])
     assert not changed(with_user, without).any()
     assert renderer.stats.agents_drawn == 1
 
@@ -101,10 +105,10 @@ def test_stereo_disparity_is_positive_and_larger_for_near_objects(renderer: Rend
 
 def test_side_by_side_single_pass_equals_two_passes(renderer: Renderer) -> None:
     w, h = 80, 64
-    snap = Snapshot.of_agents(
-        pos=[[2.5, 0.3], [5.0, -1.0], [8.0, 1.5]],
-        heading=[math.pi, 2.0, -2.5],
-        vel=[[-1.0, 0.0], [0.0, 0.0], [1.0, 0.2]],
+    snap, _ = posed(
+        [[3.0, 0.3], [5.0, -1.0], [7.0, 1.5]],
+        [math.pi, 2.0, 0.2],
+        vel=[[-0.8, 0.0], [0.0, 0.0], [1.0, 0.2]],
         sphere=np.array([4.0, 0.5]),
     )
     eyes = list(desktop_stereo_eyes(pos=np.zeros(2), heading=0.0, eye_height=1.6, aspect=w / h))
@@ -117,26 +121,21 @@ def test_side_by_side_single_pass_equals_two_passes(renderer: Renderer) -> None:
     assert renderer.stats.draw_calls == 5  # floor, obstacles, sphere, crowd, shadows: both eyes in each call
 
 
-def _face(renderer: Renderer, gaze: np.ndarray) -> np.ndarray:
+EYE_H = 1.64  # m: the reference body's eye height
+
+
+def _face(renderer: Renderer, gaze: tuple[float, float, float]) -> np.ndarray:
+    """An agent 0.55 m in front of the camera, facing it, its gaze controller aimed at ``gaze``."""
     w, h = 120, 90
-    eye_h = float(eye_height_of(NOMINAL_HEIGHT))
-    snap = Snapshot.of_agents(pos=[[0.55, 0.0]], heading=[math.pi], ids=[3], gaze_target=gaze[None])
-    bones = procedural_pose(
-        pos=snap.pos,
-        heading=snap.heading,
-        speed=np.zeros(1),
-        height=np.array([NOMINAL_HEIGHT]),
-        phase=np.zeros(1),
-        gaze_target=gaze[None],
-    )
+    snap, _ = posed([[0.55, 0.0]], [math.pi], seconds=1.5, gaze={0: gaze}, reference=True)
     cam = EyeView.from_pose(
         rotation=first_person_rotation(0.0),
-        position=np.array([0.0, eye_h, 0.0]),
+        position=np.array([0.0, EYE_H, 0.0]),
         projection=first_person_eye(
             pos=np.zeros(2), heading=0.0, fovy=math.radians(30), aspect=w / h
         ).projection,
     )
-    return render(renderer, snap, [cam], size=(w, h), bones=bones)
+    return render(renderer, snap, [cam], size=(w, h))
 
 
 def _pupil_offset(img: np.ndarray) -> tuple[float, int]:
@@ -148,17 +147,17 @@ def _pupil_offset(img: np.ndarray) -> tuple[float, int]:
     region = img[r0:r1, c0:c1]
     dark = region.max(axis=2) < 40
     pr, pc = np.nonzero(dark)
-    return float(pc.mean() + c0 - cols.mean()) if pc.size else float("nan"), int(pc.size)
+    # Against the middle of the whites' extent (their mean leans toward the lit side).
+    return float(pc.mean() + c0 - (cols.min() + cols.max()) / 2) if pc.size else float("nan"), int(pc.size)
 
 
 def test_an_agent_gazing_at_the_camera_shows_its_pupils_centred_toward_it(renderer: Renderer) -> None:
-    eye_h = float(eye_height_of(NOMINAL_HEIGHT))
-    off, n = _pupil_offset(_face(renderer, np.array([0.0, eye_h, 0.0])))
+    off, n = _pupil_offset(_face(renderer, (0.0, EYE_H, 0.0)))  # the body's gaze_at the camera
     assert n >= 8 and abs(off) < 2.0  # pupils in the middle of the whites: looking at us
     # The agent at 2D (0.55, 0) faces 2D -x; its right is heading + 90° = 2D -y, its left 2D +y (math3d's
     # chirality note). The camera faces 2D +x, so its right is 2D +y: the agent's left looks camera-right.
-    off_left, n_left = _pupil_offset(_face(renderer, np.array([-0.45, eye_h, 0.6])))
-    off_right, n_right = _pupil_offset(_face(renderer, np.array([-0.45, eye_h, -0.6])))
+    off_left, n_left = _pupil_offset(_face(renderer, (-0.45, EYE_H, 0.6)))
+    off_right, n_right = _pupil_offset(_face(renderer, (-0.45, EYE_H, -0.6)))
     assert n_left >= 2 and n_right >= 2
     assert off_left > off + 1.5 and off_right < off - 1.5
 
