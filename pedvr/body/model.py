@@ -485,6 +485,16 @@ class FullBody:
         fk_kernel(sk.PARENTS, b.offsets, pose_q, root3, self._root_yaw(), pose_p, wp, wq)
         return wp, wq
 
+    def gaze_targets(self, crowd: CrowdState) -> np.ndarray:
+        """``(N, 3)`` world points each agent attends to (``gaze_at`` or the PedVR gaze rule); NaN where none.
+
+        Subconscious look-arounds are left out: this is what the overhead view's
+        gaze lines show (PedVR Fig. 4).
+        """
+        has, target = self._gaze_targets(crowd)
+        deliberate = has & ((self.state.gaze_kind != GAZE_NONE) | self.state.gaze_rule)
+        return np.where(deliberate[:, None], target, np.nan)
+
     def _gaze_targets(self, crowd: CrowdState) -> tuple[np.ndarray, np.ndarray]:
         b = self.state
         n = len(b)

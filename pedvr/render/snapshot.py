@@ -75,7 +75,8 @@ class Snapshot:
             heading=c.heading.copy(),
             radius=c.radius.copy(),
             is_user=c.is_user.copy(),
-            gaze_target=None if gaze_target is None else np.asarray(gaze_target, dtype=np.float64),
+            gaze_target=(sim.body.gaze_targets(c) if gaze_target is None
+                         else np.asarray(gaze_target, dtype=np.float64)),
             bones=sim.body.joint_matrices(),
             dims=sim.body.state.dims.copy(),
             sphere=sphere,
