@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from pedvr.errors import BackendUnavailableError, PedvrError, UsageError
+from pedvr.errors import PedvrError, UsageError
 
 EXIT_ABORTED = 4
 
@@ -132,19 +132,44 @@ def run_study_command(
 
 
 def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
-    from pedvr.study.console import ExperimenterConsole, KeySource, NoKeys, TerminalKeys
-    from pedvr.study.presenter import Participant, SimulatedParticipant, TerminalParticipant
-    from pedvr.study.protocol import load_protocol, participant_number
-    from pedvr.study.session import Session
-    from pedvr.study.store import StudyStore
+    from pedvr.study.protocol import load_protocol
 
-    backend, why = _study_backend(args.backend)
-    protocol = load_protocol(args.protocol)
-    db = args.db or Path(f"{protocol.name}.sqlite")
     simulated = args.simulated or args.participant == "simulated"
     if args.pace is not None and not simulated:
         raise UsageError("--pace applies only to a simulated participant")
+    protocol = load_protocol(args.protocol)
+    backend, why = _study_backend(args.backend, simulated=simulated)
+    db = args.db or Path(f"{protocol.name}.sqlite")
     print(why, file=stdout)
+    frontend = None
+    if backend in ("xr", "desktop"):
+        from pedvr.xr.participant import open_frontend
+
+        frontend = open_frontend(backend, eye_height=protocol.eye_height_m)
+    try:
+        return _run_in(args, protocol, db, backend, frontend, simulated=simulated, stdin=stdin, stdout=stdout)
+    finally:
+        if frontend is not None:
+            frontend.close()
+
+
+def _run_in(
+    args: argparse.Namespace,
+    protocol: Any,
+    db: Path,
+    backend: str,
+    frontend: Any,
+    *,
+    simulated: bool,
+    stdin: TextIO,
+    stdout: TextIO,
+) -> int:
+    from pedvr.study.console import ExperimenterConsole, KeySource, NoKeys, TerminalKeys
+    from pedvr.study.presenter import Participant, SimulatedParticipant, TerminalParticipant
+    from pedvr.study.protocol import participant_number
+    from pedvr.study.session import Session
+    from pedvr.study.store import StudyStore
+
     with StudyStore(db) as store:
         pid = args.participant
         if pid == "simulated":
@@ -155,7 +180,11 @@ def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
             pid = f"SIM{store.next_number():02d}"
         number = participant_number(pid)
         participant: Participant
-        if simulated:
+        if frontend is not None:
+            from pedvr.xr.participant import InAppParticipant
+
+            participant = InAppParticipant(frontend)
+        elif simulated:
             participant = SimulatedParticipant(
                 seed=protocol.seed, number=number, eye_height_m=protocol.eye_height_m, pace=args.pace or 0.0
             )
@@ -180,26 +209,29 @@ def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
     return EXIT_ABORTED if result.status == "aborted" else 0
 
 
-def _study_backend(requested: str) -> tuple[str, str]:
+def _study_backend(requested: str, *, simulated: bool) -> tuple[str, str]:
     """The backend a study session runs on, and the one line that says why.
 
-    Only the headless participants (simulated, terminal) exist: the in-app
-    participant that draws instructions and questionnaires in the desktop or
-    headset view (the :class:`~pedvr.study.presenter.Participant` seam) is
-    not written yet, so ``xr`` and ``desktop`` are refused rather than run
-    with a participant who cannot see the questions.
+    ``xr`` and ``desktop`` run the in-app participant (:mod:`pedvr.xr.participant`:
+    questionnaires drawn in the view, answered with controller, keyboard or mouse);
+    a backend asked for by name that cannot start is one clear error. ``auto``
+    picks xr, else desktop, else headless for a person, and always headless for a
+    simulated participant (it needs no view).
     """
-    if requested in ("xr", "desktop"):
-        raise BackendUnavailableError(
-            f"pedvr study run --backend {requested}: the in-app study participant (questionnaires in the "
-            f"{requested} view) is not part of this version; use --backend headless"
+    from pedvr.xr.select import choose_backend
+
+    if simulated:
+        if requested in ("xr", "desktop"):
+            raise UsageError(
+                f"--backend {requested}: a simulated participant runs headless (it needs no view); "
+                "use --backend headless or auto"
+            )
+        return "headless", (
+            "backend: headless (a simulated participant)"
+            if requested == "auto"
+            else "backend: headless (asked for with --backend headless)"
         )
-    if requested == "headless":
-        return "headless", "backend: headless (asked for with --backend headless)"
-    return (
-        "headless",
-        "backend: headless (the in-app study participant for xr/desktop is not part of this version)",
-    )
+    return choose_backend(requested)
 
 
 def _isatty(f: TextIO) -> bool:

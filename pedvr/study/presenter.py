@@ -19,13 +19,13 @@ whole studies can be dry-run headless and the analysis has signal) and
 keyboard: questionnaires typed as numbers and confirmed; the trial's walk is
 scripted, since there is no view to steer in).
 
-The in-app participant for ``--backend desktop|xr`` plugs in here: ``show`` and
-``ask`` draw a text panel in the scene (a texture in front of the user, in the
-headset too) and return on a confirmed controller trigger / mouse click /
-Enter; ``trial_input`` returns the backend's HMD- or keyboard-driven
-``UserInput``; ``present`` renders the frame (both eyes) and returns the
-predicted display time relative to the trial start; ``head_pose`` returns the
-tracked head pose. Nothing in the runner changes.
+The in-app participant for ``--backend desktop|xr`` is
+:class:`pedvr.xr.participant.InAppParticipant`: ``show`` and ``ask`` draw a
+text panel in front of the user (both eyes in the headset) and return on a
+confirmed trigger / click / Enter (the answer logic is
+:mod:`pedvr.study.panel_input`); ``trial_input`` returns the backend's HMD- or
+keyboard-driven ``UserInput``; ``present`` renders the frame and returns the
+display time relative to the trial start; ``head_pose`` the head pose.
 """
 
 from __future__ import annotations

@@ -439,9 +439,27 @@ class _SampleRecorder:
         self.gaze: list[tuple[Any, ...]] = []
         self.min_distance: float | None = None
         self.contact_count = 0
+        self.gaze_count = 0
+        self._gaze_seen = 0
 
     def add(self, sim: Any, *, frame: int, head: Any) -> None:
         crowd = sim.crowd
+        # The PedVR gaze rule's start/end events since the last frame (Simulation.metrics.gaze_events,
+        # from BodyModel.gaze_rule: agent id, simulation time, "start"/"end", target), at this frame.
+        events = sim.metrics.gaze_events
+        for ev in events[self._gaze_seen :]:
+            self.gaze.append(
+                (
+                    self.trial_id,
+                    frame,
+                    float(ev["t"]),
+                    int(ev["agent"]),
+                    str(ev["event"]),
+                    str(ev.get("target", "user")),
+                )
+            )
+        self._gaze_seen = len(events)
+        self.gaze_count = self._gaze_seen
         pos, rad, ids, is_user = crowd.pos, crowd.radius, crowd.ids, crowd.is_user
         nearest = None
         user = np.flatnonzero(is_user)

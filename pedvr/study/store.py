@@ -30,7 +30,7 @@ from typing import Any
 
 from pedvr.study.errors import ParticipantExistsError, StudyStoreError
 
-SCHEMA_VERSION = "1"
+SCHEMA_VERSION = "2"  # 2: gaze_events.target (1 is migrated on open: its gaze table was always empty)
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -65,7 +65,7 @@ CREATE TABLE IF NOT EXISTS agent_samples (
     PRIMARY KEY (trial_id, frame, agent_id)) WITHOUT ROWID;
 CREATE TABLE IF NOT EXISTS gaze_events (
     trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, agent_id INTEGER NOT NULL,
-    event TEXT NOT NULL);
+    event TEXT NOT NULL, target TEXT NOT NULL DEFAULT 'user');
 CREATE TABLE IF NOT EXISTS contacts (
     trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, agent_a INTEGER NOT NULL,
     agent_b INTEGER NOT NULL, with_user INTEGER NOT NULL, overlap_m REAL NOT NULL);
@@ -140,6 +140,9 @@ class StudyStore:
             )
         if have:
             row = self.db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+            if row is not None and row[0] == "1":
+                self._migrate_1_to_2()
+                row = (SCHEMA_VERSION,)
             if row is None or row[0] != SCHEMA_VERSION:
                 self.db.close()
                 raise StudyStoreError(
@@ -152,6 +155,12 @@ class StudyStore:
                 + SCHEMA
                 + f"INSERT INTO meta VALUES ('schema_version', '{SCHEMA_VERSION}'); COMMIT;"
             )
+
+    def _migrate_1_to_2(self) -> None:
+        """Version 1 had no ``gaze_events.target`` (and never wrote gaze events): add the column."""
+        with self.transaction():
+            self.db.execute("ALTER TABLE gaze_events ADD COLUMN target TEXT NOT NULL DEFAULT 'user'")
+            self.db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (SCHEMA_VERSION,))
 
     # -- plumbing --------------------------------------------------------------------------
 
@@ -352,7 +361,7 @@ class StudyStore:
             self.db.executemany("INSERT INTO samples VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", samples)
             self.db.executemany("INSERT INTO agent_samples VALUES (?, ?, ?, ?, ?, ?, ?)", agents)
             self.db.executemany("INSERT INTO contacts VALUES (?, ?, ?, ?, ?, ?, ?)", contacts)
-            self.db.executemany("INSERT INTO gaze_events VALUES (?, ?, ?, ?, ?)", gaze)
+            self.db.executemany("INSERT INTO gaze_events VALUES (?, ?, ?, ?, ?, ?)", gaze)
 
     def finish_trial(self, trial_id: int, **row: Any) -> None:
         row = dict(row)

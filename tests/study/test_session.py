@@ -301,13 +301,16 @@ def test_cli_run_refuses_existing_participant(tmp_path: Path, mini_protocol: Pat
     assert main(["export", str(tmp_path / "none.sqlite"), "--out", str(tmp_path / "e")]) == 2
 
 
-def test_in_app_backends_are_refused_clearly(mini_protocol: Path) -> None:
+def test_in_app_backend_that_cannot_start_is_refused_clearly(mini_protocol: Path, tmp_path: Path,
+                                                             monkeypatch: pytest.MonkeyPatch) -> None:
     from pedvr.errors import BackendUnavailableError
 
-    argv = ["run", str(mini_protocol), "--participant", "P01", "--backend", "xr"]
-    with pytest.raises(BackendUnavailableError, match=r"--backend xr: the in-app study participant .* use --backend "
-                                                      r"headless"):
+    monkeypatch.setattr("pedvr.xr.select.openxr_missing", lambda: "no OpenXR runtime is active")
+    db = tmp_path / "x.sqlite"
+    argv = ["run", str(mini_protocol), "--participant", "P01", "--backend", "xr", "--db", str(db)]
+    with pytest.raises(BackendUnavailableError, match=r"cannot start the OpenXR backend: .*use --backend headless"):
         run_study_command(build_parser().parse_args(argv), stdout=io.StringIO(), stdin=io.StringIO())
+    assert not db.exists()  # refused before the database is touched
 
 
 def test_not_a_study_database(tmp_path: Path) -> None:

@@ -1,0 +1,176 @@
+"""The study's text panels in the view: Pillow image (reusing :mod:`pedvr.render.text`'s font), drawn
+as a textured quad centred in each eye's viewport (in front of the eyes, head-locked, both eyes in
+stereo). Self-contained GL (its own small program), so it draws over any framebuffer without a
+:class:`~pedvr.render.renderer.Renderer` (pages shown before the first trial have no scene).
+"""
+
+from __future__ import annotations
+
+import textwrap
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+from PIL import Image, ImageDraw
+
+from pedvr.render.text import _font
+
+BACKGROUND = (12, 16, 24, 225)
+FOREGROUND = (240, 240, 240, 255)
+HIGHLIGHT_BG = (40, 90, 170, 255)
+TITLE = (255, 214, 120, 255)
+CLEAR = (0.18, 0.2, 0.24)  # behind the panel when no scene is shown
+
+
+@dataclass(frozen=True)
+class PanelImage:
+    """The RGBA image ``(H, W, 4)`` and, per source line, the pixel rows ``(y0, y1)`` it occupies."""
+
+    image: np.ndarray
+    rows: tuple[tuple[int, int], ...]
+
+
+def panel_image(
+    lines: tuple[str, ...] | list[str],
+    *,
+    highlight: int | None = None,
+    title_rows: int = 1,
+    width_px: int = 900,
+    font_size: int = 24,
+    padding: int = 18,
+) -> PanelImage:
+    """Lines wrapped to ``width_px``; ``highlight`` (a source line) on a blue band; the title in amber."""
+    font = _font(font_size)
+    line_h = int(round(font_size * 1.35))
+    probe = ImageDraw.Draw(Image.new("RGBA", (1, 1)))
+    avg = max(probe.textlength("abcdefghij klmnopqrstuvwxyz", font=font) / 27.0, 1.0)
+    cols = max(int((width_px - 2 * padding) / avg), 10)
+    wrapped: list[list[str]] = [textwrap.wrap(s, cols) or [""] for s in lines]
+    h = padding * 2 + line_h * sum(len(w) for w in wrapped)
+    img = Image.new("RGBA", (width_px, max(h, 1)), BACKGROUND)
+    draw = ImageDraw.Draw(img)
+    y = padding
+    rows = []
+    for k, parts in enumerate(wrapped):
+        y0 = y
+        if k == highlight:
+            draw.rectangle(
+                (padding // 2, y0, width_px - padding // 2, y0 + line_h * len(parts)), fill=HIGHLIGHT_BG
+            )
+        for part in parts:
+            draw.text((padding, y), part, font=font, fill=TITLE if k < title_rows else FOREGROUND)
+            y += line_h
+        rows.append((y0, y))
+    return PanelImage(np.asarray(img, dtype=np.uint8), tuple(rows))
+
+
+def panel_rect(
+    size: tuple[int, int], viewport: tuple[int, int, int, int], *, fraction: float = 0.7
+) -> tuple[int, int, int, int]:
+    """Where a ``size`` (w, h) panel lands in ``viewport``: ``(x, y_top, w, h)`` in viewport pixels from its
+    top-left, scaled to ``fraction`` of the viewport's width (or less, to fit the height), centred."""
+    w, h = size
+    vw, vh = viewport[2], viewport[3]
+    s = min(fraction * vw / w, 0.9 * vh / h)
+    pw, ph = max(int(w * s), 1), max(int(h * s), 1)
+    return (vw - pw) // 2, (vh - ph) // 2, pw, ph
+
+
+_VS = """
+#version 330
+uniform vec4 u_rect;  // x0, y0, x1, y1 in NDC
+out vec2 v_uv;
+void main() {
+    vec2 c = vec2(gl_VertexID & 1, (gl_VertexID >> 1) & 1);
+    v_uv = vec2(c.x, 1.0 - c.y);
+    gl_Position = vec4(mix(u_rect.xy, u_rect.zw, c), 0.0, 1.0);
+}
+"""
+_FS = """
+#version 330
+uniform sampler2D u_tex;
+uniform bool u_srgb;
+in vec2 v_uv;
+out vec4 f_color;
+void main() {
+    vec4 c = texture(u_tex, v_uv);
+    // the image is sRGB; a linear framebuffer that the compositor encodes wants linear values
+    f_color = vec4(u_srgb ? c.rgb : pow(c.rgb, vec3(2.2)), c.a);
+}
+"""
+
+
+class PanelDrawer:
+    """Draws a :class:`PanelImage` over a framebuffer's viewport (see :func:`panel_rect`)."""
+
+    def __init__(self, ctx: moderngl.Context) -> None:
+        self.ctx = ctx
+        self.prog = ctx.program(vertex_shader=_VS, fragment_shader=_FS)
+        self.vao = ctx.vertex_array(self.prog, [])
+        self.tex: moderngl.Texture | None = None
+
+    def clear(self, framebuffer: moderngl.Framebuffer, viewport: tuple[int, int, int, int]) -> None:
+        framebuffer.use()
+        framebuffer.viewport = viewport
+        self.ctx.scissor = viewport
+        framebuffer.clear(*CLEAR, 1.0, depth=1.0)
+        self.ctx.scissor = None
+
+    def draw(
+        self,
+        panel: PanelImage,
+        *,
+        framebuffer: moderngl.Framebuffer,
+        viewport: tuple[int, int, int, int],
+        linear_target: bool = False,
+        fraction: float = 0.7,
+    ) -> tuple[int, int, int, int]:
+        """Draw; return the panel's rectangle ``(x, y_top, w, h)`` in viewport pixels (for mouse picking).
+
+        ``linear_target``: the framebuffer encodes linear values to sRGB itself (an sRGB swapchain).
+        """
+        img = panel.image
+        h, w = img.shape[:2]
+        if self.tex is None or self.tex.size != (w, h):
+            if self.tex is not None:
+                self.tex.release()
+            self.tex = self.ctx.texture((w, h), 4)
+            self.tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.tex.write(np.ascontiguousarray(img).tobytes())
+        x, y, pw, ph = panel_rect((w, h), viewport, fraction=fraction)
+        vw, vh = viewport[2], viewport[3]
+        framebuffer.use()
+        framebuffer.viewport = viewport
+        self.prog["u_rect"].value = (
+            2 * x / vw - 1,
+            1 - 2 * (y + ph) / vh,
+            2 * (x + pw) / vw - 1,
+            1 - 2 * y / vh,
+        )
+        self.prog["u_tex"].value = 0
+        self.prog["u_srgb"].value = not linear_target
+        self.tex.use(location=0)
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        self.ctx.enable(moderngl.BLEND)
+        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self.vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
+        self.ctx.disable(moderngl.BLEND)
+        return x, y, pw, ph
+
+    def release(self) -> None:
+        if self.tex is not None:
+            self.tex.release()
+        self.vao.release()
+        self.prog.release()
+
+
+def row_at(panel: PanelImage, rect: tuple[int, int, int, int], x: float, y: float) -> int | None:
+    """The source line under viewport pixel ``(x, y)`` (from the top-left), or None off the panel."""
+    px, py, pw, ph = rect
+    if not (px <= x < px + pw and py <= y < py + ph):
+        return None
+    iy = (y - py) * panel.image.shape[0] / ph
+    for k, (y0, y1) in enumerate(panel.rows):
+        if y0 <= iy < y1:
+            return k
+    return None

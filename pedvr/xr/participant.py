@@ -1,0 +1,552 @@
+"""The in-app study participant (``pedvr study run --backend desktop|xr``).
+
+:class:`InAppParticipant` implements :class:`pedvr.study.presenter.Participant`
+over a :class:`Frontend`: instruction pages and questions are text panels drawn
+in the view (:mod:`pedvr.render.panel`: centred in front of the eyes, in each
+eye in the headset) and answered through the pure state machines of
+:mod:`pedvr.study.panel_input`; a trial runs the scene with the backend's own
+user input (WASD and mouse on the desktop, the tracked head and thumbstick in
+the headset) instead of the scripted walk.
+
+Two frontends: :class:`DesktopFrontend` (a glfw window; keys and mouse as
+listed in :mod:`pedvr.study.panel_input`) and :class:`XrFrontend` (an OpenXR
+session through :class:`~pedvr.xr.session.XrPresenter`; thumbstick left/right
+chooses, the trigger selects and confirms, the menu button goes back). Both
+open once per session; each trial builds a renderer for its scene.
+
+Closing the window, Esc, or the runtime ending the XR session aborts the
+session like Ctrl-C (the runner records the abort; continue with ``--resume``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Protocol
+
+from pedvr.errors import BackendUnavailableError
+from pedvr.render.math3d import EYE_HEIGHT
+from pedvr.render.panel import PanelDrawer, PanelImage, panel_image, row_at
+from pedvr.study.panel_input import PagePanel, PanelEvent, PanelView, QuestionPanel, drive
+from pedvr.study.presenter import HeadPose, Page, Question, head_from_floor
+from pedvr.study.questionnaire import Response
+
+if TYPE_CHECKING:
+    from pedvr.crowd.user import UserInput
+    from pedvr.scene.config import SceneConfig
+    from pedvr.sim import Simulation
+    from pedvr.study.protocol import TrialSpec
+
+STICK_FIRE = 0.7  # thumbstick x beyond this chooses the next / previous option ...
+STICK_ARM = 0.3  # ... once it has come back inside this
+
+
+class Frontend(Protocol):
+    """A backend as the in-app participant uses it: one frame at a time, input as panel events."""
+
+    name: str
+    keyboard: bool
+
+    @property
+    def closed(self) -> bool: ...
+
+    def begin_trial(self, scene: SceneConfig) -> UserInput:
+        """Build the trial's view of ``scene``; return the user input that moves the user agent."""
+        ...
+
+    def frame(self, sim: Simulation | None, panel: PanelView | None) -> tuple[float | None, list[PanelEvent]]:
+        """Make one frame: the scene of ``sim`` (or a plain background) and ``panel`` over it.
+
+        Returns the frame's display time (s, the frontend's clock; None when no frame could be
+        made, e.g. an idle XR session) and the panel events since the last frame.
+        """
+        ...
+
+    def head_pose(self, sim: Simulation) -> HeadPose: ...
+
+    def close(self) -> None: ...
+
+
+class SessionClosed(KeyboardInterrupt):
+    """The participant closed the window or the XR session ended: the runner aborts (resumable)."""
+
+
+class InAppParticipant:
+    """The participant in the app (module docstring). ``max_lag`` as in :func:`pedvr.xr.loop.run_frames`."""
+
+    def __init__(self, frontend: Frontend, *, max_lag: float = 0.25) -> None:
+        self.frontend = frontend
+        self.kind = f"in-app ({frontend.name})"
+        self.max_lag = max_lag
+        self._origin: float | None = None
+
+    def _check(self) -> None:
+        if self.frontend.closed:
+            raise SessionClosed(f"the {self.frontend.name} view was closed")
+
+    def _run(self, panel: PagePanel | QuestionPanel) -> None:
+        while not panel.done:
+            self._check()
+            _, events = self.frontend.frame(None, panel.view())
+            drive(panel, events)  # events after the confirming one are dropped, not given to the next panel
+
+    def show(self, page: Page) -> None:
+        self._run(PagePanel(page, keyboard=self.frontend.keyboard))
+
+    def ask(self, question: Question) -> Response:
+        panel = QuestionPanel(question, keyboard=self.frontend.keyboard)
+        self._run(panel)
+        assert panel.response is not None
+        return panel.response
+
+    def trial_input(self, *, trial: TrialSpec, scene: SceneConfig) -> UserInput | None:
+        self._origin = None
+        return self.frontend.begin_trial(scene)
+
+    def present(self, sim: Simulation) -> float:
+        while True:
+            self._check()
+            shown, _ = self.frontend.frame(sim, None)
+            if shown is not None:
+                break
+        if self._origin is None:
+            self._origin = shown - sim.t
+        target = shown - self._origin
+        if target - sim.t > self.max_lag:  # a stall: skip ahead rather than run a burst of steps
+            self._origin += target - sim.t - self.max_lag
+            target = sim.t + self.max_lag
+        return target  # the runner steps at least once per frame
+
+    def head_pose(self, sim: Simulation) -> HeadPose:
+        return self.frontend.head_pose(sim)
+
+    def close(self) -> None:
+        self.frontend.close()
+
+
+def _qmul(a: tuple[float, ...], b: tuple[float, ...]) -> tuple[float, float, float, float]:
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    )
+
+
+def head_with_pitch(base: HeadPose, *, heading: float, pitch: float) -> HeadPose:
+    """``base`` (yaw only) looking up by ``pitch`` rad: a rotation about the head's horizontal axis."""
+    ax = (math.sin(heading), -math.cos(heading), 0.0)  # forward x axis = +z (looking up)
+    s = math.sin(pitch / 2)
+    q = _qmul((math.cos(pitch / 2), ax[0] * s, ax[1] * s, 0.0), base.orientation)
+    return HeadPose(position=base.position, orientation=q)
+
+
+# -- the desktop frontend -----------------------------------------------------------------------
+
+
+class DesktopFrontend:
+    """A glfw window: the first-person view, WASD/mouse in trials, keys and mouse on the panels."""
+
+    name = "desktop"
+    keyboard = True
+
+    def __init__(
+        self,
+        *,
+        width: int = 1280,
+        height: int = 720,
+        vsync: bool = True,
+        visible: bool = True,
+        eye_height: float = EYE_HEIGHT,
+        clock: Callable[[], float] = time.perf_counter,
+    ) -> None:
+        from pedvr.xr.desktop import display_missing
+
+        why = display_missing()
+        if why is not None:
+            raise BackendUnavailableError(f"cannot open a desktop window: {why}; use --backend headless")
+        import glfw
+        import moderngl
+
+        self.glfw: Any = glfw
+        for hint, value in (
+            (glfw.CONTEXT_VERSION_MAJOR, 3),
+            (glfw.CONTEXT_VERSION_MINOR, 3),
+            (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE),
+            (glfw.OPENGL_FORWARD_COMPAT, glfw.TRUE),
+            (glfw.VISIBLE, glfw.TRUE if visible else glfw.FALSE),
+            (glfw.DEPTH_BITS, 24),
+        ):
+            glfw.window_hint(hint, value)
+        self.window: Any = glfw.create_window(width, height, "pedvr study", None, None)
+        if not self.window:
+            glfw.terminate()
+            raise BackendUnavailableError(
+                "cannot open a desktop window: no OpenGL 3.3 core context on this display; "
+                "use --backend headless"
+            )
+        glfw.make_context_current(self.window)
+        glfw.swap_interval(1 if vsync else 0)
+        self.ctx = moderngl.create_context(require=330)
+        self.drawer = PanelDrawer(self.ctx)
+        self.eye_height = eye_height
+        self.clock = clock
+        monitor = glfw.get_primary_monitor()
+        mode = glfw.get_video_mode(monitor) if monitor else None
+        self.period = 1.0 / (mode.refresh_rate if mode and mode.refresh_rate else 60.0)
+        self.renderer: Any = None
+        self.composer: Any = None
+        self.user: Any = None
+        self._events: list[PanelEvent] = []
+        self._panel_mode = True
+        self._panel: tuple[PanelImage, tuple[int, int, int, int], PanelView] | None = None
+        self._closed = False
+        self._captured = False
+        self._cursor: tuple[float, float] | None = None
+        glfw.set_key_callback(self.window, self._on_key)
+        glfw.set_char_callback(self.window, self._on_char)
+        glfw.set_mouse_button_callback(self.window, self._on_button)
+        glfw.set_cursor_pos_callback(self.window, self._on_cursor)
+
+    # -- input -------------------------------------------------------------------------------
+
+    def _on_key(self, window: Any, key: int, scancode: int, action: int, mods: int) -> None:
+        g = self.glfw
+        if action not in (g.PRESS, g.REPEAT):
+            return
+        if key == g.KEY_ESCAPE and action == g.PRESS:
+            self._closed = True
+        elif key == g.KEY_TAB:
+            self._capture(False)
+        elif self._panel_mode:
+            kind = {
+                g.KEY_LEFT: "prev",
+                g.KEY_UP: "prev",
+                g.KEY_RIGHT: "next",
+                g.KEY_DOWN: "next",
+                g.KEY_ENTER: "select",
+                g.KEY_KP_ENTER: "select",
+                g.KEY_BACKSPACE: "back",
+                g.KEY_Y: "confirm",
+            }.get(key)
+            if kind is not None and not (kind in ("select", "confirm") and action != g.PRESS):
+                self._events.append(PanelEvent(kind))
+
+    def _on_char(self, window: Any, codepoint: int) -> None:
+        if self._panel_mode:
+            self._events.append(PanelEvent("char", chr(codepoint)))
+
+    def _fb_scale(self) -> tuple[float, float]:
+        w, h = self.glfw.get_window_size(self.window)
+        fw, fh = self.glfw.get_framebuffer_size(self.window)
+        return (fw / w if w else 1.0), (fh / h if h else 1.0)
+
+    def _on_button(self, window: Any, button: int, action: int, mods: int) -> None:
+        g = self.glfw
+        if action != g.PRESS:
+            return
+        if not self._panel_mode:
+            self._capture(True)
+            return
+        if button == g.MOUSE_BUTTON_RIGHT:
+            self._events.append(PanelEvent("back"))
+        elif button == g.MOUSE_BUTTON_LEFT and self._panel is not None:
+            img, rect, view = self._panel
+            cx, cy = g.get_cursor_pos(self.window)
+            sx, sy = self._fb_scale()
+            row = row_at(img, rect, cx * sx, cy * sy)
+            if row is None:
+                return
+            if row in view.option_rows:
+                self._events.append(PanelEvent("pick", view.option_rows[row]))
+            self._events.append(PanelEvent("select"))
+
+    def _capture(self, on: bool) -> None:
+        g = self.glfw
+        g.set_input_mode(self.window, g.CURSOR, g.CURSOR_DISABLED if on else g.CURSOR_NORMAL)
+        self._captured = on
+        self._cursor = None
+
+    def _on_cursor(self, window: Any, x: float, y: float) -> None:
+        from pedvr.xr.desktop import MOUSE_SENSITIVITY
+
+        if self._captured and self._cursor is not None and self.user is not None and not self._panel_mode:
+            self.user.look(
+                yaw=(x - self._cursor[0]) * MOUSE_SENSITIVITY,
+                pitch=-(y - self._cursor[1]) * MOUSE_SENSITIVITY,
+            )
+        self._cursor = (x, y)
+
+    def _walk_keys(self) -> None:
+        g = self.glfw
+
+        def down(*keys: int) -> bool:
+            return any(g.get_key(self.window, k) == g.PRESS for k in keys)
+
+        if self.user is None:
+            return
+        if self._panel_mode:
+            self.user.set_keys(forward=0.0, strafe=0.0, fast=False)
+            return
+        self.user.set_keys(
+            forward=float(down(g.KEY_W, g.KEY_UP)) - float(down(g.KEY_S, g.KEY_DOWN)),
+            strafe=float(down(g.KEY_D, g.KEY_RIGHT)) - float(down(g.KEY_A, g.KEY_LEFT)),
+            fast=down(g.KEY_LEFT_SHIFT, g.KEY_RIGHT_SHIFT),
+        )
+
+    # -- Frontend ----------------------------------------------------------------------------
+
+    @property
+    def closed(self) -> bool:
+        return self._closed or self.window is None or bool(self.glfw.window_should_close(self.window))
+
+    def begin_trial(self, scene: SceneConfig) -> UserInput:
+        from pedvr.render.renderer import Renderer
+        from pedvr.render.views import ViewComposer
+        from pedvr.xr.locomotion import KeyboardMouseUser, WalkableArea
+
+        self._release_trial()
+        self.renderer = Renderer(self.ctx, world=scene.world)
+        self.composer = ViewComposer(self.renderer)
+        self.user = KeyboardMouseUser(
+            start=scene.user.start,
+            heading=scene.user.heading,
+            walkable=WalkableArea(scene.world, radius=scene.user.radius),
+        )
+        return self.user
+
+    def frame(self, sim: Simulation | None, panel: PanelView | None) -> tuple[float | None, list[PanelEvent]]:
+        g = self.glfw
+        entering_panel = panel is not None and not self._panel_mode
+        self._panel_mode = panel is not None
+        if entering_panel and self._captured:
+            self._capture(False)
+        g.poll_events()
+        self._walk_keys()
+        now = self.clock()
+        fw, fh = g.get_framebuffer_size(self.window)
+        if fw > 0 and fh > 0:
+            fb = self.ctx.screen
+            vp = (0, 0, fw, fh)
+            if sim is not None and self.composer is not None:
+                from pedvr.render.snapshot import Snapshot
+
+                snap = Snapshot.from_sim(sim)
+                self.renderer.begin_frame()
+                self.renderer.update(snap)
+                u = snap.user_row
+                self.composer.draw(
+                    "mono",
+                    framebuffer=fb,
+                    viewport=vp,
+                    pos=snap.pos[u] if u is not None else self.user.pos,
+                    heading=float(snap.heading[u]) if u is not None else self.user.heading,
+                    pitch=self.user.pitch,
+                    eye_height=self.eye_height,
+                )
+            else:
+                self.drawer.clear(fb, vp)
+            if panel is not None:
+                img = panel_image(
+                    panel.lines,
+                    highlight=panel.highlight,
+                    title_rows=panel.title_rows,
+                    font_size=max(14, fh // 34),
+                )
+                rect = self.drawer.draw(img, framebuffer=fb, viewport=vp)
+                self._panel = (img, rect, panel)
+            else:
+                self._panel = None
+            g.swap_buffers(self.window)
+        events, self._events = self._events, []
+        return now + self.period, events if panel is not None else []
+
+    def head_pose(self, sim: Simulation) -> HeadPose:
+        base = head_from_floor(sim, eye_height_m=self.eye_height)
+        pitch = self.user.pitch if self.user is not None else 0.0
+        return head_with_pitch(base, heading=float(sim.crowd.heading[0]), pitch=pitch)
+
+    def _release_trial(self) -> None:
+        if self.composer is not None:
+            self.composer.release()
+            self.renderer.release()
+        self.renderer = self.composer = self.user = None
+
+    def close(self) -> None:
+        if self.window is None:
+            return
+        self._release_trial()
+        self.drawer.release()
+        self.ctx.release()
+        self.glfw.destroy_window(self.window)
+        self.window = None
+        self.glfw.terminate()
+
+
+# -- the OpenXR frontend ------------------------------------------------------------------------
+
+
+class StickChooser:
+    """Thumbstick x to ``prev``/``next``: fires past :data:`STICK_FIRE`, re-arms inside :data:`STICK_ARM`."""
+
+    def __init__(self) -> None:
+        self.armed = True
+
+    def feed(self, x: float) -> list[PanelEvent]:
+        if abs(x) < STICK_ARM:
+            self.armed = True
+        elif self.armed and abs(x) > STICK_FIRE:
+            self.armed = False
+            return [PanelEvent("next" if x > 0 else "prev")]
+        return []
+
+
+def controller_events(controls: Any, stick: StickChooser) -> list[PanelEvent]:
+    """One frame of :class:`~pedvr.xr.locomotion.Controls` as panel events (either stick chooses)."""
+    x = max(controls.move[0], controls.turn, key=abs)
+    out = stick.feed(float(x))
+    if controls.trigger:
+        out.append(PanelEvent("select"))
+    if controls.menu:
+        out.append(PanelEvent("back"))
+    return out
+
+
+class XrFrontend:
+    """An OpenXR session: the scene per eye, the panel in both eyes, the controller on the panels.
+
+    ``port`` is an :class:`~pedvr.xr.session.XrPort` (the real :class:`~pedvr.xr.openxr.OpenXRPort`
+    by default; a fake in tests, with ``drawer=None`` to draw nothing).
+    """
+
+    name = "xr"
+    keyboard = False
+
+    def __init__(self, *, eye_height: float = EYE_HEIGHT, port: Any = None, drawer: Any = "auto") -> None:
+        from pedvr.xr.locomotion import HeadsetUser
+        from pedvr.xr.session import XrPresenter
+
+        if port is None:
+            from pedvr.xr.openxr import OpenXRPort
+
+            port = OpenXRPort.open()
+        self.port = port
+        self.srgb = bool(getattr(port, "srgb", False))
+        self.ctx = getattr(port, "ctx", None)
+        if drawer == "auto":
+            drawer = PanelDrawer(self.ctx) if self.ctx is not None else None
+        self.drawer = drawer
+        self.eye_height = eye_height
+        self._panel_user = HeadsetUser(start=(0.0, 0.0), heading=0.0)  # panels: locomotion moves nothing
+        self.user: Any = None
+        self.renderer: Any = None
+        self.presenter = XrPresenter(port, user=self._panel_user, draw_eye=self._draw_eye)
+        self._stick = StickChooser()
+        self._sim: Simulation | None = None
+        self._panel_img: PanelImage | None = None
+
+    @property
+    def closed(self) -> bool:
+        return self.presenter.closed
+
+    def begin_trial(self, scene: SceneConfig) -> UserInput:
+        from pedvr.xr.locomotion import HeadsetUser, WalkableArea
+
+        self._release_trial()
+        if self.ctx is not None:
+            from pedvr.render.renderer import Renderer
+
+            self.renderer = Renderer(self.ctx, world=scene.world)
+        self.user = HeadsetUser(
+            start=scene.user.start,
+            heading=scene.user.heading,
+            walkable=WalkableArea(scene.world, radius=scene.user.radius),
+        )
+        return self.user
+
+    def _draw_eye(self, eye: Any, fbo: Any, viewport: tuple[int, int, int, int]) -> None:
+        if self._sim is not None and self.renderer is not None:
+            self.renderer.draw_scene([eye], framebuffer=fbo, viewport=viewport, srgb_encode=not self.srgb)
+            if self.user is not None:
+                self.renderer.draw_vignette(
+                    min(1.0, self.user.moving_speed / 1.3) * 0.6, framebuffer=fbo, viewport=viewport
+                )
+        elif self.drawer is not None:
+            self.drawer.clear(fbo, viewport)
+        if self._panel_img is not None and self.drawer is not None:
+            self.drawer.draw(
+                self._panel_img, framebuffer=fbo, viewport=viewport, linear_target=self.srgb, fraction=0.55
+            )
+
+    def frame(self, sim: Simulation | None, panel: PanelView | None) -> tuple[float | None, list[PanelEvent]]:
+        in_trial = panel is None and self.user is not None
+        self.presenter.user = self.user if in_trial else self._panel_user
+        timing = self.presenter.wait_frame()
+        if timing is None:
+            return None, []
+        events = controller_events(self.presenter.controls, self._stick) if panel is not None else []
+        self._sim = sim
+        self._panel_img = (
+            panel_image(
+                panel.lines,
+                highlight=panel.highlight,
+                title_rows=panel.title_rows,
+                width_px=1024,
+                font_size=30,
+            )
+            if panel is not None
+            else None
+        )
+        if timing.should_render:
+            if sim is not None and self.renderer is not None:
+                from pedvr.render.snapshot import Snapshot
+
+                self.renderer.begin_frame()
+                self.renderer.update(Snapshot.from_sim(sim))
+            self.presenter.render(sim)  # type: ignore[arg-type]
+        self.presenter.end_frame()
+        return timing.display_time, events
+
+    def head_pose(self, sim: Simulation) -> HeadPose:
+        return head_from_floor(sim, eye_height_m=self.eye_height)
+
+    def _release_trial(self) -> None:
+        if self.renderer is not None:
+            self.renderer.release()
+        self.renderer = self.user = None
+
+    def close(self) -> None:
+        from pedvr.xr.run import _finish_xr
+
+        try:
+            _finish_xr(self.presenter)  # type: ignore[arg-type]
+        finally:
+            self._release_trial()
+            if self.drawer is not None:
+                self.drawer.release()
+            self.presenter.close()
+
+
+def open_frontend(backend: str, *, eye_height: float) -> DesktopFrontend | XrFrontend:
+    """The frontend for ``backend`` (``desktop`` or ``xr``); raises BackendUnavailableError (one line)."""
+    if backend == "desktop":
+        return DesktopFrontend(eye_height=eye_height)
+    if backend == "xr":
+        return XrFrontend(eye_height=eye_height)
+    raise BackendUnavailableError(f"backend {backend!r}: the in-app participant runs on desktop or xr")
+
+
+__all__ = [
+    "DesktopFrontend",
+    "Frontend",
+    "InAppParticipant",
+    "SessionClosed",
+    "StickChooser",
+    "XrFrontend",
+    "controller_events",
+    "head_with_pitch",
+    "open_frontend",
+]
