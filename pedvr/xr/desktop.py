@@ -53,6 +53,40 @@ def display_missing() -> str | None:
     return None
 
 
+def open_gl_window(width: int, height: int, title: str, *, visible: bool,
+                   vsync: bool) -> tuple[Any, Any, Any]:
+    """A glfw window with an OpenGL 3.3 core context: ``(glfw module, window, moderngl context)``.
+
+    Raises BackendUnavailableError (one line) when there is no display or no
+    such context. glfw must not be initialised twice: callers own ``terminate``.
+    """
+    why = display_missing()
+    if why is not None:
+        raise BackendUnavailableError(f"cannot open a desktop window: {why}; use --backend headless")
+    import glfw
+    import moderngl
+
+    for hint, value in (
+        (glfw.CONTEXT_VERSION_MAJOR, 3),
+        (glfw.CONTEXT_VERSION_MINOR, 3),
+        (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE),
+        (glfw.OPENGL_FORWARD_COMPAT, glfw.TRUE),
+        (glfw.VISIBLE, glfw.TRUE if visible else glfw.FALSE),
+        (glfw.DEPTH_BITS, 24),
+    ):
+        glfw.window_hint(hint, value)
+    window = glfw.create_window(width, height, title, None, None)
+    if not window:
+        glfw.terminate()
+        raise BackendUnavailableError(
+            "cannot open a desktop window: no OpenGL 3.3 core context on this display; "
+            "use --backend headless"
+        )
+    glfw.make_context_current(window)
+    glfw.swap_interval(1 if vsync else 0)
+    return glfw, window, moderngl.create_context(require=330)
+
+
 class DesktopPresenter:
     """A window with the first-person view (or another of :data:`VIEW_MODES`) of the user at the keys."""
 
@@ -74,29 +108,9 @@ class DesktopPresenter:
     ) -> None:
         if view not in VIEW_MODES:
             raise UsageError(f"--view {view!r}: expected one of {', '.join(VIEW_MODES)}")
-        why = display_missing()
-        if why is not None:
-            raise BackendUnavailableError(f"cannot open a desktop window: {why}; use --backend headless")
-        import glfw
-        import moderngl
-
-        self.glfw: Any = glfw
-        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
-        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
-        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
-        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, glfw.TRUE)
-        glfw.window_hint(glfw.VISIBLE, glfw.TRUE if visible else glfw.FALSE)
-        glfw.window_hint(glfw.DEPTH_BITS, 24)
-        self.window: Any = glfw.create_window(width, height, f"pedvr: {scene.name}", None, None)
-        if not self.window:
-            glfw.terminate()
-            raise BackendUnavailableError(
-                "cannot open a desktop window: no OpenGL 3.3 core context on this display; "
-                "use --backend headless"
-            )
-        glfw.make_context_current(self.window)
-        glfw.swap_interval(1 if vsync else 0)
-        self.ctx = moderngl.create_context(require=330)
+        self.glfw, self.window, self.ctx = open_gl_window(width, height, f"pedvr: {scene.name}",
+                                                          visible=visible, vsync=vsync)
+        glfw = self.glfw
         self.renderer = Renderer(self.ctx, world=scene.world)
         self.composer = ViewComposer(self.renderer)
         self.user = user

@@ -163,34 +163,11 @@ class DesktopFrontend:
         eye_height: float = EYE_HEIGHT,
         clock: Callable[[], float] = time.perf_counter,
     ) -> None:
-        from pedvr.xr.desktop import display_missing
+        from pedvr.xr.desktop import open_gl_window
 
-        why = display_missing()
-        if why is not None:
-            raise BackendUnavailableError(f"cannot open a desktop window: {why}; use --backend headless")
-        import glfw
-        import moderngl
-
-        self.glfw: Any = glfw
-        for hint, value in (
-            (glfw.CONTEXT_VERSION_MAJOR, 3),
-            (glfw.CONTEXT_VERSION_MINOR, 3),
-            (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE),
-            (glfw.OPENGL_FORWARD_COMPAT, glfw.TRUE),
-            (glfw.VISIBLE, glfw.TRUE if visible else glfw.FALSE),
-            (glfw.DEPTH_BITS, 24),
-        ):
-            glfw.window_hint(hint, value)
-        self.window: Any = glfw.create_window(width, height, "pedvr study", None, None)
-        if not self.window:
-            glfw.terminate()
-            raise BackendUnavailableError(
-                "cannot open a desktop window: no OpenGL 3.3 core context on this display; "
-                "use --backend headless"
-            )
-        glfw.make_context_current(self.window)
-        glfw.swap_interval(1 if vsync else 0)
-        self.ctx = moderngl.create_context(require=330)
+        self.glfw, self.window, self.ctx = open_gl_window(width, height, "pedvr study",
+                                                          visible=visible, vsync=vsync)
+        glfw = self.glfw
         self.drawer = PanelDrawer(self.ctx)
         self.eye_height = eye_height
         self.clock = clock
