@@ -73,6 +73,19 @@ class ObstacleGrid(NamedTuple):
 
 
 @njit(cache=True)
+def _grid_shape(minx, maxx, miny, maxy, cell_size, items):
+    """Cell side and counts covering the box, grown until at most ~4 cells per item."""
+    cell = cell_size
+    max_cells = _MAX_CELLS_PER_ITEM * items + 16
+    while True:
+        nx = int((maxx - minx) / cell) + 1
+        ny = int((maxy - miny) / cell) + 1
+        if nx * ny <= max_cells:
+            return cell, nx, ny
+        cell *= 1.5
+
+
+@njit(cache=True)
 def build_agent_grid_arrays(pos, cell_size):
     """Counting sort of ``pos (N,2)`` into cells of side ``>= cell_size``.
 
@@ -95,14 +108,7 @@ def build_agent_grid_arrays(pos, cell_size):
         maxx = max(maxx, x)
         miny = min(miny, y)
         maxy = max(maxy, y)
-    cell = cell_size
-    max_cells = _MAX_CELLS_PER_ITEM * n + 16
-    while True:
-        nx = int((maxx - minx) / cell) + 1
-        ny = int((maxy - miny) / cell) + 1
-        if nx * ny <= max_cells:
-            break
-        cell *= 1.5
+    cell, nx, ny = _grid_shape(minx, maxx, miny, maxy, cell_size, n)
     origin[0] = minx
     origin[1] = miny
     inv = 1.0 / cell
@@ -267,14 +273,7 @@ def _build_obstacle_grid_arrays(vertices, nxt, cell_size):
         maxx = max(maxx, vertices[k, 0])
         miny = min(miny, vertices[k, 1])
         maxy = max(maxy, vertices[k, 1])
-    cell = cell_size
-    max_cells = _MAX_CELLS_PER_ITEM * m + 16
-    while True:
-        nx = int((maxx - minx) / cell) + 1
-        ny = int((maxy - miny) / cell) + 1
-        if nx * ny <= max_cells:
-            break
-        cell *= 1.5
+    cell, nx, ny = _grid_shape(minx, maxx, miny, maxy, cell_size, m)
     origin[0] = minx
     origin[1] = miny
     inv = 1.0 / cell
