@@ -37,6 +37,9 @@ from pedvr.study.questionnaire import Questionnaire, load_questionnaire
 from pedvr.validation import MISSING, Checker, is_num
 
 STEP_KINDS = ("instructions", "questionnaire", "trial", "blocks", "sweep")
+# Keys of a trial step; a sweep (the corridor's responsibility series) adds "order".
+_TRIAL_KEYS = ("id", "kind", "scene", "condition", "time_limit_s", "responsibility", "text",
+               "record_trajectories")
 ORDERS = ("balanced_latin_square", "random", "fixed")
 _ID = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 
@@ -264,20 +267,7 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
             optional = c.boolean(st, "optional", f"{path}.optional", default=False)
             steps.append(StepSpec(id=sid, kind=kind, questionnaire=qid, optional=optional))
         elif kind == "trial":
-            c.known(
-                st,
-                path,
-                (
-                    "id",
-                    "kind",
-                    "scene",
-                    "condition",
-                    "time_limit_s",
-                    "responsibility",
-                    "text",
-                    "record_trajectories",
-                ),
-            )
+            c.known(st, path, _TRIAL_KEYS)
             sc = scene(f"{path}.scene", st)
             cond = c.string(st, "condition", f"{path}.condition", choices=CONDITIONS)
             limit = _limit(c, st, path)
@@ -299,21 +289,7 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
                     )
                 )
         elif kind == "sweep":
-            c.known(
-                st,
-                path,
-                (
-                    "id",
-                    "kind",
-                    "scene",
-                    "condition",
-                    "time_limit_s",
-                    "responsibility",
-                    "order",
-                    "text",
-                    "record_trajectories",
-                ),
-            )
+            c.known(st, path, (*_TRIAL_KEYS, "order"))
             sc = scene(f"{path}.scene", st)
             cond = c.string(st, "condition", f"{path}.condition", choices=CONDITIONS)
             limit = _limit(c, st, path)
