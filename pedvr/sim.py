@@ -173,6 +173,7 @@ class Simulation:
             for row in range(first, first + n):
                 self.bfsm.enter(self.behavior, row, state, t=self.t, pos=self.crowd.pos[row],
                                 rng=self.rng, sequence=sequence)
+                self._replan(row)
 
     def _spawn(self, k: int, spawn: Spawn) -> None:
         prof = self.scene.profiles[spawn.profile]
@@ -310,11 +311,6 @@ class Simulation:
 
     def _plan(self) -> None:
         """Preferred velocity toward the furthest visible waypoint, facing it (PedVR §3.2.1)."""
-        if self._flat is None:
-            for row in range(len(self.crowd)):
-                if not self.crowd.is_user[row] and self.paths[row].shape[0] == 0 \
-                        and not np.isnan(self.behavior.goal[row, 0]):
-                    self._replan(row)
         crowd = self.crowd
         pts, starts, lens = self._flat_paths()
         cursor = self.visibility.furthest_visible(crowd.pos, crowd.radius, pts, starts, lens,
