@@ -36,15 +36,40 @@ class Obstacle:
     height: float = 1.0
 
 
+DOOR_KINDS = ("single", "double")
+
+
+@dataclass(frozen=True)
+class Door:
+    """A sprung, double-acting hinged door filling a doorway (Huang & Terzopoulos §4, §4.5.2).
+
+    ``span`` runs from one jamb to the other across the doorway; the doorway
+    itself must be a gap between obstacles (walls), since the simulation
+    navigates through it like any free space. ``single``: one leaf hinged at
+    ``span[0]``; ``double``: two mirrored leaves hinged at both jambs, meeting
+    in the middle (the paper's double door is "two juxtaposed sprung single
+    hinged doors"). ``height`` is the leaf's, for drawing.
+    """
+
+    span: tuple[Vec2, Vec2]
+    kind: str = "single"
+    height: float = 2.1
+
+    @property
+    def width(self) -> float:
+        return math.dist(self.span[0], self.span[1])
+
+
 @dataclass(frozen=True)
 class WorldConfig:
-    """The static world: a rectangular walkable area and obstacles inside it.
+    """The static world: a rectangular walkable area, obstacles inside it, and doors.
 
     ``bounds`` is ``((xmin, ymin), (xmax, ymax))``; its border acts as a wall.
     """
 
     bounds: tuple[Vec2, Vec2]
     obstacles: tuple[Obstacle, ...] = ()
+    doors: tuple[Door, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -20,9 +20,11 @@ from shapely.geometry import Point, Polygon, box
 from pedvr.behavior.goals import selectors, validate_params
 from pedvr.errors import SceneError
 from pedvr.scene.config import (
+    DOOR_KINDS,
     GESTURE_CLIPS,
     AgentProfile,
     BehaviorConfig,
+    Door,
     GoalSelector,
     GoalSet,
     MotionLimits,
@@ -201,7 +203,7 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
 
 
 def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
-    c.known(w, "world", ("bounds", "obstacles"))
+    c.known(w, "world", ("bounds", "obstacles", "doors"))
     bounds = None
     b = w.get("bounds", MISSING)
     if b is MISSING:
@@ -228,7 +230,61 @@ def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
             if bounds is not None and not box(*bounds[0], *bounds[1]).intersects(Polygon(ob.vertices)):
                 c.bad(path, "{...}", "lies outside world.bounds")
             obstacles.append(ob)
-    return WorldConfig(bounds=bounds, obstacles=tuple(obstacles)) if bounds else None
+    doors = _doors(c, w.get("doors", []), bounds, obstacles)
+    return WorldConfig(bounds=bounds, obstacles=tuple(obstacles), doors=doors) if bounds else None
+
+
+DOOR_WIDTH = {"single": (0.7, 1.6), "double": (1.2, 3.2)}  # m, jamb to jamb
+
+
+def _doors(c: _Checker, raw: object, bounds: tuple[Vec2, Vec2] | None,
+           obstacles: list[Obstacle]) -> tuple[Door, ...]:
+    """``[[world.doors]]``: each a doorway span in a gap between obstacles (see :class:`Door`)."""
+    from shapely.geometry import LineString
+    from shapely.ops import substring
+
+    if not isinstance(raw, list):
+        c.bad("world.doors", raw, "expected an array of tables [[world.doors]]")
+        return ()
+    solid = [Polygon(o.vertices) for o in obstacles]
+    out: list[Door] = []
+    spans: list[tuple[str, LineString]] = []
+    for i, d in enumerate(raw):
+        path = f"world.doors[{i}]"
+        if not isinstance(d, dict):
+            c.bad(path, d, "expected a table")
+            continue
+        c.known(d, path, ("kind", "span", "height"))
+        kind = c.string(d, "kind", f"{path}.kind", required=False, default="single", choices=DOOR_KINDS)
+        height = c.number(d, "height", f"{path}.height", required=False, default=2.1,
+                          check=lambda x: 1.5 <= x <= 4.0, expect="in [1.5, 4] m")
+        pts = c.points(d, "span", f"{path}.span", minimum=2)
+        if pts is None or kind is None or height is None:
+            continue
+        if len(pts) != 2:
+            c.bad(f"{path}.span", d["span"], "expected two jambs [[x0, y0], [x1, y1]]")
+            continue
+        lo, hi = DOOR_WIDTH[kind]
+        width = math.dist(pts[0], pts[1])
+        if not lo <= width <= hi:
+            c.bad(f"{path}.span", d["span"],
+                  f"a {kind} door is {lo:g} to {hi:g} m wide; this is {width:.2f} m")
+            continue
+        line = LineString(pts)
+        if bounds is not None and not box(*bounds[0], *bounds[1]).contains(line):
+            c.bad(f"{path}.span", d["span"], "lies outside world.bounds")
+            continue
+        inner = substring(line, 0.05, width - 0.05)  # jambs may sit a little inside the walls
+        if any(p.intersects(inner) for p in solid):
+            c.bad(f"{path}.span", d["span"], "crosses an obstacle; a door fills a gap between obstacles")
+            continue
+        clash = next((k for k, s in spans if s.distance(line) < 0.5 * (width + s.length)), None)
+        if clash is not None:
+            c.bad(f"{path}.span", d["span"], f"its leaves would swing into those of {clash}")
+            continue
+        spans.append((path, line))
+        out.append(Door(span=(pts[0], pts[1]), kind=kind, height=height))
+    return tuple(out)
 
 
 def _obstacle(c: _Checker, o: dict[str, Any], path: str) -> Obstacle | None:

@@ -77,6 +77,44 @@ def test_state_gesture_sets_reach_the_body(tmp_path: Path) -> None:
     assert sim.body.gestures.by_state == {"wait": (("check_phone", "wave"), (3.0, 1.0))}
 
 
+DOORWAY = [{"kind": "wall", "wall": [[0.0, -5.0], [0.0, -0.5]]}, {"kind": "wall", "wall": [[0.0, 0.5], [0.0, 5.0]]}]
+
+
+@pytest.mark.parametrize("door, message", [
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "kind": "revolving"},
+     r"world\.doors\[0\]\.kind = 'revolving': expected one of single, double$"),
+    ({"kind": "single"}, r"world\.doors\[0\]\.span = <missing>: required list of at least 2 \[x, y\] points"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5], [0.0, 1.0]]},
+     r"world\.doors\[0\]\.span = .*: expected two jambs \[\[x0, y0\], \[x1, y1\]\]"),
+    ({"span": [[0.0, -1.0], [0.0, 1.0]]},
+     r"world\.doors\[0\]\.span = .*: a single door is 0\.7 to 1\.6 m wide; this is 2\.00 m"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "kind": "double"},
+     r"world\.doors\[0\]\.span = .*: a double door is 1\.2 to 3\.2 m wide; this is 1\.00 m"),
+    ({"span": [[0.0, -1.2], [0.0, -0.2]]},
+     r"world\.doors\[0\]\.span = .*: crosses an obstacle; a door fills a gap between obstacles"),
+    ({"span": [[4.8, 0.0], [5.8, 0.0]]}, r"world\.doors\[0\]\.span = .*: lies outside world\.bounds"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "height": 9}, r"world\.doors\[0\]\.height = 9: must be in \[1\.5, 4\] m"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "hinge": "left"}, r"world\.doors\[0\]\.hinge = 'left': unknown key"),
+])
+def test_each_door_problem_has_its_message(tmp_path: Path, door: dict, message: str) -> None:
+    with pytest.raises(SceneError, match=message):
+        load_scene(write(tmp_path, patched(world__obstacles=DOORWAY, world__doors=[door])))
+
+
+def test_doors_whose_leaves_would_meet_are_refused(tmp_path: Path) -> None:
+    doors = [{"span": [[0.0, -0.5], [0.0, 0.5]]}, {"span": [[0.2, -0.5], [1.2, -0.5]]}]
+    with pytest.raises(SceneError, match=r"world\.doors\[1\]\.span = .*: its leaves would swing into those "
+                                         r"of world\.doors\[0\]"):
+        load_scene(write(tmp_path, patched(world__obstacles=DOORWAY, world__doors=doors)))
+
+
+def test_a_good_door_loads(tmp_path: Path) -> None:
+    s = load_scene(write(tmp_path, patched(world__obstacles=DOORWAY,
+                                           world__doors=[{"kind": "single", "span": [[0.0, -0.5], [0.0, 0.5]]}])))
+    (door,) = s.world.doors
+    assert door.kind == "single" and door.width == pytest.approx(1.0) and door.height == 2.1
+
+
 @pytest.mark.parametrize("changes, message", [
     ({"agents__profiles__adult__radius": -0.2},
      r"x\.toml: agents\.profiles\.adult\.radius = -0\.2: must be > 0$"),
