@@ -42,6 +42,8 @@ class Metrics:
     phase_ms: dict[str, float] = field(default_factory=dict)
     gaze_events: list[dict[str, object]] = field(default_factory=list)
     root_sync_error: float = 0.0
+    door_overlap: float = 0.0  # m: deepest a door leaf cut into a walker's disc
+    door_openings: int = 0  # times a closed leaf was opened
 
     def observe_body(self, crowd: CrowdState, *, pelvis: np.ndarray) -> None:
         """Pelvis ``(N,3)`` (3D, Y up) against the committed 2D agents: the largest
@@ -154,6 +156,8 @@ class Metrics:
             "step_ms_p50": round(float(np.percentile(ms, 50)), 4),
             "step_ms_p95": round(float(np.percentile(ms, 95)), 4),
             "phase_ms_mean": {k: round(v / max(self.steps, 1), 5) for k, v in self.phase_ms.items()},
+            "door_leaf_overlap_max_m": round(self.door_overlap, 6),
+            "door_openings": self.door_openings,
         }
 
 

@@ -25,6 +25,7 @@ from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ScriptedUser, StandingUser, UserAgent, UserInput
 from pedvr.errors import NavigationError, SceneError, UsageError
+from pedvr.etiquette.doors import CLOSED, DoorLeaves
 from pedvr.record import Metrics, Recording
 from pedvr.scene.config import CONDITIONS, AgentProfile, SceneConfig, SequenceGoal, Spawn
 from pedvr.world import NavMesh, Visibility, edges, obstacle_set, walkable_area
@@ -71,6 +72,7 @@ class Simulation:
         self.step_index = 0
 
         self.obstacles = obstacle_set(scene.world)
+        self.doors = DoorLeaves.of_world(scene.world)
         self.visibility = Visibility(scene.world)
         self._walkable = walkable_area(scene.world)
         shapely.prepare(self._walkable)  # contains_xy on every recorded step
@@ -367,10 +369,27 @@ class Simulation:
         """The body turns commanded velocities into root motion; contacts are resolved; bodies are posed."""
         root, heading = self.body.animate(self.crowd, self._new_vel, self.dt, coupled=self.coupled)
         self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user)
+        if len(self.doors):
+            self._root = self._move_doors(self._root)
         self._root_heading = heading
         self.body.compose(self.crowd, self._root, heading, dt=self.dt, t=self.t + self.dt,
                           coupled=self.coupled,
                           state_names=np.asarray(self.bfsm.names + ("",))[self.behavior.state])
+
+    def _move_doors(self, root: np.ndarray) -> np.ndarray:
+        """Door leaves yield to the bodies' new discs, then bodies yield to leaves that cannot
+        (:mod:`pedvr.etiquette.doors`); before the bodies are posed, so the body stays the truth."""
+        crowd, doors = self.crowd, self.doors
+        was_closed = doors.phase == CLOSED
+        vel = np.where(crowd.is_user[:, None], crowd.vel, self._new_vel)
+        doors.step(self.dt, root, vel, crowd.radius)
+        pushed, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
+        if not np.array_equal(pushed, root):  # a pushed disc may now press on another: settle once more
+            root = self.steering.resolve_contacts(pushed, crowd.radius, crowd.is_user)
+            root, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
+        self.metrics.door_overlap = max(self.metrics.door_overlap, overlap)
+        self.metrics.door_openings += int(np.count_nonzero(was_closed & (doors.phase != CLOSED)))
+        return root
 
     def _sync(self) -> None:
         """The 2D agent takes the position and heading of its body's root (the body is the truth)."""

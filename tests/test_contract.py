@@ -1,7 +1,8 @@
 """Contract tests: every shipped scene and a set of SteerSuite cases.
 
 Each loads, runs 60 simulated seconds, stays finite, keeps every disc apart
-(no overlap > 1 cm), is deterministic, and agents reach goals.
+(no overlap > 1 cm), is deterministic, and agents reach goals; where there
+are doors, walkers push their leaves open and no leaf cuts into a walker.
 """
 
 from __future__ import annotations
@@ -90,3 +91,12 @@ def test_deterministic(path: Path) -> None:
         assert a[key].tobytes() == b[key].tobytes()
     if path.stem != "crossing-1":  # crossing-1 has nothing random in it
         assert a["pos"].shape != c["pos"].shape or a["pos"].tobytes() != c["pos"].tobytes()
+
+
+def test_door_leaves_move_and_never_cut_into_walkers(run: tuple[Path, Simulation]) -> None:
+    _, sim = run
+    if not len(sim.doors):
+        pytest.skip("no doors in this scene")
+    s = sim.summary()
+    assert s["door_openings"] >= 1, s  # walkers went through and pushed leaves open
+    assert float(s["door_leaf_overlap_max_m"]) <= 0.01, s  # type: ignore[arg-type]

@@ -1,0 +1,150 @@
+"""Door mechanics (Huang & Terzopoulos App. A): leaves open away from walkers, never cut
+into them, bounce on release and close; the App. A control functions invert each other."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pedvr.etiquette.doors import (
+    BOUNCE_ANGLE,
+    CLOSED,
+    HELD,
+    MAX_ANGLE,
+    PASSAGE_ANGLE,
+    DoorLeaves,
+    hand_angle,
+    hand_point,
+)
+from pedvr.scene.config import Door, WorldConfig
+
+DT = 1 / 90
+R = 0.25
+
+
+def _leaves(kind: str = "single", width: float = 1.0) -> DoorLeaves:
+    """A door in the line y = 0, from x = -w/2 to x = +w/2 (the + side of its first leaf is +y)."""
+    door = Door(span=((-width / 2, 0.0), (width / 2, 0.0)), kind=kind)
+    return DoorLeaves.of_world(WorldConfig(bounds=((-5.0, -5.0), (5.0, 5.0)), doors=(door,)))
+
+
+def _overlap(leaves: DoorLeaves, pos: np.ndarray, radius: np.ndarray) -> float:
+    _, deepest = leaves.push_out(pos, radius, np.zeros(len(pos), np.bool_))
+    return deepest
+
+
+def _walk(leaves: DoorLeaves, start: tuple[float, float], vel: tuple[float, float], seconds: float,
+          *, stop_y: float | None = None) -> list[tuple[float, np.ndarray, np.ndarray, float]]:
+    """One walker at constant velocity (halting at ``stop_y``); per step (t, pos, angles, overlap)."""
+    pos = np.array([start], np.float64)
+    v = np.array([vel], np.float64)
+    rad = np.array([R])
+    out = []
+    for k in range(round(seconds / DT)):
+        if stop_y is not None and (pos[0, 1] - stop_y) * np.sign(v[0, 1]) >= 0:
+            v[:] = 0.0
+        pos = pos + v * DT
+        leaves.step(DT, pos, v, rad)
+        out.append(((k + 1) * DT, pos[0].copy(), leaves.angle.copy(), _overlap(leaves, pos, rad)))
+    return out
+
+
+def test_walker_pushes_the_leaf_away_and_it_closes_behind() -> None:
+    leaves = _leaves()
+    trace = _walk(leaves, (0.0, -3.0), (0.0, 1.3), 9.0, stop_y=4.0)
+    angles = np.array([a[0] for _, _, a, _ in trace])
+    ys = np.array([p[1] for _, p, _, _ in trace])
+    # It opens toward +y, away from the walker coming from -y, and is at the passage angle
+    # by the time the walker's disc reaches the doorway line.
+    assert angles.min() >= 0.0
+    reach = np.flatnonzero(ys >= -R)[0]
+    assert angles[reach] >= math.radians(70)
+    # It never cuts into the walker.
+    assert max(o for *_, o in trace) <= 1e-9
+    # Released, it bounces past where it was held, then the closer shuts it.
+    assert angles.max() >= PASSAGE_ANGLE + 0.8 * BOUNCE_ANGLE
+    assert angles.max() <= MAX_ANGLE + 1e-12
+    assert angles[-1] == 0.0 and leaves.phase[0] == CLOSED and leaves.side[0] == 0
+
+
+def test_walker_from_the_other_side_opens_it_the_other_way() -> None:
+    leaves = _leaves()
+    trace = _walk(leaves, (0.0, 3.0), (0.0, -1.3), 4.0)
+    angles = np.array([a[0] for _, _, a, _ in trace])
+    assert angles.max() <= 0.0 and angles.min() <= -math.radians(70)
+    assert max(o for *_, o in trace) <= 1e-9
+
+
+def test_someone_standing_in_the_swing_stops_the_leaf() -> None:
+    """f_bounce's p_stop: a walker on the far side, inside the swing circle, stops the leaf."""
+    leaves = _leaves()
+    bystander = np.array([[-0.1, 0.55]])  # inside the swing circle on the +y side, not moving
+    pos = np.array([[0.0, -1.2]])
+    v = np.array([[0.0, 1.0]])
+    for _ in range(round(0.8 / DT)):
+        pos = pos + v * DT
+        both = np.concatenate([pos, bystander])
+        leaves.step(DT, both, np.concatenate([v, np.zeros((1, 2))]), np.array([R, R]))
+        assert _overlap(leaves, both, np.array([R, R])) <= 1e-9
+    assert leaves.phase[0] == HELD
+    assert 0.0 < leaves.angle[0] < PASSAGE_ANGLE - math.radians(10)  # stopped short of the passage angle
+
+
+def test_a_body_pushes_a_closed_leaf_open_without_a_hand() -> None:
+    """A disc that drifts into the leaf (too slowly to count as opening it) pushes it aside."""
+    leaves = _leaves()
+    rad = np.array([R])
+    still = np.zeros((1, 2))
+    for k in range(60):
+        pos = np.array([[0.2, -0.35 + 0.01 * k]])  # creeps through the doorway line
+        leaves.step(DT, pos, still, rad)
+        assert _overlap(leaves, pos, rad) <= 1e-9
+    assert leaves.angle[0] > math.radians(20)
+
+
+def test_double_door_leaves_both_swing_to_the_far_side() -> None:
+    leaves = _leaves("double", 1.8)
+    assert len(leaves) == 2
+    np.testing.assert_allclose(leaves.length, [0.9, 0.9])
+    trace = _walk(leaves, (0.0, -3.0), (0.0, 1.3), 2.6)
+    assert max(o for *_, o in trace) <= 1e-9
+    # Mirrored leaves: opposite signed angles, both tips on the walker's far side (+y).
+    a0, a1 = trace[-1][2]
+    assert a0 > math.radians(60) and a1 < -math.radians(60)
+    assert (leaves.tips()[:, 1] > 0.5).all()
+
+
+def test_leaf_at_the_stop_pushes_bodies_out_but_never_the_user() -> None:
+    leaves = _leaves()
+    leaves.angle[:] = MAX_ANGLE
+    tip_dir = np.array([math.cos(MAX_ANGLE), math.sin(MAX_ANGLE)])
+    on_leaf = leaves.hinge[0] + 0.5 * tip_dir + 0.1 * np.array([tip_dir[1], -tip_dir[0]])
+    pos = np.array([on_leaf, on_leaf])
+    out, deepest = leaves.push_out(pos, np.array([R, R]), np.array([True, False]))
+    np.testing.assert_allclose(out[1], on_leaf)  # the user (not movable) stays
+    assert deepest == pytest.approx(R - 0.1)
+    # The moved disc now just touches the leaf.
+    rest = DoorLeaves.push_out(leaves, out[:1], np.array([R]), np.array([False]))[1]
+    assert rest <= 1e-9
+
+
+def test_app_a_control_functions_invert_each_other() -> None:
+    hinge, base = np.array([1.0, 2.0]), math.radians(30)
+    for angle in np.radians([-95.0, -40.0, 0.0, 25.0, 80.0]):
+        for p_rel in (0.3, 0.85):
+            p = hand_point(hinge, base, float(angle), p_rel)
+            assert np.hypot(*(p - hinge)) == pytest.approx(p_rel)
+            assert hand_angle(hinge, base, p) == pytest.approx(angle)
+
+
+def test_of_world_leaves_and_pose() -> None:
+    leaves = _leaves("single", 1.2)
+    np.testing.assert_allclose(leaves.hinge, [[-0.6, 0.0]])
+    assert leaves.base[0] == pytest.approx(0.0) and leaves.length[0] == pytest.approx(1.2)
+    leaves.angle[:] = math.pi / 2
+    np.testing.assert_allclose(leaves.tips(), [[-0.6, 1.2]], atol=1e-12)
+    pose = leaves.pose()
+    assert pose.shape == (1, 5)
+    np.testing.assert_allclose(pose[0], [-0.6, 0.0, math.pi / 2, 1.2, 2.1])
