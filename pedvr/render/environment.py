@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from pedvr.scene.config import Obstacle, WorldConfig
+from pedvr.scene.config import Door, Obstacle, WorldConfig
 
 ENV_DTYPE = np.dtype([("pos", "<f4", 3), ("normal", "<f4", 3), ("color", "<f4", 3)])
 BOUNDARY_HEIGHT = 1.1  # m: a barrier one can see over, so large outdoor scenes do not feel boxed in
@@ -34,9 +34,14 @@ _COLOURS = {  # sRGB, converted to linear below
     "booth": (0.30, 0.50, 0.70),
     "shop": (0.78, 0.70, 0.55),
     "boundary": (0.55, 0.53, 0.50),
+    "door": (0.56, 0.40, 0.26),
+    "door_frame": (0.35, 0.33, 0.32),
 }
 FLOOR_COLOUR = (0.62, 0.61, 0.58)
 GLASS = (0.20, 0.28, 0.32)
+LEAF_THICKNESS = 0.045  # m
+LEAF_GLAZING = (0.95, 1.85)  # m, the glass panel of a door leaf (the paper's doors are transparent)
+FRAME = 0.06  # m, jamb post width and depth beyond the leaf
 
 
 def linear(srgb: tuple[float, float, float]) -> np.ndarray:
@@ -188,9 +193,67 @@ def floor_vertices(world: WorldConfig, *, margin: float = FLOOR_MARGIN) -> np.nd
     return _verts(quad, [up] * 6, [linear(FLOOR_COLOUR)] * 6)
 
 
+def door_frame_vertices(door: Door, world: WorldConfig) -> np.ndarray:
+    """A doorway's frame: a post at each jamb and a lintel from the leaf's top up to the
+    tallest obstacle touching a jamb (a wall over the door), or 0.25 m above the leaf."""
+    a, b = np.asarray(door.span[0], np.float64), np.asarray(door.span[1], np.float64)
+    t = (b - a) / np.linalg.norm(b - a)
+    n = np.array([-t[1], t[0]])
+    jambs = [shapely.Point(*a), shapely.Point(*b)]
+    walls = [o.height for o in world.obstacles
+             if any(shapely.Polygon(o.vertices).distance(j) < 0.05 for j in jambs)]
+    top = max([door.height + 0.25, *walls])
+    pos: list[np.ndarray] = []
+    nrm: list[np.ndarray] = []
+    col: list[np.ndarray] = []
+    colour = kind_colour("door_frame")
+    d = LEAF_THICKNESS / 2 + FRAME
+    for end, inward in ((a, t), (b, -t)):
+        post = [end - d * n, end + FRAME * inward - d * n, end + FRAME * inward + d * n, end + d * n]
+        _prism(_ccw(np.asarray(post)), 0.0, door.height, colour, band=None, pos=pos, nrm=nrm, col=col)
+    lintel = _ccw(np.asarray([a - d * n, b - d * n, b + d * n, a + d * n]))
+    _prism(lintel, door.height, top, colour, band=None, pos=pos, nrm=nrm, col=col, bottom=True)
+    return _verts(pos, nrm, col)
+
+
+def door_leaf_vertices(length: float, height: float) -> np.ndarray:
+    """One leaf in its own frame: hinge at the origin, closed along +x, a glass panel at eye
+    height. :func:`place_leaves` turns it to the leaf's angle every frame."""
+    pos: list[np.ndarray] = []
+    nrm: list[np.ndarray] = []
+    col: list[np.ndarray] = []
+    h = LEAF_THICKNESS / 2
+    poly = np.array([[0.01, -h], [length - 0.005, -h], [length - 0.005, h], [0.01, h]])
+    _prism(poly, 0.01, height, kind_colour("door"), band=LEAF_GLAZING, pos=pos, nrm=nrm, col=col)
+    return _verts(pos, nrm, col)
+
+
+def place_leaves(local: list[np.ndarray], pose: np.ndarray) -> np.ndarray:
+    """All leaves in world space: ``local[i]`` (from :func:`door_leaf_vertices`) turned about
+    its hinge to ``pose[i]`` (hinge x, hinge y, world angle, ...: ``DoorLeaves.pose()``)."""
+    parts = []
+    for v, (hx, hy, ang, *_) in zip(local, np.asarray(pose, np.float64), strict=True):
+        c, s = np.cos(ang), np.sin(ang)
+        out = v.copy()
+        for key in ("pos", "normal"):
+            x, z = v[key][:, 0], v[key][:, 2]
+            out[key][:, 0] = c * x - s * z + (hx if key == "pos" else 0.0)
+            out[key][:, 2] = s * x + c * z + (hy if key == "pos" else 0.0)
+        parts.append(out)
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=ENV_DTYPE)
+
+
+def _ccw(poly: np.ndarray) -> np.ndarray:
+    x, y = poly[:, 0], poly[:, 1]
+    area = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+    return poly if area > 0 else poly[::-1]
+
+
 def environment_mesh(world: WorldConfig) -> EnvironmentMesh:
-    """Everything static in ``world``: the floor, and the boundary plus every obstacle."""
-    parts = [boundary_vertices(world)] + [obstacle_vertices(o) for o in world.obstacles]
+    """Everything static in ``world``: the floor, and the boundary, every obstacle and every
+    door frame (the leaves move: :func:`place_leaves`)."""
+    parts = ([boundary_vertices(world)] + [obstacle_vertices(o) for o in world.obstacles]
+             + [door_frame_vertices(d, world) for d in world.doors])
     return EnvironmentMesh(floor=floor_vertices(world), solids=np.concatenate(parts))
 
 

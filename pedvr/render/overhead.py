@@ -1,6 +1,6 @@
 """The overhead debug view's geometry (pure numpy): the paper's Fig. 1 right and Fig. 4 as 2D drawing.
 
-Obstacles filled, the bounds outlined, every agent a disc with a heading tick
+Obstacles filled, the bounds outlined, door leaves as lines, every agent a disc with a heading tick
 and a velocity line, the user's disc in blue, gaze lines from each gazing
 agent to what it looks at, the red-sphere route with the next sphere filled.
 Coordinates are ground ``(x, y)``; the view looks down from above the 3D
@@ -29,6 +29,7 @@ GAZE = (0.05, 0.65, 0.15, 1.0)
 SPHERE = (0.90, 0.08, 0.06, 1.0)
 ROUTE = (0.90, 0.45, 0.40, 1.0)
 BOUNDS = (0.2, 0.2, 0.2, 1.0)
+DOOR = (0.50, 0.30, 0.12, 1.0)
 
 
 @dataclass(frozen=True)
@@ -66,6 +67,11 @@ def frame_geometry(
     (x0, y0), (x1, y1) = world.bounds
     corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
     lines = [_segments(corners, np.roll(corners, -1, axis=0), BOUNDS)]
+    if snap.doors is not None and len(snap.doors):
+        d = np.asarray(snap.doors, np.float64)
+        hinge = d[:, :2]
+        tip = hinge + d[:, 3:4] * np.stack([np.cos(d[:, 2]), np.sin(d[:, 2])], axis=1)
+        lines.append(_segments(hinge, tip, DOOR))
     discs = []
     if snap.route is not None and len(snap.route):
         r = snap.route

@@ -32,7 +32,14 @@ import moderngl
 import numpy as np
 
 from pedvr.errors import BackendUnavailableError
-from pedvr.render.environment import environment_mesh, sphere_vertices
+from pedvr.etiquette.doors import DoorLeaves
+from pedvr.render.environment import (
+    ENV_DTYPE,
+    door_leaf_vertices,
+    environment_mesh,
+    place_leaves,
+    sphere_vertices,
+)
 from pedvr.render.figures import BODY, agent_looks, default_dims, skeleton_mesh, standing_bones
 from pedvr.render.math3d import EyeView, overhead_transform
 from pedvr.render.overhead import BACKGROUND, disc_fan, frame_geometry, static_triangles
@@ -142,6 +149,15 @@ class Renderer:
         fmt = ("3f 3f 3f", "in_pos", "in_normal", "in_color")
         self._floor_vao = ctx.vertex_array(p["environment"], [(self._floor_vbo, *fmt)])
         self._solid_vao = ctx.vertex_array(p["environment"], [(self._solid_vbo, *fmt)])
+        leaves = DoorLeaves.of_world(world)
+        self._closed_doors = leaves.pose()
+        self._leaf_local = [door_leaf_vertices(float(w), float(h))
+                            for w, h in zip(leaves.length, leaves.height, strict=True)]
+        placed = place_leaves(self._leaf_local, self._closed_doors)
+        self._leaf_count = len(placed)
+        self._leaf_vbo = ctx.buffer(placed.tobytes() if len(placed) else b"\0" * ENV_DTYPE.itemsize,
+                                    dynamic=True)
+        self._leaf_vao = ctx.vertex_array(p["environment"], [(self._leaf_vbo, *fmt)])
         sphere = sphere_vertices()
         self._sphere_vbo = ctx.buffer(sphere.tobytes())
         self._sphere_vao = ctx.vertex_array(p["environment"], [(self._sphere_vbo, *fmt)])
@@ -227,6 +243,11 @@ class Renderer:
             discs = np.zeros((n, 4), np.float32)
             discs[:, :2], discs[:, 2], discs[:, 3] = snap.pos[rows], snap.radius[rows], 1.0
             self._discs.write(discs.tobytes(), viewport=(0, 0, 1, n))
+        if self._leaf_count:
+            pose = self._closed_doors if snap.doors is None else np.asarray(snap.doors, np.float64)
+            if pose.shape != self._closed_doors.shape:
+                raise ValueError(f"doors shape {pose.shape}: expected {self._closed_doors.shape}")
+            self._leaf_vbo.write(place_leaves(self._leaf_local, pose).tobytes())
         self._n = n
         self._sphere = None if snap.sphere is None else np.asarray(snap.sphere, dtype=np.float64)
         self._sphere_radius = min(0.25, 0.6 * snap.sphere_radius)
@@ -288,6 +309,8 @@ class Renderer:
         self._render(self._floor_vao, instances=k)
         _set(env, "u_pattern", 0)
         self._render(self._solid_vao, instances=k)
+        if self._leaf_count:
+            self._render(self._leaf_vao, instances=k)
         if self._sphere is not None:
             m = np.eye(4, dtype=np.float32)
             m[:3, :3] *= 2 * self._sphere_radius

@@ -29,7 +29,9 @@ class Snapshot:
     ``gaze_target`` is ``(N, 3)`` world points for the overhead view's gaze
     lines (NaN rows: none); the figures' eyes follow ``bones``, not this.
     ``sphere`` is the next red target sphere on the ground, or None when the
-    route is done; ``route`` all spheres.
+    route is done; ``route`` all spheres. ``doors`` ``(L, 5)`` is every door
+    leaf's hinge x, hinge y, world angle, length and height
+    (``DoorLeaves.pose()``); None draws them closed.
     """
 
     t: float
@@ -46,6 +48,7 @@ class Snapshot:
     sphere_radius: float = 0.5
     route: np.ndarray | None = None
     next_sphere: int = 0
+    doors: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.ids.shape[0])
@@ -83,6 +86,7 @@ class Snapshot:
             sphere_radius=radius,
             route=route,
             next_sphere=nxt,
+            doors=sim.doors.pose() if len(sim.doors) else None,
         )
 
     @classmethod
@@ -99,6 +103,7 @@ class Snapshot:
         bones: np.ndarray | None = None,
         dims: np.ndarray | None = None,
         sphere: np.ndarray | None = None,
+        doors: np.ndarray | None = None,
         t: float = 0.0,
     ) -> Snapshot:
         """A hand-made snapshot (tests, benchmarks): agents at ``pos`` facing ``heading``.
@@ -119,4 +124,5 @@ class Snapshot:
             bones=bones,
             dims=dims,
             sphere=None if sphere is None else np.asarray(sphere, np.float64),
+            doors=None if doors is None else np.asarray(doors, np.float64),
         )
