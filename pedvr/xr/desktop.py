@@ -158,7 +158,9 @@ class DesktopPresenter:
         glfw = self.glfw
         glfw.set_input_mode(self.window, glfw.CURSOR, glfw.CURSOR_DISABLED if on else glfw.CURSOR_NORMAL)
         self._captured = on
-        self._cursor = None
+        # From here on motion is relative to where the (now virtual) cursor is, so the very first
+        # movement after the click already turns the view.
+        self._cursor = tuple(glfw.get_cursor_pos(self.window)) if on else None
 
     def _on_cursor(self, window: Any, x: float, y: float) -> None:
         if self._captured and self._cursor is not None:

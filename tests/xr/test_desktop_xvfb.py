@@ -7,6 +7,7 @@ the suite needs no display; without the Xvfb binary it is skipped, saying so.
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -47,6 +48,7 @@ def xvfb_display(monkeypatch: pytest.MonkeyPatch) -> Iterator[str]:
 
 WINDOW_SCRIPT = """
 import json
+import math
 from pedvr.render.renderer import SKY_LINEAR, srgb_encode_rgb
 from pedvr.scene.loader import load_any
 from pedvr.scenes import resolve_scene
@@ -96,3 +98,91 @@ def test_window_opens_renders_reads_a_pixel_and_closes(xvfb_display: str) -> Non
     assert out["floor"] != out["sky"]
     assert out["frames"] >= 1 and abs(out["sim_t"] - 0.3) < 0.012
     assert out["closed"] is True
+
+
+INPUT_SCRIPT = """
+import json, math, subprocess, time
+from pedvr.scene.loader import load_any
+from pedvr.scenes import resolve_scene
+from pedvr.xr.desktop import MOUSE_SENSITIVITY, DesktopPresenter
+from pedvr.xr.locomotion import KeyboardMouseUser
+
+scene = load_any(resolve_scene("headon_corridor"), seed=None)
+user = KeyboardMouseUser(start=scene.user.start, heading=scene.user.heading)
+p = DesktopPresenter(scene, user=user, width=96, height=64, vsync=True, visible=True)
+glfw, win = p.glfw, p.window
+out = {"sensitivity": MOUSE_SENSITIVITY}
+
+def xdo(*args):
+    subprocess.run(["xdotool", *args], check=True, timeout=10, capture_output=True)
+
+def pump(until, seconds=3.0):
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        p.wait_frame()  # polls glfw's events, as the frame loop does
+        if until():
+            return True
+        time.sleep(0.01)
+    return False
+
+wid = subprocess.run(["xdotool", "search", "--name", "pedvr: headon_corridor"],
+                     capture_output=True, text=True, check=True).stdout.split()[0]
+xdo("windowfocus", "--sync", wid)
+out["focused"] = pump(lambda: glfw.get_window_attrib(win, glfw.FOCUSED) == 1)
+xdo("key", "F11")
+out["fullscreen"] = pump(lambda: bool(glfw.get_window_monitor(win)))
+out["fullscreen_size"] = list(glfw.get_framebuffer_size(win))
+xdo("key", "F11")
+out["windowed"] = pump(lambda: not glfw.get_window_monitor(win)
+                       and tuple(glfw.get_framebuffer_size(win)) == (96, 64))
+xdo("mousemove", "--window", wid, "48", "32")
+xdo("click", "1")
+out["captured"] = pump(lambda: glfw.get_input_mode(win, glfw.CURSOR) == glfw.CURSOR_DISABLED)
+h0, p0 = user.heading, user.pitch
+xdo("mousemove_relative", "--", "40", "-20")
+pump(lambda: user.heading != h0 and user.pitch != p0)
+out["turn"], out["look_up"] = user.heading - h0, user.pitch - p0
+xdo("key", "Tab")
+out["released"] = pump(lambda: glfw.get_input_mode(win, glfw.CURSOR) == glfw.CURSOR_NORMAL)
+xdo("keydown", "w")
+pump(lambda: user.velocity().any())
+out["walk"] = user.velocity().tolist()
+out["heading"] = user.heading
+xdo("keydown", "shift")
+pump(lambda: float((user.velocity() ** 2).sum()) > 2.0)
+out["run_speed"] = float(math.hypot(*user.velocity()))
+xdo("keyup", "shift", "w")
+out["stopped"] = pump(lambda: not user.velocity().any())
+xdo("key", "Escape")
+out["esc_closes"] = pump(lambda: p.closed)
+p.close()
+print(json.dumps(out))
+"""
+
+
+def test_real_x_input_fullscreen_mouse_capture_keys_and_escape(xvfb_display: str) -> None:
+    """Real X events (xdotool through the X server, not calls to our callbacks): F11 goes full
+    screen on Xvfb's 320×240 screen and back, a click captures the mouse and moving it turns and
+    pitches the view by the sensitivity, Tab releases it, W walks forward at 1.3 m/s and Shift
+    doubles it, Esc closes the window."""
+    if shutil.which("xdotool") is None:
+        pytest.skip("xdotool is not installed (apt-get install xdotool; .ci/run installs it)")
+    r = subprocess.run(
+        [sys.executable, "-c", INPUT_SCRIPT],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "DISPLAY": xvfb_display},
+    )
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["focused"] and out["fullscreen"] and out["windowed"], out
+    assert out["fullscreen_size"] == [320, 240]
+    assert out["captured"] and out["released"], out
+    k = out["sensitivity"]
+    assert out["turn"] == pytest.approx(40 * k) and out["look_up"] == pytest.approx(20 * k)  # right, up
+    walk = out["walk"]
+    assert math.hypot(*walk) == pytest.approx(1.3)
+    assert math.atan2(walk[1], walk[0]) == pytest.approx(out["heading"])  # forward is where it faces
+    assert out["run_speed"] == pytest.approx(2.6)
+    assert out["stopped"] and out["esc_closes"], out
