@@ -81,18 +81,23 @@ print(json.dumps(out))
 """
 
 
-def test_window_opens_renders_reads_a_pixel_and_closes(xvfb_display: str) -> None:
-    # In a child process: a GLX window and the suite's EGL context cannot share one thread under Mesa,
-    # and an X error would end the whole test run.
+def _in_child(script: str, display: str) -> dict:
+    """Run ``script`` on ``display`` and return the JSON of its last line. In a child process: a
+    GLX window and the suite's EGL context cannot share one thread under Mesa, and an X error
+    would end the whole test run."""
     r = subprocess.run(
-        [sys.executable, "-c", WINDOW_SCRIPT],
+        [sys.executable, "-c", script],
         capture_output=True,
         text=True,
         timeout=120,
-        env={**os.environ, "DISPLAY": xvfb_display},
+        env={**os.environ, "DISPLAY": display},
     )
     assert r.returncode == 0, r.stderr
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def test_window_opens_renders_reads_a_pixel_and_closes(xvfb_display: str) -> None:
+    out = _in_child(WINDOW_SCRIPT, xvfb_display)
     assert out["backend"] == "desktop" and out["period"] > 0
     assert all(abs(a - b) <= 3 for a, b in zip(out["sky"], out["expected_sky"], strict=True)), out
     assert out["floor"] != out["sky"]
@@ -167,15 +172,7 @@ def test_real_x_input_fullscreen_mouse_capture_keys_and_escape(xvfb_display: str
     doubles it, Esc closes the window."""
     if shutil.which("xdotool") is None:
         pytest.skip("xdotool is not installed (apt-get install xdotool; .ci/run installs it)")
-    r = subprocess.run(
-        [sys.executable, "-c", INPUT_SCRIPT],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env={**os.environ, "DISPLAY": xvfb_display},
-    )
-    assert r.returncode == 0, r.stderr
-    out = json.loads(r.stdout.strip().splitlines()[-1])
+    out = _in_child(INPUT_SCRIPT, xvfb_display)
     assert out["focused"] and out["fullscreen"] and out["windowed"], out
     assert out["fullscreen_size"] == [320, 240]
     assert out["captured"] and out["released"], out
