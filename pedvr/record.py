@@ -168,14 +168,17 @@ class Recording:
     times: list[float] = field(default_factory=list)
     frames: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(
         default_factory=list)
+    door_angles: list[np.ndarray] = field(default_factory=list)
 
-    def add(self, t: float, crowd: CrowdState) -> None:
+    def add(self, t: float, crowd: CrowdState, door_angle: np.ndarray | None = None) -> None:
         self.times.append(t)
         self.frames.append((crowd.ids.copy(), crowd.pos.copy(), crowd.vel.copy(),
                             crowd.heading.copy(), crowd.is_user.copy()))
+        self.door_angles.append(np.zeros(0) if door_angle is None else np.array(door_angle, np.float64))
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """``t (S,)``, ``ids (A,)``, ``is_user (A,)``, ``pos/vel (S,A,2)``, ``heading (S,A)``.
+        """``t (S,)``, ``ids (A,)``, ``is_user (A,)``, ``pos/vel (S,A,2)``, ``heading (S,A)``,
+        ``door_angle (S,L)`` (each door leaf's angle from closed, rad; ``L`` = 0 without doors).
 
         Agents absent at a step (not yet spawned, or gone) are NaN there.
         """
@@ -192,8 +195,10 @@ class Recording:
             vel[k, cols] = v
             heading[k, cols] = h
             is_user[cols] |= u
+        leaves = self.door_angles[0].shape[0] if self.door_angles else 0
+        door = np.asarray(self.door_angles, np.float64).reshape(s, leaves)
         return {"t": np.asarray(self.times), "ids": ids, "is_user": is_user, "pos": pos, "vel": vel,
-                "heading": heading}
+                "heading": heading, "door_angle": door}
 
     def save(self, path: str | Path, meta: dict[str, object]) -> None:
         arrays = self.arrays()

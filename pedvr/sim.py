@@ -114,7 +114,7 @@ class Simulation:
         self.recording = Recording() if record else None
         self._face_unset()
         if self.recording is not None:
-            self.recording.add(self.t, self.crowd)
+            self.recording.add(self.t, self.crowd, self.doors.angle)
 
     # -- set-up ----------------------------------------------------------------------------
 
@@ -406,7 +406,7 @@ class Simulation:
         self.metrics.observe(self.crowd, prev_vel=prev_vel, prev_heading=prev_heading, dt=self.dt)
         self.metrics.observe_body(self.crowd, pelvis=self.body.state.world_pos[:, 0])
         if self.recording is not None:
-            self.recording.add(self.t, self.crowd)
+            self.recording.add(self.t, self.crowd, self.doors.angle)
 
     def add_agents(self, profile: str, positions: np.ndarray, *, state: str,
                    facing: float | None = None) -> np.ndarray:

@@ -34,10 +34,15 @@ def test_the_user_walking_through_opens_the_single_door() -> None:
     np.testing.assert_allclose(snap.doors[:, 2], sim.doors.base + sim.doors.angle)
 
 
-def test_same_seed_same_door_motion() -> None:
+def test_same_seed_same_door_motion_and_it_is_recorded() -> None:
     runs = []
     for _ in range(2):
         sim = _office()
         sim.advance_to(10.0)
-        runs.append((sim.doors.angle.tobytes(), sim.recording.arrays()["pos"].tobytes()))
+        arr = sim.recording.arrays()
+        # The recording keeps every leaf's angle per step, ending where the doors are now.
+        assert arr["door_angle"].shape == (arr["t"].shape[0], 3)
+        np.testing.assert_array_equal(arr["door_angle"][-1], sim.doors.angle)
+        assert np.abs(arr["door_angle"]).max() > 1.0  # some leaf opened more than 57 degrees
+        runs.append((arr["door_angle"].tobytes(), arr["pos"].tobytes()))
     assert runs[0] == runs[1]
