@@ -2,8 +2,9 @@
 
 Pure functions over the mesh arrays (``verts (V, 2)``, CCW ``tris (T, 3)``,
 ``neighbors (T, 3)`` where ``neighbors[t, k]`` is the triangle across edge
-``tris[t, k] -> tris[t, (k + 1) % 3]`` or -1). Queries are not per step, so
-they are plain Python; the result depends only on the inputs.
+``tris[t, k] -> tris[t, (k + 1) % 3]`` or -1); the result depends only on
+the inputs. They are numba kernels: a whole crowd plans when it spawns, and
+many agents may replan in the same step.
 """
 
 from __future__ import annotations
@@ -12,11 +13,13 @@ import heapq
 import math
 
 import numpy as np
+from numba import njit
 
 # Two points closer than this (metres) are the same waypoint.
 SAME_POINT = 1e-9
 
 
+@njit(cache=True)
 def _portal_point(
     px: float, py: float, ax: float, ay: float, bx: float, by: float, gx: float, gy: float
 ) -> tuple[float, float]:
@@ -67,40 +70,54 @@ def astar_corridor(
     funnel then makes the path taut inside the corridor.
     Heap ties are broken by triangle index, so the result is deterministic.
     """
-    gx, gy = goal
+    out = _astar(np.ascontiguousarray(verts, np.float64), np.ascontiguousarray(tris, np.int64),
+                 np.ascontiguousarray(neighbors, np.int64), int(start_tri), int(goal_tri),
+                 float(start[0]), float(start[1]), float(goal[0]), float(goal[1]))
+    return None if out.shape[0] == 0 else [int(t) for t in out]
+
+
+@njit(cache=True)
+def _astar(verts, tris, neighbors, start_tri, goal_tri, sx, sy, gx, gy):  # noqa: ANN001, ANN202
     n = tris.shape[0]
     best_g = np.full(n, np.inf)
     entry = np.zeros((n, 2))
     parent = np.full(n, -1, np.int64)
     best_f = np.full(n, np.inf)
     best_g[start_tri] = 0.0
-    entry[start_tri] = start
-    best_f[start_tri] = math.hypot(start[0] - gx, start[1] - gy)
-    heap: list[tuple[float, int]] = [(best_f[start_tri], start_tri)]
-    while heap:
+    entry[start_tri, 0], entry[start_tri, 1] = sx, sy
+    best_f[start_tri] = math.hypot(sx - gx, sy - gy)
+    heap = [(best_f[start_tri], np.int64(start_tri))]
+    while len(heap) > 0:
         f, t = heapq.heappop(heap)
         if f > best_f[t]:
             continue  # stale entry
         if t == goal_tri:
-            corridor = [t]
-            while parent[corridor[-1]] >= 0:
-                corridor.append(int(parent[corridor[-1]]))
-            return corridor[::-1]
-        px, py = entry[t]
+            m = 1
+            u = t
+            while parent[u] >= 0:
+                u = parent[u]
+                m += 1
+            corridor = np.empty(m, np.int64)
+            u = t
+            for i in range(m - 1, -1, -1):
+                corridor[i] = u
+                u = parent[u]
+            return corridor
+        px, py = entry[t, 0], entry[t, 1]
         for k in range(3):
-            nb = int(neighbors[t, k])
+            nb = neighbors[t, k]
             if nb < 0:
                 continue
-            a, b = verts[tris[t, k]], verts[tris[t, (k + 1) % 3]]
-            qx, qy = _portal_point(px, py, a[0], a[1], b[0], b[1], gx, gy)
+            a, b = tris[t, k], tris[t, (k + 1) % 3]
+            qx, qy = _portal_point(px, py, verts[a, 0], verts[a, 1], verts[b, 0], verts[b, 1], gx, gy)
             g = best_g[t] + math.hypot(qx - px, qy - py)
             if g < best_g[nb]:
                 best_g[nb] = g
-                entry[nb] = (qx, qy)
+                entry[nb, 0], entry[nb, 1] = qx, qy
                 parent[nb] = t
                 best_f[nb] = g + math.hypot(gx - qx, gy - qy)
-                heapq.heappush(heap, (best_f[nb], nb))
-    return None
+                heapq.heappush(heap, (best_f[nb], np.int64(nb)))
+    return np.empty(0, np.int64)
 
 
 def corridor_portals(
@@ -112,24 +129,35 @@ def corridor_portals(
     ``corridor[i + 1]``: crossing CCW edge ``v_k -> v_k+1`` outward, ``v_k``
     is on the right.
     """
-    m = len(corridor) - 1
-    left = np.empty((m, 2))
-    right = np.empty((m, 2))
+    return _portals(np.ascontiguousarray(verts, np.float64), np.ascontiguousarray(tris, np.int64),
+                    np.ascontiguousarray(neighbors, np.int64), np.asarray(corridor, np.int64))
+
+
+@njit(cache=True)
+def _portals(verts, tris, neighbors, corridor):  # noqa: ANN001, ANN202
+    m = corridor.shape[0] - 1
+    left = np.empty((max(m, 0), 2))
+    right = np.empty((max(m, 0), 2))
     for i in range(m):
         t, nxt = corridor[i], corridor[i + 1]
-        k = int(np.flatnonzero(neighbors[t] == nxt)[0])
-        right[i] = verts[tris[t, k]]
-        left[i] = verts[tris[t, (k + 1) % 3]]
+        k = 0
+        while neighbors[t, k] != nxt:
+            k += 1
+        right[i, 0], right[i, 1] = verts[tris[t, k], 0], verts[tris[t, k], 1]
+        a = tris[t, (k + 1) % 3]
+        left[i, 0], left[i, 1] = verts[a, 0], verts[a, 1]
     return left, right
 
 
-def _cross(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
+@njit(cache=True)
+def _cross(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> float:
     """Twice the signed area of a, b, c: > 0 when c is left of a -> b."""
-    return float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
-def _same(a: np.ndarray, b: np.ndarray) -> bool:
-    return bool((a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 < SAME_POINT * SAME_POINT)
+@njit(cache=True)
+def _same(ax: float, ay: float, bx: float, by: float) -> bool:
+    return (ax - bx) ** 2 + (ay - by) ** 2 < SAME_POINT * SAME_POINT
 
 
 def funnel(start: np.ndarray, goal: np.ndarray, left: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -140,44 +168,61 @@ def funnel(start: np.ndarray, goal: np.ndarray, left: np.ndarray, right: np.ndar
     interior waypoints are portal endpoints (mesh vertices) where the path
     turns.
     """
-    lefts = [start, *left, goal]
-    rights = [start, *right, goal]
-    n = len(lefts)
-    apex, pl, pr = start, start, start
+    s = np.asarray(start, np.float64).reshape(1, 2)
+    g = np.asarray(goal, np.float64).reshape(1, 2)
+    lefts = np.concatenate([s, np.asarray(left, np.float64).reshape(-1, 2), g])
+    rights = np.concatenate([s, np.asarray(right, np.float64).reshape(-1, 2), g])
+    return _funnel(lefts, rights)
+
+
+@njit(cache=True)
+def _funnel(lefts, rights):  # noqa: ANN001, ANN202
+    n = lefts.shape[0]
+    pts = np.empty((2 * n + 1, 2))
+    npts = 1
+    pts[0] = lefts[0]
+    ax, ay = lefts[0, 0], lefts[0, 1]  # apex
+    lx, ly, rx, ry = ax, ay, ax, ay  # funnel sides
     apex_i = left_i = right_i = 0
-    pts = [start]
     i = 1
     while i < n:
-        lt, rt = lefts[i], rights[i]
+        ltx, lty, rtx, rty = lefts[i, 0], lefts[i, 1], rights[i, 0], rights[i, 1]
         # Right side: the new right point narrows the funnel when it is left of the right ray.
-        if _cross(apex, pr, rt) >= 0.0:
-            if _same(apex, pr) or _cross(apex, pl, rt) < 0.0:
-                pr, right_i = rt, i
+        if _cross(ax, ay, rx, ry, rtx, rty) >= 0.0:
+            if _same(ax, ay, rx, ry) or _cross(ax, ay, lx, ly, rtx, rty) < 0.0:
+                rx, ry, right_i = rtx, rty, i
             else:
                 # Right crosses over left: the left point is a corner of the path.
-                apex, apex_i = pl, left_i
-                pts.append(apex)
-                pl = pr = apex
+                ax, ay, apex_i = lx, ly, left_i
+                pts[npts, 0], pts[npts, 1] = ax, ay
+                npts += 1
+                lx, ly, rx, ry = ax, ay, ax, ay
                 left_i = right_i = apex_i
                 i = apex_i + 1
                 continue
         # Left side, mirrored.
-        if _cross(apex, pl, lt) <= 0.0:
-            if _same(apex, pl) or _cross(apex, pr, lt) > 0.0:
-                pl, left_i = lt, i
+        if _cross(ax, ay, lx, ly, ltx, lty) <= 0.0:
+            if _same(ax, ay, lx, ly) or _cross(ax, ay, rx, ry, ltx, lty) > 0.0:
+                lx, ly, left_i = ltx, lty, i
             else:
-                apex, apex_i = pr, right_i
-                pts.append(apex)
-                pl = pr = apex
+                ax, ay, apex_i = rx, ry, right_i
+                pts[npts, 0], pts[npts, 1] = ax, ay
+                npts += 1
+                lx, ly, rx, ry = ax, ay, ax, ay
                 left_i = right_i = apex_i
                 i = apex_i + 1
                 continue
         i += 1
-    if not _same(pts[-1], goal) or len(pts) == 1:
-        pts.append(goal)
-    out = [pts[0]]
-    for p in pts[1:-1]:
-        if not _same(p, out[-1]):
-            out.append(p)
-    out.append(pts[-1])
-    return np.asarray(out, dtype=np.float64).reshape(-1, 2)
+    gx, gy = lefts[n - 1, 0], lefts[n - 1, 1]
+    if not _same(pts[npts - 1, 0], pts[npts - 1, 1], gx, gy) or npts == 1:
+        pts[npts, 0], pts[npts, 1] = gx, gy
+        npts += 1
+    out = np.empty((npts, 2))
+    out[0] = pts[0]
+    k = 1
+    for j in range(1, npts - 1):
+        if not _same(pts[j, 0], pts[j, 1], out[k - 1, 0], out[k - 1, 1]):
+            out[k] = pts[j]
+            k += 1
+    out[k] = pts[npts - 1]
+    return out[: k + 1].copy()
