@@ -13,13 +13,16 @@ import numpy as np
 from pedvr.scene.config import WorldConfig
 from pedvr.world.geometry import edges
 from pedvr.world.visibility_kernels import (
+    EdgeGrid,
     furthest_visible,
     raycast,
     segment_clear,
     visible_batch,
+    visible_batch_grid,
 )
 
-__all__ = ["Visibility", "furthest_visible", "raycast", "segment_clear", "visible_batch"]
+__all__ = ["EdgeGrid", "Visibility", "furthest_visible", "raycast", "segment_clear", "visible_batch",
+           "visible_batch_grid"]
 
 
 def _points(x: object, name: str) -> np.ndarray:
@@ -38,11 +41,13 @@ class Visibility:
     """Segment and ray queries against the edges of ``world``'s walkable area.
 
     ``p1``, ``p2`` are the ``(M, 2)`` edge endpoints (see
-    :func:`pedvr.world.geometry.edges`). Distances and radii are metres.
+    :func:`pedvr.world.geometry.edges`), ``grid`` an :class:`EdgeGrid` of
+    them for the batch queries. Distances and radii are metres.
     """
 
     def __init__(self, world: WorldConfig) -> None:
         self.p1, self.p2 = edges(world)
+        self.grid = EdgeGrid.build(self.p1, self.p2)
 
     def segment_clear(self, a: object, b: object, radius: float = 0.0) -> bool:
         """Whether segment a–b stays more than ``radius`` from every edge."""
@@ -58,7 +63,8 @@ class Visibility:
         if aa.shape != bb.shape:
             raise ValueError(f"a has shape {aa.shape} and b {bb.shape}: must match")
         out = np.empty(aa.shape[0], np.bool_)
-        visible_batch(aa, bb, _vec(radius, aa.shape[0], "radius", np.float64), self.p1, self.p2, out)
+        visible_batch_grid(aa, bb, _vec(radius, aa.shape[0], "radius", np.float64), self.p1, self.p2,
+                           *self.grid, out)
         return out
 
     def raycast(self, origin: object, direction: object, max_dist: float) -> float:
@@ -101,5 +107,5 @@ class Visibility:
             raise ValueError(f"lookahead = {lookahead}: must be >= 0")
         out = np.empty(n, np.int64)
         furthest_visible(p, _vec(radius, n, "radius", np.float64), pts, start, length, cur,
-                         int(lookahead), self.p1, self.p2, out)
+                         int(lookahead), self.p1, self.p2, *self.grid, out)
         return out

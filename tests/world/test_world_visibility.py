@@ -83,3 +83,45 @@ def test_furthest_visible_rejects_bad_slices():
     vis = Visibility(CORNER)
     with pytest.raises(ValueError, match="path slice"):
         vis.furthest_visible([[1.0, 1.0]], 0.3, np.zeros((3, 2)), [2], [5], [0], lookahead=3)
+
+
+@pytest.mark.parametrize("cell", [0.5, 4.0, 16.0])
+def test_edge_grid_answers_exactly_as_a_scan_of_every_edge(cell):
+    """Dense forest-like world; long, short, axis-aligned and zero-length segments."""
+    from pedvr.world.visibility import EdgeGrid, visible_batch_grid
+
+    rng = np.random.default_rng(5)
+    world = random_box_world(rng, 120, 60.0)
+    vis = Visibility(world)
+    grid = EdgeGrid.build(vis.p1, vis.p2, cell=cell)
+    n = 3000
+    a = rng.uniform(-1.0, 61.0, (n, 2))
+    b = a + rng.normal(0, 8, (n, 2))
+    b[:300, 0] = a[:300, 0]  # vertical
+    b[300:600, 1] = a[300:600, 1]  # horizontal
+    b[600:700] = a[600:700]  # points
+    radius = rng.uniform(0, 1.5, n)
+    brute = np.array([segment_clear(*a[i], *b[i], radius[i], vis.p1, vis.p2) for i in range(n)])
+    out = np.empty(n, bool)
+    visible_batch_grid(a, b, radius, vis.p1, vis.p2, *grid, out)
+    assert 300 < brute.sum() < n - 300  # both outcomes are exercised
+    np.testing.assert_array_equal(out, brute)
+
+
+def test_every_edge_is_filed_in_every_cell_its_box_touches():
+    from pedvr.world.visibility import EdgeGrid
+
+    rng = np.random.default_rng(2)
+    p1 = rng.uniform(0, 20, (200, 2))
+    p2 = p1 + rng.normal(0, 3, (200, 2))
+    g = EdgeGrid.build(p1, p2, cell=2.0)
+    nx, ny = g.shape
+    lo, hi = np.minimum(p1, p2), np.maximum(p1, p2)
+    for k in range(200):
+        i0 = ((lo[k] - g.origin) // g.cell).astype(int)
+        i1 = ((hi[k] - g.origin) // g.cell).astype(int)
+        for ix in range(i0[0], min(i1[0], nx - 1) + 1):
+            for iy in range(i0[1], min(i1[1], ny - 1) + 1):
+                c = ix * ny + iy
+                assert k in g.items[g.start[c]:g.start[c + 1]]
+    assert g.start[-1] == len(g.items)
