@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -27,7 +28,7 @@ class Metrics:
     seg_a: np.ndarray
     seg_b: np.ndarray
     inside: object  # callable: (N,2) -> (N,) bool, True where a point is inside an obstacle
-    _tree: object = None  # STRtree over the edges, built on first use
+    _tree: Any = None  # shapely STRtree over the edges, built on first use
     steps: int = 0
     agent_ids: set[int] = field(default_factory=set)
     max_overlap: float = 0.0
@@ -203,4 +204,4 @@ class Recording:
     def save(self, path: str | Path, meta: dict[str, object]) -> None:
         arrays = self.arrays()
         with open(path, "wb") as fh:
-            np.savez_compressed(fh, meta=np.array(json.dumps(meta, sort_keys=True)), **arrays)
+            np.savez_compressed(fh, meta=np.array(json.dumps(meta, sort_keys=True)), **arrays)  # type: ignore[arg-type]

@@ -155,7 +155,7 @@ class BFSM:
         candidates = np.flatnonzero(
             at_goal | timer | (active & ~has_goal & self._idle_arrival[sid]) | (active & self._has_prob[sid]))
         arrived = 0
-        for row in candidates:
+        for row in candidates.tolist():
             s = self._states[sid[row]]
             seq = sequences[row]
             if at_goal[row]:

@@ -85,10 +85,9 @@ def boolean(v: object) -> str | None:
 
 
 def box(v: object) -> str | None:
-    ok = isinstance(v, list | tuple) and len(v) == 4 and all(_num(x) for x in v)
-    if not ok:
+    if not (isinstance(v, list | tuple) and len(v) == 4 and all(_num(x) for x in v)):
         return "expected [xmin, ymin, xmax, ymax]"
-    x0, y0, x1, y1 = (float(x) for x in v)  # type: ignore[union-attr]
+    x0, y0, x1, y1 = (float(x) for x in v)
     return None if x0 < x1 and y0 < y1 else "expected xmin < xmax and ymin < ymax"
 
 

@@ -68,9 +68,9 @@ def frame_geometry(
     corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
     lines = [_segments(corners, np.roll(corners, -1, axis=0), BOUNDS)]
     if snap.doors is not None and len(snap.doors):
-        d = np.asarray(snap.doors, np.float64)
-        hinge = d[:, :2]
-        tip = hinge + d[:, 3:4] * np.stack([np.cos(d[:, 2]), np.sin(d[:, 2])], axis=1)
+        leaf = np.asarray(snap.doors, np.float64)
+        hinge = leaf[:, :2]
+        tip = hinge + leaf[:, 3:4] * np.stack([np.cos(leaf[:, 2]), np.sin(leaf[:, 2])], axis=1)
         lines.append(_segments(hinge, tip, DOOR))
     discs = []
     if snap.route is not None and len(snap.route):

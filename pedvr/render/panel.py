@@ -13,6 +13,7 @@ import moderngl
 import numpy as np
 from PIL import Image, ImageDraw
 
+from pedvr.render.shaders import set_uniform
 from pedvr.render.text import _font
 
 BACKGROUND = (12, 16, 24, 225)
@@ -141,14 +142,14 @@ class PanelDrawer:
         vw, vh = viewport[2], viewport[3]
         framebuffer.use()
         framebuffer.viewport = viewport
-        self.prog["u_rect"].value = (
+        set_uniform(self.prog, "u_rect", (
             2 * x / vw - 1,
             1 - 2 * (y + ph) / vh,
             2 * (x + pw) / vw - 1,
             1 - 2 * y / vh,
-        )
-        self.prog["u_tex"].value = 0
-        self.prog["u_srgb"].value = not linear_target
+        ))
+        set_uniform(self.prog, "u_tex", 0)
+        set_uniform(self.prog, "u_srgb", not linear_target)
         self.tex.use(location=0)
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         self.ctx.enable(moderngl.BLEND)

@@ -44,6 +44,7 @@ from pedvr.render.figures import BODY, agent_looks, default_dims, skeleton_mesh,
 from pedvr.render.math3d import EyeView, overhead_transform
 from pedvr.render.overhead import BACKGROUND, disc_fan, frame_geometry, static_triangles
 from pedvr.render.shaders import SHADER_DIR, compile_program
+from pedvr.render.shaders import set_uniform as _set
 from pedvr.render.snapshot import SPHERE_HEIGHT, Snapshot
 from pedvr.scene.config import WorldConfig
 
@@ -480,14 +481,6 @@ class Renderer:
             tex.release()
         for prog in self.programs.values():
             prog.release()
-
-
-def _set(prog: moderngl.Program, name: str, value: object) -> None:
-    """Set a uniform's value (uniforms the compiler removed are skipped: they cannot matter)."""
-    if name in prog:
-        u = prog[name]
-        assert isinstance(u, moderngl.Uniform), f"{name} is not a uniform"
-        u.value = value
 
 
 def _write(prog: moderngl.Program, name: str, data: bytes) -> None:

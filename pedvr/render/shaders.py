@@ -183,3 +183,13 @@ def _stage_log(ctx: moderngl.Context, stage: str, text: str) -> str | None:
 def shader_files(shader_dir: Path = SHADER_DIR) -> list[Path]:
     """Every program file (files that are only included, like ``common.glsl``, excluded)."""
     return sorted(p for p in shader_dir.glob("*.glsl") if re.search(r"\bvoid\s+main\s*\(", p.read_text()))
+
+
+def set_uniform(prog: moderngl.Program, name: str, value: object) -> None:
+    """Set a uniform's value (uniforms the compiler removed are skipped: they cannot matter)."""
+    import moderngl
+
+    if name in prog:
+        u = prog[name]
+        assert isinstance(u, moderngl.Uniform), f"{name} is not a uniform"
+        u.value = value

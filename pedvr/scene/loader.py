@@ -63,8 +63,9 @@ class _Checker(Checker):
             return default
         return f
 
-    def integer(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
-                default: int | None = None, minimum: int = 0) -> int | None:
+    def whole(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
+              default: int | None = None, minimum: int = 0) -> int | None:
+        """An integer ``>= minimum`` (scenes say so in these words; protocols use ``integer``)."""
         v = d.get(key, MISSING)
         if v is MISSING:
             if required:
@@ -76,7 +77,7 @@ class _Checker(Checker):
         return v
 
     def string(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
-               default: str | None = None, choices: tuple[str, ...] = ()) -> str | None:
+               default: str | None = None, choices: tuple[str, ...] | None = None) -> str | None:
         v = d.get(key, MISSING)
         if v is MISSING:
             if required:
@@ -170,7 +171,7 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
     c.known(scene, "scene", ("name", "description", "seed", "duration", "dt"))
     name = c.string(scene, "name", "scene.name")
     description = c.string(scene, "description", "scene.description", required=False, default="")
-    seed = c.integer(scene, "seed", "scene.seed")
+    seed = c.whole(scene, "seed", "scene.seed")
     duration = c.number(scene, "duration", "scene.duration", check=lambda x: x > 0, expect="> 0 s")
     dt = c.number(scene, "dt", "scene.dt", required=False, default=default_dt(),
                   check=lambda x: 0 < x <= 0.1, expect="in (0, 0.1] s")
@@ -352,8 +353,8 @@ def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
     return SteeringParams(
         neighbor_dist=c.number(s, "neighbor_dist", "steering.neighbor_dist", required=False,
                                default=d.neighbor_dist, check=pos, expect="> 0 m") or d.neighbor_dist,
-        max_neighbors=c.integer(s, "max_neighbors", "steering.max_neighbors", required=False,
-                                default=d.max_neighbors, minimum=1) or d.max_neighbors,
+        max_neighbors=c.whole(s, "max_neighbors", "steering.max_neighbors", required=False,
+                              default=d.max_neighbors, minimum=1) or d.max_neighbors,
         time_horizon=c.number(s, "time_horizon", "steering.time_horizon", required=False,
                               default=d.time_horizon, check=pos, expect="> 0 s") or d.time_horizon,
         time_horizon_obst=c.number(s, "time_horizon_obst", "steering.time_horizon_obst",
@@ -628,7 +629,7 @@ def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
                 if blocked is not None and blocked.contains(Point(p)):
                     c.bad(f"{path}.positions[{k}]", list(p), "lies outside the walkable area")
         else:
-            count = c.integer(s, "count", f"{path}.count", minimum=1) or 0
+            count = c.whole(s, "count", f"{path}.count", minimum=1) or 0
             region = _region(c, s["region"], f"{path}.region")
         if profile in profiles and state is not None and (positions or count):
             out.append(Spawn(profile=profile, state=state, positions=positions, count=count,

@@ -566,7 +566,7 @@ class _Importer:
             t = self.xyz(self.need(kids, "targetLocation", where), f"{where}.targetLocation")
             if t is None:
                 return None
-            target = _RANDOM if random_flag or t == _RANDOM else (t[0], t[2])
+            target = _RANDOM if random_flag or isinstance(t, str) else (t[0], t[2])
             if kind == "box":
                 box = self.region(kids, where, "goalRegionBounds")
                 if box is None:
@@ -575,7 +575,7 @@ class _Importer:
             t = self.xyz(self.need(kids, "targetDirection", where), f"{where}.targetDirection")
             if t is None:
                 return None
-            if random_flag or t == _RANDOM:
+            if random_flag or isinstance(t, str):
                 target = _RANDOM
             elif math.hypot(t[0], t[2]) == 0:
                 self.problem(f"{where}.targetDirection", "must not be zero", t)

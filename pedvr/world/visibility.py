@@ -33,8 +33,7 @@ def _points(x: object, name: str) -> np.ndarray:
 
 
 def _vec(x: object, n: int, name: str, dtype: type) -> np.ndarray:
-    a = np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=dtype), (n,)))
-    return a
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=dtype), (n,)))
 
 
 class Visibility:
