@@ -449,9 +449,13 @@ class FullBody:
             elif name == "gaze":
                 has, target = self._gaze_targets(crowd)
                 running = co.has("running")
+                # Eyes close the loop on last step's head once a forward kinematics has run.
+                closed = ~np.all(b.world_pos[:, sk.HEAD] == 0.0, axis=1)
                 ps.gaze_kernel(dt, has, target, self._head_pos(), self._root_yaw(), running, ps.GAZE_SHARE,
                                ps.GAZE_YAW_LIMIT, ps.GAZE_PITCH_LIMIT, ps.GAZE_SPEED, ps.GAZE_TAU,
-                               b.gaze_ang, pose_q, sq)
+                               b.gaze_ang, pose_q, sq, np.ascontiguousarray(b.world_pos[:, sk.L_EYE]),
+                               np.ascontiguousarray(b.world_pos[:, sk.R_EYE]),
+                               np.ascontiguousarray(b.world_q[:, sk.HEAD]), closed)
             elif name == "reach":
                 wp, wq = self._fk_of(pose_q, pose_p)
                 active, target = self._reach_targets(wp, wq, t)

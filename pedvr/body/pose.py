@@ -216,9 +216,14 @@ def _approach(cur, target, tau, cap, dt):  # type: ignore[no-untyped-def]
     return cur + d
 
 
+@njit(cache=True, inline="always")
+def _wrap_pi(a):  # type: ignore[no-untyped-def]
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
 @njit(cache=True, fastmath=True)
 def gaze_kernel(dt, has_target, target, head_pos, root_yaw, running, share, yaw_lim, pitch_lim,
-                speed, tau, ang, in_q, out_q):  # type: ignore[no-untyped-def]
+                speed, tau, ang, in_q, out_q, eye_l, eye_r, head_q, closed):  # type: ignore[no-untyped-def]
     """SmartBody-like gaze: lumbar → thorax → neck → head → eyes.
 
     The rotation toward the target (measured from the head, in the body's
@@ -229,6 +234,15 @@ def gaze_kernel(dt, has_target, target, head_pos, root_yaw, running, share, yaw_
     joints have *actually* reached so far, so they lead and the head catches
     up. ``ang (N,5,2)`` (yaw, pitch) is the controller's state, updated in place.
     With no target every joint returns to 0.
+
+    Where ``closed[i]``, the eyes close the loop instead, as the vestibulo-
+    ocular reflex does: their goal is the target's direction in the head's
+    frame as it actually was (``head_q (N,4)``, world, after the last forward
+    kinematics) from the point between the eyes (``eye_l``, ``eye_r``
+    ``(N,3)``), so the sway and bob of walking and the other choreographers'
+    head motion are cancelled, not only the gaze controller's own rotations.
+    Each eye then turns in by its own small angle toward the target
+    (vergence), so both look at it.
     """
     n = in_q.shape[0]
     for i in range(n):
@@ -246,6 +260,24 @@ def gaze_kernel(dt, has_target, target, head_pos, root_yaw, running, share, yaw_
             lz = -s * dx + c * dz
             yaw_t = math.atan2(lx, lz)
             pitch_t = math.atan2(-dy, math.hypot(lx, lz))
+        eye_goal = (0.0, 0.0)
+        verge_l = 0.0
+        verge_r = 0.0
+        if closed[i] and has_target[i]:
+            # The target in the head's frame, from between the eyes and from each eye.
+            qx, qy, qz, qw = -head_q[i, 0], -head_q[i, 1], -head_q[i, 2], head_q[i, 3]
+            mx = 0.5 * (eye_l[i, 0] + eye_r[i, 0])
+            my = 0.5 * (eye_l[i, 1] + eye_r[i, 1])
+            mz = 0.5 * (eye_l[i, 2] + eye_r[i, 2])
+            hx, hy, hz = qrot3(qx, qy, qz, qw, target[i, 0] - mx, target[i, 1] - my, target[i, 2] - mz)
+            mid_yaw = math.atan2(hx, hz)
+            eye_goal = (mid_yaw, math.atan2(-hy, math.hypot(hx, hz)))
+            lx_, _, lz_ = qrot3(qx, qy, qz, qw, target[i, 0] - eye_l[i, 0], target[i, 1] - eye_l[i, 1],
+                                target[i, 2] - eye_l[i, 2])
+            rx_, _, rz_ = qrot3(qx, qy, qz, qw, target[i, 0] - eye_r[i, 0], target[i, 1] - eye_r[i, 1],
+                                target[i, 2] - eye_r[i, 2])
+            verge_l = _wrap_pi(math.atan2(lx_, lz_) - mid_yaw)
+            verge_r = _wrap_pi(math.atan2(rx_, rz_) - mid_yaw)
         for ax in range(2):
             goal = yaw_t if ax == 0 else pitch_t
             rem = goal
@@ -263,11 +295,17 @@ def gaze_kernel(dt, has_target, target, head_pos, root_yaw, running, share, yaw_
                 ang[i, k, ax] = _approach(ang[i, k, ax], part, tau[k], speed[k], dt)
             reached = ang[i, 0, ax] + ang[i, 1, ax] + ang[i, 2, ax] + ang[i, 3, ax]
             lim = yaw_lim[4] if ax == 0 else pitch_lim[4]
-            eye = min(max(goal - reached, -lim), lim)
+            eye = goal - reached
+            if closed[i] and has_target[i]:
+                eye = eye_goal[ax]
+            eye = min(max(eye, -lim), lim)
             ang[i, 4, ax] = _approach(ang[i, 4, ax], eye, tau[4], speed[4], dt)
         for k, j, frac in ((0, sk.SPINE1, 1.0), (1, sk.SPINE2, 0.5), (1, sk.SPINE3, 0.5),
                            (2, sk.NECK, 1.0), (3, sk.HEAD, 1.0), (4, sk.L_EYE, 1.0), (4, sk.R_EYE, 1.0)):
-            gx, gy, gz, gw = euler_yxz4(frac * ang[i, k, 0], frac * ang[i, k, 1], 0.0)
+            extra = 0.0
+            if k == 4 and closed[i] and has_target[i]:
+                extra = verge_l if j == sk.L_EYE else verge_r
+            gx, gy, gz, gw = euler_yxz4(frac * ang[i, k, 0] + extra, frac * ang[i, k, 1], 0.0)
             x, y, z, w = qmul4(gx, gy, gz, gw, in_q[i, j, 0], in_q[i, j, 1], in_q[i, j, 2], in_q[i, j, 3])
             out_q[i, j, 0] = x
             out_q[i, j, 1] = y

@@ -26,7 +26,8 @@ def _run_gaze(targets: list[np.ndarray], dt: float, *, running: bool = False) ->
     for tgt in targets:
         ps.gaze_kernel(dt, np.array([tgt is not None]), np.zeros((1, 3)) if tgt is None else tgt[None], head,
                        yaw, np.array([running]), ps.GAZE_SHARE, ps.GAZE_YAW_LIMIT, ps.GAZE_PITCH_LIMIT,
-                       ps.GAZE_SPEED, ps.GAZE_TAU, ang, q, out)
+                       ps.GAZE_SPEED, ps.GAZE_TAU, ang, q, out, np.zeros((1, 3)), np.zeros((1, 3)),
+                       np.array([[0.0, 0.0, 0.0, 1.0]]), np.array([False]))
         hist.append(ang[0].copy())
     return np.array(hist)
 
@@ -155,3 +156,36 @@ def test_gaze_rule_turns_the_head_toward_the_user() -> None:
     off = Simulation(load_scene(resolve_scene("headon_corridor")), condition="pedvr")
     off.advance_to(6.0)
     assert off.summary()["gaze_events"] == []
+
+
+def _eye_errors_deg(body: FullBody, target: np.ndarray) -> tuple[float, float]:
+    """Angle between each eye's forward (+Z) and its own line to ``target``."""
+    from scipy.spatial.transform import Rotation
+
+    out = []
+    for j in (sk.L_EYE, sk.R_EYE):
+        fwd = Rotation.from_quat(body.state.world_q[0, j]).apply([0.0, 0.0, 1.0])
+        d = target - body.state.world_pos[0, j]
+        out.append(float(np.degrees(np.arccos(np.clip(fwd @ d / np.linalg.norm(d), -1.0, 1.0)))))
+    return out[0], out[1]
+
+
+@pytest.mark.parametrize("lateral", [0.0, 1.5])
+def test_walking_eyes_stay_on_the_target_and_converge(lateral: float) -> None:
+    """The eyes cancel the walk's head bob and sway (closed loop on the head, like the
+    vestibulo-ocular reflex) and each eye looks at the target itself, so a participant
+    at the target sees both pupils on them; the head need not point exactly."""
+    from tests.body._walk import bodies, drive
+
+    body = bodies(1)
+    target = np.array([5.0, 1.6, lateral])  # a standing person's eyes, ahead (3D x, y up, z)
+    body.gaze_at(0, tuple(target))
+    errs: list[tuple[float, float]] = []
+    drive(body, lambda t: np.array([[1.3, 0.0]]), lambda t: np.array([0.0]), 2.0,
+          record=lambda b, t: errs.append(_eye_errors_deg(b, target)) if t > 0.5 else None)
+    assert max(max(e) for e in errs) < 1.5
+    # Vergence: the two eyes do not point in parallel at a target 5 m away.
+    from scipy.spatial.transform import Rotation
+
+    fl, fr = (Rotation.from_quat(body.state.world_q[0, j]).apply([0.0, 0.0, 1.0]) for j in (sk.L_EYE, sk.R_EYE))
+    assert np.degrees(np.arccos(np.clip(fl @ fr, -1, 1))) > 0.3
