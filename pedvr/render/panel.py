@@ -1,19 +1,21 @@
 """The study's text panels in the view: Pillow image (reusing :mod:`pedvr.render.text`'s font), drawn
 as a textured quad centred in each eye's viewport (in front of the eyes, head-locked, both eyes in
-stereo). Self-contained GL (its own small program), so it draws over any framebuffer without a
-:class:`~pedvr.render.renderer.Renderer` (pages shown before the first trial have no scene).
+stereo). Self-contained GL (it compiles ``shaders/panel.glsl`` itself), so it draws over any
+framebuffer without a :class:`~pedvr.render.renderer.Renderer` (pages shown before the first trial
+have no scene).
 """
 
 from __future__ import annotations
 
 import textwrap
 from dataclasses import dataclass
+from pathlib import Path
 
 import moderngl
 import numpy as np
 from PIL import Image, ImageDraw
 
-from pedvr.render.shaders import set_uniform
+from pedvr.render.shaders import SHADER_DIR, compile_program, set_uniform
 from pedvr.render.text import _font
 
 BACKGROUND = (12, 16, 24, 225)
@@ -77,37 +79,15 @@ def panel_rect(
     return (vw - pw) // 2, (vh - ph) // 2, pw, ph
 
 
-_VS = """
-#version 330
-uniform vec4 u_rect;  // x0, y0, x1, y1 in NDC
-out vec2 v_uv;
-void main() {
-    vec2 c = vec2(gl_VertexID & 1, (gl_VertexID >> 1) & 1);
-    v_uv = vec2(c.x, 1.0 - c.y);
-    gl_Position = vec4(mix(u_rect.xy, u_rect.zw, c), 0.0, 1.0);
-}
-"""
-_FS = """
-#version 330
-uniform sampler2D u_tex;
-uniform bool u_srgb;
-in vec2 v_uv;
-out vec4 f_color;
-void main() {
-    vec4 c = texture(u_tex, v_uv);
-    // the image is sRGB; a linear framebuffer that the compositor encodes wants linear values
-    f_color = vec4(u_srgb ? c.rgb : pow(c.rgb, vec3(2.2)), c.a);
-}
-"""
-
-
 class PanelDrawer:
     """Draws a :class:`PanelImage` over a framebuffer's viewport (see :func:`panel_rect`)."""
 
-    def __init__(self, ctx: moderngl.Context) -> None:
+    def __init__(self, ctx: moderngl.Context, *, shader_dir: Path = SHADER_DIR) -> None:
         self.ctx = ctx
-        self.prog = ctx.program(vertex_shader=_VS, fragment_shader=_FS)
-        self.vao = ctx.vertex_array(self.prog, [])
+        self.prog = compile_program(ctx, "panel.glsl", shader_dir=shader_dir)
+        strip = np.array([[0, 0], [1, 0], [0, 1], [1, 1]], dtype=np.float32)
+        self.vbo = ctx.buffer(strip.tobytes())
+        self.vao = ctx.vertex_array(self.prog, [(self.vbo, "2f", "in_corner")])
         self.tex: moderngl.Texture | None = None
 
     def clear(self, framebuffer: moderngl.Framebuffer, viewport: tuple[int, int, int, int]) -> None:
@@ -149,7 +129,7 @@ class PanelDrawer:
             1 - 2 * y / vh,
         ))
         set_uniform(self.prog, "u_tex", 0)
-        set_uniform(self.prog, "u_srgb", not linear_target)
+        set_uniform(self.prog, "u_linear_target", linear_target)
         self.tex.use(location=0)
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         self.ctx.enable(moderngl.BLEND)
@@ -162,6 +142,7 @@ class PanelDrawer:
         if self.tex is not None:
             self.tex.release()
         self.vao.release()
+        self.vbo.release()
         self.prog.release()
 
 

@@ -427,6 +427,7 @@ class Renderer:
         prog = self.programs["panel"]
         _set(prog, "u_rect", (x0, y0, x1, y1))
         _set(prog, "u_tex", 0)
+        _set(prog, "u_linear_target", False)
         tex.use(location=0)
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         self.ctx.enable(moderngl.BLEND)
