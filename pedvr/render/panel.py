@@ -1,6 +1,7 @@
 """The study's text panels in the view: Pillow image (reusing :mod:`pedvr.render.text`'s font), drawn
-as a textured quad centred in each eye's viewport (in front of the eyes, head-locked, both eyes in
-stereo). Self-contained GL (it compiles ``shaders/panel.glsl`` itself), so it draws over any
+as a textured quad: centred in the window on a desktop (:meth:`PanelDrawer.draw`), or fixed in the
+world in a headset (:meth:`PanelDrawer.draw_world` at a :class:`PanelAnchor`), seen through each
+eye. Self-contained GL (it compiles ``shaders/panel.glsl`` itself), so it draws over any
 framebuffer without a :class:`~pedvr.render.renderer.Renderer` (pages shown before the first trial
 have no scene).
 """
@@ -79,6 +80,36 @@ def panel_rect(
     return (vw - pw) // 2, (vh - ph) // 2, pw, ph
 
 
+PANEL_DISTANCE = 1.3  # m in front of the eyes, where a world-fixed panel is put
+PANEL_WIDTH = 1.0  # m: about 42 degrees of view at that distance
+
+
+@dataclass(frozen=True)
+class PanelAnchor:
+    """Where a world-fixed panel stands: its ``center``, unit ``right`` and ``up`` (3D, Y up), and
+    ``width`` (m); its height follows the image."""
+
+    center: np.ndarray
+    right: np.ndarray
+    up: np.ndarray
+    width: float = PANEL_WIDTH
+
+    @classmethod
+    def facing(cls, view: np.ndarray, eye_position: np.ndarray, *, distance: float = PANEL_DISTANCE,
+               width: float = PANEL_WIDTH) -> PanelAnchor:
+        """Upright, ``distance`` ahead of an eye (``view`` its 4×4 world-to-eye matrix) at the eye's
+        height, facing it: where the head looks when a page appears, but level, so a page shown
+        while looking at the floor is not put in the floor."""
+        right = np.asarray(view, np.float64)[0, :3].copy()  # the eye's +X: right on the screen
+        right[1] = 0.0
+        n = float(np.linalg.norm(right))
+        right = right / n if n > 1e-6 else np.array([1.0, 0.0, 0.0])  # rolled on its side: any way
+        up = np.array([0.0, 1.0, 0.0])
+        forward = np.cross(up, right)
+        centre = np.asarray(eye_position, np.float64) + distance * forward
+        return cls(center=centre, right=right, up=up, width=width)
+
+
 class PanelDrawer:
     """Draws a :class:`PanelImage` over a framebuffer's viewport (see :func:`panel_rect`)."""
 
@@ -97,6 +128,52 @@ class PanelDrawer:
         framebuffer.clear(*CLEAR, 1.0, depth=1.0)
         self.ctx.scissor = None
 
+    def _upload(self, panel: PanelImage) -> tuple[int, int]:
+        img = panel.image
+        h, w = img.shape[:2]
+        if self.tex is None or self.tex.size != (w, h):
+            if self.tex is not None:
+                self.tex.release()
+            self.tex = self.ctx.texture((w, h), 4)
+            self.tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.tex.write(np.ascontiguousarray(img).tobytes())
+        return w, h
+
+    def _render(self, linear_target: bool) -> None:
+        set_uniform(self.prog, "u_tex", 0)
+        set_uniform(self.prog, "u_linear_target", linear_target)
+        assert self.tex is not None
+        self.tex.use(location=0)
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        self.ctx.enable(moderngl.BLEND)
+        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        self.vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
+        self.ctx.disable(moderngl.BLEND)
+
+    def draw_world(
+        self,
+        panel: PanelImage,
+        anchor: PanelAnchor,
+        *,
+        view_projection: np.ndarray,
+        framebuffer: moderngl.Framebuffer,
+        viewport: tuple[int, int, int, int],
+        linear_target: bool = False,
+    ) -> None:
+        """Draw the panel as a quad fixed in the world at ``anchor``, seen through one eye's
+        ``view_projection`` (4×4, world to clip), on top of the scene."""
+        w, h = self._upload(panel)
+        framebuffer.use()
+        framebuffer.viewport = viewport
+        half_w = 0.5 * anchor.width
+        half_h = half_w * h / w
+        set_uniform(self.prog, "u_world", True)
+        set_uniform(self.prog, "u_view_proj", tuple(np.asarray(view_projection, np.float64).T.ravel()))
+        set_uniform(self.prog, "u_center", tuple(anchor.center))
+        set_uniform(self.prog, "u_half_right", tuple(half_w * anchor.right))
+        set_uniform(self.prog, "u_half_up", tuple(half_h * anchor.up))
+        self._render(linear_target)
+
     def draw(
         self,
         panel: PanelImage,
@@ -110,14 +187,7 @@ class PanelDrawer:
 
         ``linear_target``: the framebuffer encodes linear values to sRGB itself (an sRGB swapchain).
         """
-        img = panel.image
-        h, w = img.shape[:2]
-        if self.tex is None or self.tex.size != (w, h):
-            if self.tex is not None:
-                self.tex.release()
-            self.tex = self.ctx.texture((w, h), 4)
-            self.tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-        self.tex.write(np.ascontiguousarray(img).tobytes())
+        w, h = self._upload(panel)
         x, y, pw, ph = panel_rect((w, h), viewport, fraction=fraction)
         vw, vh = viewport[2], viewport[3]
         framebuffer.use()
@@ -128,14 +198,8 @@ class PanelDrawer:
             2 * (x + pw) / vw - 1,
             1 - 2 * y / vh,
         ))
-        set_uniform(self.prog, "u_tex", 0)
-        set_uniform(self.prog, "u_linear_target", linear_target)
-        self.tex.use(location=0)
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        self.ctx.enable(moderngl.BLEND)
-        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        self.vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
-        self.ctx.disable(moderngl.BLEND)
+        set_uniform(self.prog, "u_world", False)
+        self._render(linear_target)
         return x, y, pw, ph
 
     def release(self) -> None:

@@ -25,9 +25,11 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Protocol
 
+import numpy as np
+
 from pedvr.errors import BackendUnavailableError
 from pedvr.render.math3d import EYE_HEIGHT
-from pedvr.render.panel import PanelDrawer, PanelImage, panel_image, row_at
+from pedvr.render.panel import PanelAnchor, PanelDrawer, PanelImage, panel_image, row_at
 from pedvr.study.panel_input import PagePanel, PanelEvent, PanelView, QuestionPanel, drive
 from pedvr.study.presenter import HeadPose, Page, Question, head_from_floor
 from pedvr.study.questionnaire import Response
@@ -392,11 +394,19 @@ def controller_events(controls: Any, stick: StickChooser) -> list[PanelEvent]:
     return out
 
 
+REANCHOR_DEG = 70.0  # turn further than this from a panel and it is put in front again
+
+
 class XrFrontend:
     """An OpenXR session: the scene per eye, the panel in both eyes, the controller on the panels.
 
     ``port`` is an :class:`~pedvr.xr.session.XrPort` (the real :class:`~pedvr.xr.openxr.OpenXRPort`
     by default; a fake in tests, with ``drawer=None`` to draw nothing).
+
+    Panels are fixed in the world, not to the head (head-locked text is uncomfortable to read
+    in a headset): a page appears :data:`~pedvr.render.panel.PANEL_DISTANCE` ahead of where the
+    participant looks, level, and stays there through the pages that follow; it moves in front
+    of them again only when they turn more than :data:`REANCHOR_DEG` away from it.
     """
 
     name = "xr"
@@ -424,10 +434,29 @@ class XrFrontend:
         self._stick = StickChooser()
         self._sim: Simulation | None = None
         self._panel_img: PanelImage | None = None
+        self.anchor: PanelAnchor | None = None
+        self._frame = 0
+        self._anchor_checked = -1
 
     @property
     def closed(self) -> bool:
         return self.presenter.closed
+
+    def _place_panel(self, eye: Any) -> PanelAnchor:
+        """The panel's anchor for this frame: kept, or put in front of ``eye`` (first time, or
+        once a frame when the participant has turned too far away from it)."""
+        if self.anchor is None:
+            self.anchor = PanelAnchor.facing(eye.view, eye.position)
+        elif self._anchor_checked != self._frame:
+            to_panel = self.anchor.center - np.asarray(eye.position, np.float64)
+            fwd = -np.asarray(eye.view, np.float64)[2, :3]
+            a = np.array([to_panel[0], to_panel[2]])
+            b = np.array([fwd[0], fwd[2]])
+            cos = float(a @ b / max(np.linalg.norm(a) * np.linalg.norm(b), 1e-9))
+            if cos < np.cos(np.radians(REANCHOR_DEG)):
+                self.anchor = PanelAnchor.facing(eye.view, eye.position)
+        self._anchor_checked = self._frame
+        return self.anchor
 
     def begin_trial(self, scene: SceneConfig) -> UserInput:
         from pedvr.xr.locomotion import HeadsetUser, WalkableArea
@@ -453,10 +482,11 @@ class XrFrontend:
                 )
         elif self.drawer is not None:
             self.drawer.clear(fbo, viewport)
-        if self._panel_img is not None and self.drawer is not None:
-            self.drawer.draw(
-                self._panel_img, framebuffer=fbo, viewport=viewport, linear_target=self.srgb, fraction=0.55
-            )
+        if self._panel_img is not None:
+            anchor = self._place_panel(eye)
+            if self.drawer is not None:
+                self.drawer.draw_world(self._panel_img, anchor, view_projection=eye.view_projection,
+                                       framebuffer=fbo, viewport=viewport, linear_target=self.srgb)
 
     def frame(self, sim: Simulation | None, panel: PanelView | None) -> tuple[float | None, list[PanelEvent]]:
         in_trial = panel is None and self.user is not None
@@ -464,6 +494,9 @@ class XrFrontend:
         timing = self.presenter.wait_frame()
         if timing is None:
             return None, []
+        self._frame += 1
+        if panel is None:
+            self.anchor = None  # the next page is placed where the participant looks then
         events = controller_events(self.presenter.controls, self._stick) if panel is not None else []
         self._sim = sim
         self._panel_img = (
