@@ -133,8 +133,18 @@ class Coordinator:
         return np.ascontiguousarray(self.messages[:, MESSAGES.index(message)])
 
     def blend(self, name: str, pose_q: np.ndarray, pose_p: np.ndarray, shadow_q: np.ndarray,
-              shadow_p: np.ndarray) -> None:
-        """The blend node after choreographer ``name``: in place on ``pose``."""
+              shadow_p: np.ndarray, *, joints: np.ndarray | None = None) -> None:
+        """The blend node after choreographer ``name``: in place on ``pose``.
+
+        ``joints (N, J)`` narrows the choreographer's mask per agent (a gesture clip drives only
+        its own joints); it needs a choreographer that does not move the pelvis.
+        """
         c = self.choreographers[name]
         w = np.ascontiguousarray(self.weights[:, self.index[name]])
-        ps.blend_kernel(pose_q, pose_p, shadow_q, shadow_p, w, c.mask, c.moves_pelvis)
+        if joints is None:
+            ps.blend_kernel(pose_q, pose_p, shadow_q, shadow_p, w, c.mask, c.moves_pelvis)
+        else:
+            if c.moves_pelvis:
+                raise ValueError(f"{name}: per-agent joint masks are only for choreographers that "
+                                 "leave the pelvis")
+            ps.blend_rows_kernel(pose_q, shadow_q, w, np.ascontiguousarray(joints & c.mask[None, :]))

@@ -434,6 +434,7 @@ class FullBody:
         pose_q[:] = 0.0
         pose_q[..., 3] = 1.0
         pose_p[:] = 0.0
+        joints: np.ndarray | None = None
         for name in co.order:
             sq, sp = self._buf(name)
             if name == "locomotion":
@@ -441,8 +442,11 @@ class FullBody:
             elif name == "sitting":
                 ps.sit_shadow_kernel(scale, b.pelvis_rest, sq, sp)
             elif name == "gesture":
-                kind = np.where(g_active, b.g_kind, 0)
+                # The clip plays on while its weight fades out, so it ends where it was going.
+                fading = co.weights[:, co.index["gesture"]] > 0.0
+                kind = np.where(g_active | fading, b.g_kind, 0)
                 ps.gesture_kernel(t, kind, b.g_start, b.g_dur, b.offsets, sq, sp)
+                joints = ps.GESTURE_MASKS[kind]
             elif name == "idle":
                 w = np.clip(1.0 - speed / 0.3, 0.0, 1.0) * (~b.sitting)
                 ps.idle_kernel(t, b.noise_seed, w, scale, ps.PERM, pose_q, pose_p, sq, sp)
@@ -460,7 +464,7 @@ class FullBody:
                 wp, wq = self._fk_of(pose_q, pose_p)
                 active, target = self._reach_targets(wp, wq, t)
                 ps.reach_kernel(active, target, wp, wq, b.offsets, pose_q, sq)
-            co.blend(name, pose_q, pose_p, sq, sp)
+            co.blend(name, pose_q, pose_p, sq, sp, joints=joints if name == "gesture" else None)
         ps.leg_ik_kernel(dt, b.root, self._root_yaw(), b.offsets, b.foot_ref, b.foot_yaw, b.foot_pitch,
                          b.foot_lift, b.planted, b.stepping, b.s, b.swing, b.h_prev, pose_q, pose_p,
                          b.ik_miss)

@@ -52,6 +52,28 @@ UPPER_MASK[sk.SPINE1:sk.J] = True
 GESTURES = ("none", "wave", "point", "shrug", "check_phone", "hands_in_pockets", "talk")
 G_NONE, G_WAVE, G_POINT, G_SHRUG, G_PHONE, G_POCKETS, G_TALK = range(7)
 
+
+def _clip_mask(*groups: tuple[int, ...]) -> np.ndarray:
+    m = np.zeros(sk.J, np.bool_)
+    for g in groups:
+        m[list(g)] = True
+    return m
+
+
+_R_ARM = (sk.R_COLLAR, sk.R_COLLAR + 1, sk.R_COLLAR + 2, sk.R_COLLAR + 3, sk.R_COLLAR + 4)
+_L_ARM = (sk.L_COLLAR, sk.L_COLLAR + 1, sk.L_COLLAR + 2, sk.L_COLLAR + 3, sk.L_COLLAR + 4)
+# The joints each clip drives: only these leave the walk (a wave keeps the other arm swinging and
+# the torso's style); the rest of the upper body goes on with what the blend below gives it.
+GESTURE_MASKS = np.stack([
+    _clip_mask(),
+    _clip_mask(_R_ARM, (sk.HEAD,)),
+    _clip_mask(_R_ARM),
+    _clip_mask(_R_ARM, _L_ARM, (sk.HEAD,)),
+    _clip_mask(_R_ARM, _L_ARM, (sk.NECK, sk.HEAD)),
+    _clip_mask(_R_ARM, _L_ARM),
+    _clip_mask(_R_ARM, _L_ARM),
+])
+
 _PERM = np.random.default_rng(0x9E11).permutation(256)
 PERM = np.concatenate([_PERM, _PERM]).astype(np.int64)
 """Fixed permutation of the 1D improved-Perlin kernel (a constant, not state)."""
@@ -585,6 +607,28 @@ def reach_kernel(active, target, world_pos, world_q, offsets, in_q, out_q):  # t
                 tp[k] = world_pos[i, sk.SPINE3, k]
             arm_to(i, side, tq, tp, target[i, side, 0], target[i, side, 1], target[i, side, 2], offsets,
                    out_q, q1, q2)
+
+
+@njit(cache=True, fastmath=True)
+def blend_rows_kernel(pose_q, shadow_q, weight, row_mask):  # type: ignore[no-untyped-def]
+    """:func:`blend_kernel` with a joint mask per agent ``row_mask (N, J)`` (rotations only)."""
+    for i in range(pose_q.shape[0]):
+        w = weight[i]
+        if w <= 0.0:
+            continue
+        for j in range(pose_q.shape[1]):
+            if not row_mask[i, j]:
+                continue
+            sa = 1.0 if pose_q[i, j, 3] >= 0.0 else -1.0
+            sb = 1.0 if shadow_q[i, j, 3] >= 0.0 else -1.0
+            nn = 0.0
+            for k in range(4):
+                v = (1.0 - w) * sa * pose_q[i, j, k] + w * sb * shadow_q[i, j, k]
+                pose_q[i, j, k] = v
+                nn += v * v
+            nn = math.sqrt(nn)
+            for k in range(4):
+                pose_q[i, j, k] /= nn
 
 
 @njit(cache=True, fastmath=True)

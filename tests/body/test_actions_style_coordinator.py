@@ -172,3 +172,25 @@ def test_capabilities_report_status() -> None:
     assert nav.status is Status.FAILURE and nav.detail == "no navigator"
     b.keep(np.array([False, True, True]))
     assert all(h.agent != 0 for h in b.handles)
+
+
+def test_a_gesture_moves_only_its_own_joints_the_walk_goes_on_elsewhere() -> None:
+    """A wave takes the right arm and the head; the left arm keeps swinging and the torso keeps
+    its walking style exactly as without the wave."""
+    from pedvr.body import skeleton as sk
+    from tests.body._walk import bodies, drive
+
+    walking, waving = bodies(1, seed=3), bodies(1, seed=3)
+    waving.gesture(0, "wave", duration=3.0)
+    poses = []
+    for b in (walking, waving):
+        seen: list[np.ndarray] = []
+        drive(b, lambda t: np.array([[1.3, 0.0]]), lambda t: np.array([0.0]), 1.2,
+              record=lambda body, t, seen=seen: seen.append(body.state.local_q[0].copy()))
+        poses.append(np.array(seen))
+    walk, wave = poses
+    kept = [sk.L_COLLAR, sk.L_SHOULDER, sk.L_ELBOW, sk.L_WRIST, sk.SPINE1, sk.SPINE2, sk.SPINE3, sk.NECK]
+    np.testing.assert_allclose(wave[:, kept], walk[:, kept], atol=1e-12)
+    # The left arm really swings meanwhile, and the right arm is the wave's.
+    assert np.ptp(walk[:, sk.L_SHOULDER, 0]) > 0.05
+    assert np.abs(wave[-1, sk.R_SHOULDER] - walk[-1, sk.R_SHOULDER]).max() > 0.2
