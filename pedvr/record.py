@@ -45,6 +45,7 @@ class Metrics:
     root_sync_error: float = 0.0
     door_overlap: float = 0.0  # m: deepest a door leaf cut into a walker's disc
     door_openings: int = 0  # times a closed leaf was opened
+    door_push: float = 0.0  # m: the largest step a leaf forced on a body (walkers steer round leaves)
 
     def observe_body(self, crowd: CrowdState, *, pelvis: np.ndarray) -> None:
         """Pelvis ``(N,3)`` (3D, Y up) against the committed 2D agents: the largest
@@ -159,6 +160,7 @@ class Metrics:
             "phase_ms_mean": {k: round(v / max(self.steps, 1), 5) for k, v in self.phase_ms.items()},
             "door_leaf_overlap_max_m": round(self.door_overlap, 6),
             "door_openings": self.door_openings,
+            "door_push_max_m": round(self.door_push, 6),
         }
 
 

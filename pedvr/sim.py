@@ -362,6 +362,8 @@ class Simulation:
         pref = self.steering.unstick(crowd.vel, crowd.pref_vel, crowd.is_user, self.stuck_time, self.dt)
         saved = crowd.pref_vel
         crowd.pref_vel = pref
+        if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)
+            self.steering.set_moving_segments(self.doors.hinge, self.doors.tips())
         self._new_vel = self.steering.compute_velocities(crowd, self.dt)
         crowd.pref_vel = saved
 
@@ -382,8 +384,10 @@ class Simulation:
         crowd, doors = self.crowd, self.doors
         was_closed = doors.phase == CLOSED
         vel = np.where(crowd.is_user[:, None], crowd.vel, self._new_vel)
-        doors.step(self.dt, root, vel, crowd.radius)
+        doors.step(self.dt, root, vel, crowd.radius, fixed=crowd.is_user)
         pushed, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
+        if len(root):
+            self.metrics.door_push = max(self.metrics.door_push, float(np.hypot(*(pushed - root).T).max()))
         if not np.array_equal(pushed, root):  # a pushed disc may now press on another: settle once more
             root = self.steering.resolve_contacts(pushed, crowd.radius, crowd.is_user)
             root, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)

@@ -86,6 +86,24 @@ class Steering:
         """Per row, after :meth:`compute_velocities`: ``orca.STATUS_*`` bit flags
         (dense case; heading limits dropped; all motion limits dropped)."""
 
+    def set_moving_segments(self, a: np.ndarray, b: np.ndarray) -> None:
+        """Line segments ``a[k] -> b[k]`` (``(M, 2)``, m) that are obstacles for the next calls
+        besides the static ones, replacing the previous set: door leaves, which move between
+        steps. They enter ORCA and the contact pass as RVO2's two-vertex obstacles."""
+        a = np.asarray(a, np.float64).reshape(-1, 2)
+        b = np.asarray(b, np.float64).reshape(-1, 2)
+        if a.shape != b.shape:
+            raise SteeringInputError(f"moving segments: a {a.shape} and b {b.shape} must match")
+        st = self.obstacles
+        extra = ObstacleSet.from_polygons([np.stack([p, q]) for p, q in zip(a, b, strict=True)])
+        m = len(st)
+        self._verts = np.ascontiguousarray(np.concatenate([st.vertices.reshape(-1, 2), extra.vertices]))
+        self._next = np.ascontiguousarray(np.concatenate([st.next, extra.next + m]), dtype=np.int64)
+        self._prev = np.ascontiguousarray(np.concatenate([st.prev, extra.prev + m]), dtype=np.int64)
+        self._dir = np.ascontiguousarray(np.concatenate([st.direction.reshape(-1, 2), extra.direction]))
+        self._convex = np.ascontiguousarray(np.concatenate([st.convex, extra.convex]), dtype=np.bool_)
+        self.obstacle_grid = _nb.build_obstacle_grid(self._verts, self._next, OBSTACLE_CELL)
+
     # ------------------------------------------------------------------ ORCA
 
     def _scratch(self, n: int, k: int) -> tuple[np.ndarray, ...]:

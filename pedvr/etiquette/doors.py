@@ -25,9 +25,15 @@ functions, not their constants):
   permits passage", App. B.3) and stays there while such a walker, or one in
   the doorway, remains.
 - **Bodies are the p_stop of f_bounce.** A leaf never sweeps through a
-  walker's disc: a moving leaf stops where it would touch one, and a disc
-  that walks into a leaf pushes it out of the way (the body keeps pushing
-  the door open while passing). Leaves are not obstacles to steering.
+  walker's disc: a moving leaf stops :data:`SWEEP_CLEARANCE` short of one,
+  and a disc that gets into a leaf pushes it out of the way (the body keeps
+  pushing the door open while passing). The user's body, which nothing can
+  push, always wins: the leaf gets out of its way even into another walker,
+  whom :meth:`DoorLeaves.push_out` then moves aside.
+- **Leaves are obstacles.** The simulation gives the leaves, where they
+  stand at the start of each step, to ORCA and the contact pass as moving
+  two-vertex obstacles (``Steering.set_moving_segments``), so walkers steer
+  round open leaves and wait for a leaf that cannot open yet.
 - **Release.** When nobody holds it the leaf bounces :data:`BOUNCE_ANGLE`
   further open at opening speed, then the closer brings it back with time
   constant :data:`CLOSE_TIME`; a walker arriving meanwhile catches it
@@ -56,6 +62,7 @@ CLOSE_TIME = 0.8  # s, the closer's time constant
 CLOSED_EPS = math.radians(1.0)  # below this a closing leaf latches shut
 REACH = 0.8  # m from the doorway line (plus the walker's radius) at which a hand reaches the leaf
 APPROACH_SPEED = 0.1  # m/s toward the doorway line: slower walkers are not opening the door
+SWEEP_CLEARANCE = 0.05  # m: a swinging leaf stops this far short of a body
 
 CLOSED, HELD, BOUNCE, CLOSING = 0, 1, 2, 3
 PHASE_NAMES = ("closed", "held", "bounce", "closing")
@@ -111,14 +118,18 @@ class DoorLeaves:
     def __len__(self) -> int:
         return int(self.door.shape[0])
 
-    def step(self, dt: float, pos: np.ndarray, vel: np.ndarray, radius: np.ndarray) -> None:
+    def step(self, dt: float, pos: np.ndarray, vel: np.ndarray, radius: np.ndarray,
+             fixed: np.ndarray | None = None) -> None:
         """Advance every leaf by ``dt`` given the walkers' discs (``pos``, ``vel`` ``(N, 2)``,
-        ``radius`` ``(N,)``): the leaves yield to bodies wherever their hinges let them."""
+        ``radius`` ``(N,)``): the leaves yield to bodies wherever their hinges let them, and
+        always to a ``fixed`` body (``(N,)`` bool: the user, whom nothing can push)."""
         if len(self):
+            n = np.asarray(pos).shape[0]
+            fx = np.zeros(n, np.bool_) if fixed is None else np.ascontiguousarray(fixed, np.bool_)
             _step_leaves(self.hinge, self.base, self.length, self.angle, self.side, self.phase,
                          self.target, np.ascontiguousarray(pos, np.float64),
                          np.ascontiguousarray(vel, np.float64),
-                         np.ascontiguousarray(radius, np.float64), float(dt))
+                         np.ascontiguousarray(radius, np.float64), fx, float(dt))
 
     def push_out(self, pos: np.ndarray, radius: np.ndarray, movable: np.ndarray) -> tuple[np.ndarray, float]:
         """Bodies yield to leaves that could not yield to them (at the door stop, or caught
@@ -192,7 +203,7 @@ def _blocked(qx: float, qy: float, c: float, s: float, length: float, r: float) 
 
 
 @njit(cache=True)
-def _step_leaves(hinge, base, length, angle, side, phase, target, pos, vel, radius, dt):  # noqa: ANN001, ANN202
+def _step_leaves(hinge, base, length, angle, side, phase, target, pos, vel, radius, fixed, dt):  # noqa: ANN001, ANN202
     n = pos.shape[0]
     for i in range(hinge.shape[0]):
         c, s = math.cos(base[i]), math.sin(base[i])
@@ -250,21 +261,31 @@ def _step_leaves(hinge, base, length, angle, side, phase, target, pos, vel, radi
                     moved = True
             if not moved:
                 break
-        # ... and a moving leaf stops where it would touch one (f_bounce's p_stop).
+        # ... and a swinging leaf stops SWEEP_CLEARANCE short of any body ahead of it (f_bounce's
+        # p_stop), so a walker never has a leaf arrive on it (steering sees leaves as obstacles).
         if want > a:
             ub = want
             for j in range(n):
-                lo, hi = _blocked(pos[j, 0] - hinge[i, 0], pos[j, 1] - hinge[i, 1], c, s, w, radius[j])
-                if lo <= hi and lo >= a - 1e-12 and lo < ub:
-                    ub = lo
+                lo, hi = _blocked(pos[j, 0] - hinge[i, 0], pos[j, 1] - hinge[i, 1], c, s, w,
+                                  radius[j] + SWEEP_CLEARANCE)
+                if lo <= hi and 0.5 * (lo + hi) > a:
+                    ub = min(ub, max(lo, a))
             a = ub
         elif want < a:
             lb = want
             for j in range(n):
-                lo, hi = _blocked(pos[j, 0] - hinge[i, 0], pos[j, 1] - hinge[i, 1], c, s, w, radius[j])
-                if lo <= hi and hi <= a + 1e-12 and hi > lb:
-                    lb = hi
+                lo, hi = _blocked(pos[j, 0] - hinge[i, 0], pos[j, 1] - hinge[i, 1], c, s, w,
+                                  radius[j] + SWEEP_CLEARANCE)
+                if lo <= hi and 0.5 * (lo + hi) < a:
+                    lb = max(lb, min(hi, a))
             a = lb
+        # A body that cannot be moved (the user's) wins over the others: the leaf gets out of its
+        # way even into another walker, who is then pushed aside (DoorLeaves.push_out).
+        for j in range(n):
+            if fixed[j]:
+                lo, hi = _blocked(pos[j, 0] - hinge[i, 0], pos[j, 1] - hinge[i, 1], c, s, w, radius[j])
+                if lo < a < hi:
+                    a = hi if 0.5 * (lo + hi) < a else lo
         a = min(MAX_ANGLE, max(-MAX_ANGLE, a))
         if a != 0.0 and side[i] != 0 and a * side[i] < 0:
             side[i] = 1 if a > 0 else -1  # pushed through to the other side
@@ -306,3 +327,4 @@ def _push_out(hinge, world_angle, length, pos, radius, movable):  # noqa: ANN001
             if radius[j] - d > deepest:
                 deepest = radius[j] - d
     return deepest
+

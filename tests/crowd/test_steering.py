@@ -187,3 +187,34 @@ def test_compute_never_mutates_the_state() -> None:
     Steering(PARAMS, ObstacleSet.empty(), coupled=True).compute_velocities(state, 0.1)
     for name in ("pos", "vel", "pref_vel", "heading", "radius", "limits"):
         np.testing.assert_array_equal(getattr(state, name), getattr(before, name))
+
+
+def test_moving_segments_are_obstacles_for_orca_and_contacts() -> None:
+    """A segment set between steps (a door leaf) stops an agent walking at it, like a wall."""
+    import numpy as np
+
+    from pedvr.crowd.state import CrowdState
+    from pedvr.crowd.steering import Steering
+    from pedvr.scene.config import SteeringParams
+    from pedvr.world.obstacles import ObstacleSet
+
+    def agent_at(x: float) -> CrowdState:
+        return CrowdState(ids=np.array([0]), pos=np.array([[x, 0.0]]), vel=np.array([[1.3, 0.0]]),
+                          pref_vel=np.array([[1.3, 0.0]]), heading=np.zeros(1), pref_heading=np.zeros(1),
+                          radius=np.array([0.25]), pref_speed=np.array([1.3]), max_speed=np.array([1.6]),
+                          responsibility=np.array([0.5]), is_user=np.zeros(1, bool), limits=np.zeros((1, 6)))
+
+    s = Steering(SteeringParams(), ObstacleSet.empty(), coupled=False)
+    state = agent_at(0.0)
+    free = s.compute_velocities(state, 0.05)
+    np.testing.assert_allclose(free, [[1.3, 0.0]])  # nothing in the way yet
+    s.set_moving_segments(np.array([[0.6, -1.0]]), np.array([[0.6, 1.0]]))  # a leaf across its path
+    for _ in range(60):  # walk 3 s at it
+        v = s.compute_velocities(state, 0.05)
+        state.pos = state.pos + v * 0.05
+        state.vel = v
+    assert state.pos[0, 0] <= 0.6 - 0.25 + 1e-3  # stopped at the leaf, not through it
+    pushed = s.resolve_contacts(np.array([[0.5, 0.0]]), np.array([0.25]), np.zeros(1, bool))
+    assert pushed[0, 0] <= 0.35 + 1e-3  # the contact pass keeps discs off it too
+    s.set_moving_segments(np.zeros((0, 2)), np.zeros((0, 2)))  # the leaf swung away
+    np.testing.assert_allclose(s.compute_velocities(agent_at(0.0), 0.05), [[1.3, 0.0]])

@@ -148,3 +148,26 @@ def test_of_world_leaves_and_pose() -> None:
     pose = leaves.pose()
     assert pose.shape == (1, 5)
     np.testing.assert_allclose(pose[0], [-0.6, 0.0, math.pi / 2, 1.2, 2.1])
+
+
+def test_the_user_always_gets_through_a_leaf_pinned_by_someone_else() -> None:
+    """A walker behind the leaf stops it (p_stop); the user, whom nothing can push, does not:
+    the leaf gets out of the user's way and the walker is pushed aside instead."""
+    leaves = _leaves()
+    leaves.angle[:] = -math.radians(60)  # swung to -y, the user's far side
+    leaves.side[:] = -1
+    leaves.phase[:] = HELD
+    tip = leaves.tips()[0]
+    mid = 0.5 * (leaves.hinge[0] + tip)
+    normal = np.array([-(tip - leaves.hinge[0])[1], (tip - leaves.hinge[0])[0]])
+    normal /= np.linalg.norm(normal)
+    walker = mid - (R + 0.001) * normal  # just clear of the leaf's other face
+    user = mid + 0.8 * (R) * normal  # already 5 cm into this face
+    pos = np.array([user, walker])
+    rad = np.array([R, R])
+    fixed = np.array([True, False])
+    leaves.step(DT, pos, np.zeros((2, 2)), rad, fixed=fixed)
+    out, deepest = leaves.push_out(pos, rad, ~fixed)
+    np.testing.assert_allclose(out[0], user)  # the user did not move
+    assert deepest <= 1e-9  # and nobody is inside the leaf any more: the walker was moved
+    assert np.linalg.norm(out[1] - walker) > 0.01
