@@ -65,7 +65,6 @@ APPROACH_SPEED = 0.1  # m/s toward the doorway line: slower walkers are not open
 SWEEP_CLEARANCE = 0.05  # m: a swinging leaf stops this far short of a body
 
 CLOSED, HELD, BOUNCE, CLOSING = 0, 1, 2, 3
-PHASE_NAMES = ("closed", "held", "bounce", "closing")
 
 
 @dataclass
@@ -156,9 +155,6 @@ class DoorLeaves:
     def pose(self) -> np.ndarray:
         """``(L, 5)`` hinge x, hinge y, world angle, length, height: what a frame draws."""
         return np.column_stack([self.hinge, self.world_angle(), self.length, self.height])
-
-    def copy(self) -> DoorLeaves:
-        return DoorLeaves(**{k: v.copy() for k, v in self.__dict__.items()})
 
 
 def hand_angle(hinge: np.ndarray, base: float, p_abs: np.ndarray) -> float:
