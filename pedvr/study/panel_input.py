@@ -28,10 +28,13 @@ already committed are stored by the runner as they are given; ``back`` never
 goes to an earlier question (the experimenter can correct answers from the
 database; the protocol's order stays as planned).
 
-Free text is keyboard-only: in the headset (``keyboard=False``) a text item
-offers only "(no answer)" when it is optional, and a *required* text item
-is answered as :data:`TOLD_EXPERIMENTER` (the participant says it aloud; the
-experimenter notes it). Number items take typed digits or step by 1 with
+Free text without a keyboard (in the headset, ``keyboard=False``) is spelled
+on a letter wheel (:data:`WHEEL`): ``prev``/``next`` move along it, ``select``
+types the highlighted letter, or finishes on ``DONE``, or deletes on ``DEL``,
+and ``back`` deletes too. Finishing with nothing typed gives no answer when
+the item is optional; a *required* item also offers :data:`TOLD_EXPERIMENTER`
+on the wheel for answers too long to spell (the participant says it aloud,
+the experimenter notes it). Number items take typed digits or step by 1 with
 ``prev``/``next`` (so they work with a thumbstick).
 """
 
@@ -47,6 +50,12 @@ EVENTS = ("prev", "next", "select", "confirm", "back", "char", "pick")
 NO_ANSWER = "(no answer)"
 TOLD_EXPERIMENTER = "(told the experimenter)"
 MAX_TEXT = 2000
+DONE, DELETE, SPACE = "DONE", "DEL", "space"
+# The letter wheel for spelling with a thumbstick: finishing and deleting at hand either side of
+# "a", where the highlight starts; lower case, since answers are sentences, not shouted.
+WHEEL = (DONE, DELETE, *"abcdefghijklmnopqrstuvwxyz", SPACE, *".,?!'-", *"0123456789")
+WHEEL_START = WHEEL.index("a")
+WHEEL_SHOWN = 4  # wheel entries shown either side of the highlighted one
 
 
 @dataclass(frozen=True)
@@ -95,7 +104,7 @@ class QuestionPanel:
         self.question = question
         self.keyboard = keyboard
         q, item = question.questionnaire, question.item
-        self.mode: str  # "options" | "number" | "text"
+        self.mode: str  # "options" | "number" | "text" | "spell" (free text on the letter wheel)
         self.options: list[tuple[str, Response]] = []
         if item.kind == "scale" and q.scale is not None:
             self.mode = "options"
@@ -110,14 +119,13 @@ class QuestionPanel:
         elif item.kind == "number":
             self.mode = "number"
         elif not keyboard:
-            self.mode = "options"
-            if question.required:
-                self.options = [(TOLD_EXPERIMENTER, Response(text=TOLD_EXPERIMENTER))]
+            self.mode = "spell"
         else:
             self.mode = "text"
         if self.mode == "options" and not question.required:
             self.options.append((NO_ANSWER, Response()))
-        self.index = 0 if self.mode == "options" else -1
+        self.wheel = WHEEL + ((TOLD_EXPERIMENTER,) if self.mode == "spell" and question.required else ())
+        self.index = 0 if self.mode == "options" else WHEEL_START if self.mode == "spell" else -1
         self.text = ""
         self.state = "choosing"  # choosing | confirming | done
         self.error: str | None = None
@@ -140,7 +148,9 @@ class QuestionPanel:
                 self.state, self.pending = "choosing", None
             return
         k = event.kind
-        if k == "select":
+        if k == "select" and self.mode == "spell":
+            self._spell()
+        elif k == "select":
             self._select()
         elif k in ("prev", "next"):
             self._move(-1 if k == "prev" else 1)
@@ -149,12 +159,26 @@ class QuestionPanel:
                 self.index, self.error = event.value, None
         elif k == "char" and isinstance(event.value, str):
             self._char(event.value)
-        elif k == "back" and self.mode in ("text", "number"):
+        elif k == "back" and self.mode in ("text", "number", "spell"):
             self.text, self.error = self.text[:-1], None
+
+    def _spell(self) -> None:
+        entry = self.wheel[self.index]
+        self.error = None
+        if entry == DONE:
+            self._select()
+        elif entry == DELETE:
+            self.text = self.text[:-1]
+        elif entry == TOLD_EXPERIMENTER:
+            self.pending, self.state = Response(text=TOLD_EXPERIMENTER), "confirming"
+        elif len(self.text) < MAX_TEXT:
+            self.text += " " if entry == SPACE else entry
 
     def _move(self, step: int) -> None:
         self.error = None
-        if self.mode == "options" and self.options:
+        if self.mode == "spell":
+            self.index = (self.index + step) % len(self.wheel)
+        elif self.mode == "options" and self.options:
             self.index = (self.index + step) % len(self.options)
         elif self.mode == "number":
             item = self.question.item
@@ -190,6 +214,9 @@ class QuestionPanel:
         if self.mode == "options":
             return self.options[self.index][1] if self.options else None
         if self.text.strip() == "":
+            if self.mode == "spell" and self.question.required:
+                self.error = "spell an answer, or choose " + TOLD_EXPERIMENTER
+                return None
             return Response()
         if self.mode == "number":
             try:
@@ -233,6 +260,15 @@ class QuestionPanel:
             out += f" ({q.scale.label(int(r.value))})"
         return out
 
+    def _wheel_line(self) -> str:
+        """The highlighted wheel entry in brackets, with its neighbours either side."""
+        n = len(self.wheel)
+        parts = []
+        for d in range(-WHEEL_SHOWN, WHEEL_SHOWN + 1):
+            e = self.wheel[(self.index + d) % n]
+            parts.append(f"[{e}]" if d == 0 else e)
+        return "   ".join(parts)
+
     def view(self) -> PanelView:
         qn, q, item = self.question, self.question.questionnaire, self.question.item
         lines = [f"{q.title}  ({qn.position}/{qn.count})"]
@@ -267,6 +303,8 @@ class QuestionPanel:
                 item_range = f"  ({lo}..{hi})"
             highlight = len(lines)
             lines.append(f"> {self.text}_{item_range}")
+            if self.mode == "spell":
+                lines.append(self._wheel_line())
         lines.append("")
         if self.error:
             lines.append(f"! {self.error}")
@@ -277,11 +315,12 @@ class QuestionPanel:
                 "text": "Type your answer, Enter to select, Backspace to delete",
             }[self.mode]
         else:
-            how = (
-                "Thumbstick left/right to change, trigger to select"
-                if self.mode == "number"
-                else "Thumbstick left/right to choose, trigger to select"
-            )
+            how = {
+                "number": "Thumbstick left/right to change, trigger to select",
+                "spell": f"Thumbstick left/right to a letter, trigger to type it ({DONE} when finished); "
+                         "menu button deletes",
+                "options": "Thumbstick left/right to choose, trigger to select",
+            }[self.mode]
         lines.append(how)
         return PanelView(lines=tuple(lines), highlight=highlight, option_rows=rows, title_rows=1)
 

@@ -153,15 +153,45 @@ def test_required_free_text_must_not_be_empty() -> None:
     assert run(p, "c:a", "select", "select") == Response(text="a")
 
 
-def test_free_text_in_the_headset_is_keyboard_only() -> None:
+def _to(panel: QuestionPanel, entry: str) -> list[str]:
+    """The thumbstick pushes that bring the wheel's highlight to ``entry`` (the short way round)."""
+    n = len(panel.wheel)
+    d = (panel.wheel.index(entry) - panel.index) % n
+    return ["next"] * d if d <= n - d else ["prev"] * (n - d)
+
+
+def spell(panel: QuestionPanel, word: str) -> None:
+    for ch in word:
+        run(panel, *_to(panel, "space" if ch == " " else ch), "select")
+
+
+def test_free_text_in_the_headset_is_spelled_on_a_letter_wheel() -> None:
+    fb = q("feedback")
+    p = QuestionPanel(question(fb), keyboard=False)
+    assert p.mode == "spell" and p.wheel[p.index] == "a"  # starts on "a", DONE and DEL just before it
+    assert "[a]" in p.view().lines[-3] and "DEL" in p.view().lines[-3]
+    spell(p, "too fasT".lower())
+    run(p, "back")  # the menu button deletes
+    spell(p, "t!")
+    assert p.text == "too fast!"
+    assert "> too fast!_" in p.view().lines
+    run(p, *_to(p, "DEL"), "select")  # DEL on the wheel deletes too
+    run(p, *_to(p, "DONE"), "select")
+    assert p.state == "confirming" and "You chose: too fast" in p.view().lines
+    assert run(p, "select") == Response(text="too fast")
+    assert "Thumbstick" in QuestionPanel(question(fb), keyboard=False).view().lines[-1]
+
+
+def test_headset_text_with_nothing_spelled() -> None:
     fb = q("feedback")
     opt = QuestionPanel(question(fb), keyboard=False)
-    assert [o for o, _ in opt.options] == [NO_ANSWER]
-    assert run(opt, "select", "select") == Response()
+    assert TOLD_EXPERIMENTER not in opt.wheel
+    assert run(opt, *_to(opt, "DONE"), "select", "select") == Response()  # optional: no answer
     req = QuestionPanel(question(fb, required=True), keyboard=False)
-    assert [o for o, _ in req.options] == [TOLD_EXPERIMENTER]
-    assert "Thumbstick" in req.view().lines[-1]
-    assert run(req, "select", "select") == Response(text=TOLD_EXPERIMENTER)
+    run(req, *_to(req, "DONE"), "select")
+    assert req.state == "choosing" and req.error and TOLD_EXPERIMENTER in req.error
+    # A required answer too long to spell: the participant says it, the experimenter notes it.
+    assert run(req, *_to(req, TOLD_EXPERIMENTER), "select", "select") == Response(text=TOLD_EXPERIMENTER)
 
 
 def test_likert_label_and_drive_leaves_events_for_nobody() -> None:
