@@ -303,7 +303,8 @@ class QuestionPanel:
                 item_range = f"  ({lo}..{hi})"
             highlight = len(lines)
             lines.append(f"> {self.text}_{item_range}")
-            if self.mode == "spell":
+            if self.mode == "spell":  # the wheel is what the thumbstick moves: highlight it
+                highlight = len(lines)
                 lines.append(self._wheel_line())
         lines.append("")
         if self.error:
