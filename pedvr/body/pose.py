@@ -609,6 +609,21 @@ def reach_kernel(active, target, world_pos, world_q, offsets, in_q, out_q):  # t
                    out_q, q1, q2)
 
 
+@njit(cache=True, fastmath=True, inline="always")
+def _blend_joint(pose_q, shadow_q, i, j, w):  # type: ignore[no-untyped-def]
+    """``pose_q[i, j] ← normalize((1−w)·pose + w·shadow)``, both put in the hemisphere ``w ≥ 0``."""
+    sa = 1.0 if pose_q[i, j, 3] >= 0.0 else -1.0
+    sb = 1.0 if shadow_q[i, j, 3] >= 0.0 else -1.0
+    nn = 0.0
+    for k in range(4):
+        v = (1.0 - w) * sa * pose_q[i, j, k] + w * sb * shadow_q[i, j, k]
+        pose_q[i, j, k] = v
+        nn += v * v
+    nn = math.sqrt(nn)
+    for k in range(4):
+        pose_q[i, j, k] /= nn
+
+
 @njit(cache=True, fastmath=True)
 def blend_rows_kernel(pose_q, shadow_q, weight, row_mask):  # type: ignore[no-untyped-def]
     """:func:`blend_kernel` with a joint mask per agent ``row_mask (N, J)`` (rotations only)."""
@@ -619,16 +634,7 @@ def blend_rows_kernel(pose_q, shadow_q, weight, row_mask):  # type: ignore[no-un
         for j in range(pose_q.shape[1]):
             if not row_mask[i, j]:
                 continue
-            sa = 1.0 if pose_q[i, j, 3] >= 0.0 else -1.0
-            sb = 1.0 if shadow_q[i, j, 3] >= 0.0 else -1.0
-            nn = 0.0
-            for k in range(4):
-                v = (1.0 - w) * sa * pose_q[i, j, k] + w * sb * shadow_q[i, j, k]
-                pose_q[i, j, k] = v
-                nn += v * v
-            nn = math.sqrt(nn)
-            for k in range(4):
-                pose_q[i, j, k] /= nn
+            _blend_joint(pose_q, shadow_q, i, j, w)
 
 
 @njit(cache=True, fastmath=True)
@@ -647,16 +653,7 @@ def blend_kernel(pose_q, pose_p, shadow_q, shadow_p, weight, mask, mask_pelvis_p
         for j in range(nj):
             if not mask[j]:
                 continue
-            sa = 1.0 if pose_q[i, j, 3] >= 0.0 else -1.0
-            sb = 1.0 if shadow_q[i, j, 3] >= 0.0 else -1.0
-            nn = 0.0
-            for k in range(4):
-                v = (1.0 - w) * sa * pose_q[i, j, k] + w * sb * shadow_q[i, j, k]
-                pose_q[i, j, k] = v
-                nn += v * v
-            nn = math.sqrt(nn)
-            for k in range(4):
-                pose_q[i, j, k] /= nn
+            _blend_joint(pose_q, shadow_q, i, j, w)
         if mask_pelvis_pos:
             for k in range(3):
                 pose_p[i, k] = (1.0 - w) * pose_p[i, k] + w * shadow_p[i, k]

@@ -73,16 +73,26 @@ def segment_clear(
     loy = min(ay, by) - radius
     hiy = max(ay, by) + radius
     for k in range(p1.shape[0]):
-        cx = p1[k, 0]
-        cy = p1[k, 1]
-        dx = p2[k, 0]
-        dy = p2[k, 1]
-        # Bounding boxes more than radius apart cannot be within radius.
-        if max(cx, dx) < lox or min(cx, dx) > hix or max(cy, dy) < loy or min(cy, dy) > hiy:
-            continue
-        if segment_distance2(ax, ay, bx, by, cx, cy, dx, dy) <= r2:
+        if _edge_within(k, ax, ay, bx, by, r2, lox, hix, loy, hiy, p1, p2):
             return False
     return True
+
+
+@njit(cache=True, inline="always")
+def _edge_within(
+    k: int, ax: float, ay: float, bx: float, by: float, r2: float,
+    lox: float, hix: float, loy: float, hiy: float, p1: np.ndarray, p2: np.ndarray,
+) -> bool:
+    """Whether edge ``k`` comes within ``sqrt(r2)`` of segment a–b (whose box, widened by that
+    distance, is ``lox..hix`` × ``loy..hiy``)."""
+    cx = p1[k, 0]
+    cy = p1[k, 1]
+    dx = p2[k, 0]
+    dy = p2[k, 1]
+    # Bounding boxes more than the distance apart cannot be within it.
+    if max(cx, dx) < lox or min(cx, dx) > hix or max(cy, dy) < loy or min(cy, dy) > hiy:
+        return False
+    return segment_distance2(ax, ay, bx, by, cx, cy, dx, dy) <= r2
 
 
 class EdgeGrid(NamedTuple):
@@ -135,14 +145,7 @@ def _cell_edges_clear(
     start: np.ndarray, items: np.ndarray,
 ) -> bool:
     for j in range(start[c], start[c + 1]):
-        k = items[j]
-        cx = p1[k, 0]
-        cy = p1[k, 1]
-        dx = p2[k, 0]
-        dy = p2[k, 1]
-        if max(cx, dx) < lox or min(cx, dx) > hix or max(cy, dy) < loy or min(cy, dy) > hiy:
-            continue
-        if segment_distance2(ax, ay, bx, by, cx, cy, dx, dy) <= r2:
+        if _edge_within(items[j], ax, ay, bx, by, r2, lox, hix, loy, hiy, p1, p2):
             return False
     return True
 
