@@ -525,7 +525,8 @@ def plan_for(protocol: Protocol, *, number: int) -> list[PlannedStep]:
     for st in protocol.steps:
         if st.kind == "instructions":
             add(key=st.id, kind="instructions", title=st.id, text=st.text)
-        elif st.kind == "questionnaire":
+            continue
+        if st.kind == "questionnaire":
             assert st.questionnaire is not None
             add(
                 key=st.id,
@@ -534,65 +535,29 @@ def plan_for(protocol: Protocol, *, number: int) -> list[PlannedStep]:
                 questionnaire=st.questionnaire,
                 optional=st.optional,
             )
-        elif st.kind == "trial":
+            continue
+        if st.text:  # trial, sweep and blocks steps may open with their own instructions page
+            add(key=f"{st.id}/instructions", kind="instructions", title=f"{st.id}: instructions",
+                text=st.text)
+        if st.kind in ("trial", "sweep"):
             assert st.scene is not None and st.scene_name is not None and st.time_limit_s is not None
-            if st.text:
-                add(
-                    key=f"{st.id}/instructions",
-                    kind="instructions",
-                    title=f"{st.id}: instructions",
-                    text=st.text,
-                )
             cond = st.condition or protocol.conditions[0]
-            spec = TrialSpec(
-                scene=st.scene,
-                scene_name=st.scene_name,
-                condition=cond,
-                label=None,
-                order=None,
-                responsibility=st.responsibility,
-                seed=stable_seed(protocol.seed, number, st.id),
-                time_limit_s=st.time_limit_s,
-                record_trajectory=st.record_trajectories,
-            )
-            add(
-                key=st.id,
-                kind="trial",
-                title=f"{st.id} ({st.scene_name})",
-                scenario=st.scene_name,
-                condition=cond,
-                trial=spec,
-                design="single",
-            )
-        elif st.kind == "sweep":
-            assert st.scene is not None and st.scene_name is not None and st.time_limit_s is not None
-            if st.text:
-                add(
-                    key=f"{st.id}/instructions",
-                    kind="instructions",
-                    title=f"{st.id}: instructions",
-                    text=st.text,
-                )
-            order = _ordered(
-                st.order,
-                n=len(st.values),
-                number=number,
-                seed=stable_seed(protocol.seed, number, st.id, "order"),
-            )
-            cond = st.condition or protocol.conditions[0]
+
+            def spec(order: int | None, rho: float | None, st: StepSpec = st, cond: str = cond) -> TrialSpec:
+                assert st.scene is not None and st.scene_name is not None and st.time_limit_s is not None
+                return TrialSpec(scene=st.scene, scene_name=st.scene_name, condition=cond, label=None,
+                                 order=order, responsibility=rho,
+                                 seed=stable_seed(protocol.seed, number, st.id),
+                                 time_limit_s=st.time_limit_s, record_trajectory=st.record_trajectories)
+
+            if st.kind == "trial":
+                add(key=st.id, kind="trial", title=f"{st.id} ({st.scene_name})", scenario=st.scene_name,
+                    condition=cond, trial=spec(None, st.responsibility), design="single")
+                continue
+            order = _ordered(st.order, n=len(st.values), number=number,
+                             seed=stable_seed(protocol.seed, number, st.id, "order"))
             for pos, vi in enumerate(order):
                 rho = st.values[vi]
-                spec = TrialSpec(
-                    scene=st.scene,
-                    scene_name=st.scene_name,
-                    condition=cond,
-                    label=None,
-                    order=pos + 1,
-                    responsibility=rho,
-                    seed=stable_seed(protocol.seed, number, st.id),
-                    time_limit_s=st.time_limit_s,
-                    record_trajectory=st.record_trajectories,
-                )
                 add(
                     key=f"{st.id}/rho{rho:g}",
                     kind="trial",
@@ -600,18 +565,11 @@ def plan_for(protocol: Protocol, *, number: int) -> list[PlannedStep]:
                     block=st.id,
                     scenario=st.scene_name,
                     condition=cond,
-                    trial=spec,
+                    trial=spec(pos + 1, rho),
                     design="sweep",
                     assignment={"sweep_order": [st.values[i] for i in order]},
                 )
         else:
-            if st.text:
-                add(
-                    key=f"{st.id}/instructions",
-                    kind="instructions",
-                    title=f"{st.id}: instructions",
-                    text=st.text,
-                )
             border = _ordered(
                 st.order,
                 n=len(st.blocks),
