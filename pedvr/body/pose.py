@@ -93,6 +93,16 @@ def _put(q, i, j, t):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, fastmath=True, inline="always")
+def _rest_row(q, i):  # type: ignore[no-untyped-def]
+    """Every joint of row ``i`` back to the identity rotation (a generator's blank shadow)."""
+    for j in range(q.shape[1]):
+        q[i, j, 0] = 0.0
+        q[i, j, 1] = 0.0
+        q[i, j, 2] = 0.0
+        q[i, j, 3] = 1.0
+
+
+@njit(cache=True, fastmath=True, inline="always")
 def _dof(style, i, d, t, amp):  # type: ignore[no-untyped-def]
     return (style[i, d, PA] * amp * spow(math.sin(style[i, d, Pa] * t + style[i, d, Pb]), style[i, d, Pp])
             + style[i, d, PB])
@@ -112,11 +122,7 @@ def loco_shadow_kernel(phase, amp, style, scale, pelvis_rest, out_q, out_p):  # 
         t = phase[i]
         a = amp[i]
         sc = scale[i]
-        for j in range(out_q.shape[1]):
-            out_q[i, j, 0] = 0.0
-            out_q[i, j, 1] = 0.0
-            out_q[i, j, 2] = 0.0
-            out_q[i, j, 3] = 1.0
+        _rest_row(out_q, i)
         py = -PELVIS_YAW * math.cos(t) * a
         pl = PELVIS_LIST * math.sin(t) * a
         pt = PELVIS_TILT * min(a, 1.0)
@@ -158,11 +164,7 @@ def sit_shadow_kernel(scale, pelvis_rest, out_q, out_p):  # type: ignore[no-unty
     n = scale.shape[0]
     for i in range(n):
         sc = scale[i]
-        for j in range(out_q.shape[1]):
-            out_q[i, j, 0] = 0.0
-            out_q[i, j, 1] = 0.0
-            out_q[i, j, 2] = 0.0
-            out_q[i, j, 3] = 1.0
+        _rest_row(out_q, i)
         out_p[i, 0] = 0.0
         out_p[i, 1] = 0.50 * sc
         out_p[i, 2] = -0.30 * sc
@@ -533,11 +535,7 @@ def gesture_kernel(t, kind, start, duration, offsets, out_q, out_p):  # type: ig
     tq = np.array([0.0, 0.0, 0.0, 1.0])
     tp = np.zeros(3)
     for i in range(n):
-        for j in range(out_q.shape[1]):
-            out_q[i, j, 0] = 0.0
-            out_q[i, j, 1] = 0.0
-            out_q[i, j, 2] = 0.0
-            out_q[i, j, 3] = 1.0
+        _rest_row(out_q, i)
         out_p[i, 0] = 0.0
         out_p[i, 1] = 0.0
         out_p[i, 2] = 0.0

@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import math
 import tomllib
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -43,25 +42,11 @@ from pedvr.validation import MISSING, Checker, is_num
 
 OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter")
 TRANSITION_EVENTS = ("arrival", "timer", "probability")
-class _Checker(Checker):
-    """The shared problem collector plus the accessors scenes need."""
 
-    def number(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
-               default: float | None = None, check: Callable[[float], bool] | None = None,
-               expect: str = "") -> float | None:
-        v = d.get(key, MISSING)
-        if v is MISSING:
-            if required:
-                self.bad(path, v, "required" + (f" ({expect})" if expect else ""))
-            return default
-        if not is_num(v):
-            self.bad(path, v, "expected a number" + (f" {expect}" if expect else ""))
-            return default
-        f = float(v)
-        if check is not None and not check(f):
-            self.bad(path, v, f"must be {expect}")
-            return default
-        return f
+
+class _Checker(Checker):
+    """The shared problem collector plus the accessors scenes need (``string`` lists its choices
+    unquoted, as scene messages always have)."""
 
     def whole(self, d: dict[str, Any], key: str, path: str, *, required: bool = True,
               default: int | None = None, minimum: int = 0) -> int | None:
@@ -88,15 +73,6 @@ class _Checker(Checker):
             return default
         if choices and v not in choices:
             self.bad(path, v, f"expected one of {', '.join(choices)}")
-            return default
-        return v
-
-    def boolean(self, d: dict[str, Any], key: str, path: str, default: bool) -> bool:
-        v = d.get(key, MISSING)
-        if v is MISSING:
-            return default
-        if not isinstance(v, bool):
-            self.bad(path, v, "expected true or false")
             return default
         return v
 
@@ -487,7 +463,7 @@ def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
                                check=lambda x: 0 < x <= 2, expect="in (0, 2]")
         arrive = c.number(s, "arrive_dist", f"{path}.arrive_dist", required=False, default=0.3,
                           check=lambda x: x > 0, expect="> 0 m")
-        final = c.boolean(s, "final", f"{path}.final", False)
+        final = c.boolean(s, "final", f"{path}.final", default=False)
         if "goal" in s:
             states[sname] = StateConfig(name=sname, goal=goal, transitions=tuple(trans),
                                         speed_scale=speed_scale or 1.0, arrive_dist=arrive or 0.3,
@@ -681,7 +657,7 @@ def _user(c: _Checker, u: dict[str, Any], world: WorldConfig | None) -> UserConf
     route = c.points(u, "route", "user.route", required=False) or ()
     sphere = c.number(u, "sphere_radius", "user.sphere_radius", required=False, default=0.5,
                       check=lambda x: x > 0, expect="> 0 m")
-    enabled = c.boolean(u, "enabled", "user.enabled", True)
+    enabled = c.boolean(u, "enabled", "user.enabled", default=True)
     blocked = _blocked(world)
     if blocked is not None:
         for key, p in [("user.start", start)] + [(f"user.route[{k}]", q) for k, q in enumerate(route)]:
