@@ -660,14 +660,15 @@ def _solve(lines, n, num_hard, max_speed, prx, pry, proj):
 
 
 @njit(cache=True, fastmath=_FM)
-def agent_new_velocity(i, pos, vel, pref_vel, radius, max_speed, responsibility, is_user,
-                       heading, pref_speed, limits, nbr_idx, nbr_count, obst_idx, n_obst,
-                       vertices, nxt, prv, direction, convex, time_horizon, time_horizon_obst,
-                       dt, coupled, lines, proj):
-    """New velocity of agent ``i`` (RVO2's ``computeNewVelocity`` plus limits).
+def agent_lines(i, pos, vel, radius, responsibility, is_user, heading, pref_speed, limits,
+                nbr_idx, nbr_count, obst_idx, n_obst, vertices, nxt, prv, direction, convex,
+                time_horizon, time_horizon_obst, dt, coupled, lines):
+    """Write agent ``i``'s ORCA lines into ``lines``: obstacle lines, then (coupled) the
+    velocity-limit lines (a, b) and the heading lines (c), then one line per neighbour.
 
-    ``lines``/``proj`` are scratch of at least ``n_obst + K + MAX_MOTION_LINES``
-    rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags.
+    Returns ``(n, num_obst, num_vel_lim, num_hard)``: the line count, the number of
+    obstacle lines, of velocity-limit lines, and of hard lines (everything before the
+    neighbours' lines).
     """
     px = pos[i, 0]
     py = pos[i, 1]
@@ -691,6 +692,23 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, max_speed, responsibility,
         share = rho if is_user[j] else 0.5
         n = agent_line(lines, n, px, py, vx, vy, r, pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1],
                        radius[j], inv_th, inv_dt, share)
+    return n, num_obst, num_vel_lim, num_hard
+
+
+@njit(cache=True, fastmath=_FM)
+def agent_new_velocity(i, pos, vel, pref_vel, radius, max_speed, responsibility, is_user,
+                       heading, pref_speed, limits, nbr_idx, nbr_count, obst_idx, n_obst,
+                       vertices, nxt, prv, direction, convex, time_horizon, time_horizon_obst,
+                       dt, coupled, lines, proj):
+    """New velocity of agent ``i`` (RVO2's ``computeNewVelocity`` plus limits).
+
+    ``lines``/``proj`` are scratch of at least ``n_obst + K + MAX_MOTION_LINES``
+    rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags.
+    """
+    n, num_obst, num_vel_lim, num_hard = agent_lines(
+        i, pos, vel, radius, responsibility, is_user, heading, pref_speed, limits, nbr_idx,
+        nbr_count, obst_idx, n_obst, vertices, nxt, prv, direction, convex, time_horizon,
+        time_horizon_obst, dt, coupled, lines)
     num_agent = n - num_hard
     ms = max_speed[i]
     prx = pref_vel[i, 0]

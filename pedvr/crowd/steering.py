@@ -200,6 +200,36 @@ class Steering:
                 return out
             self._obst_cap = need  # rare: more obstacle neighbours than room; redo
 
+    def orca_lines(self, state: CrowdState, dt: float, row: int) -> np.ndarray:
+        """The ORCA lines of one row, as :meth:`compute_velocities` builds them from ``state``:
+        ``(L, 4) float64`` rows ``(point_x, point_y, dir_x, dir_y)``, permitted side on the left
+        of the direction (RVO2's ``getAgentORCALine``, with the point first). Obstacle lines
+        come first, then (coupled) the motion-limit lines, then one line per neighbour,
+        nearest first. For inspection and tests; not on the step path.
+        """
+        if not dt > 0.0:
+            raise SteeringInputError(f"dt = {dt}: must be > 0")
+        self.validate(state)
+        n = len(state)
+        if not 0 <= row < n:
+            raise SteeringInputError(f"row {row}: expected 0 <= row < {n}")
+        p = self.params
+        pos = np.ascontiguousarray(state.pos)
+        idx, cnt = self.neighbors(pos)
+        og = self.obstacle_grid
+        rng = p.time_horizon_obst * float(state.max_speed[row]) + float(state.radius[row])
+        oidx, ocnt = _nb.obstacle_neighbors(pos[row:row + 1], np.array([rng * rng]), self._verts,
+                                            self._next, og)
+        lines = np.zeros((int(ocnt[0]) + idx.shape[1] + _orca.MAX_MOTION_LINES, 4))
+        count, _, _, _ = _orca.agent_lines(
+            row, pos, np.ascontiguousarray(state.vel), np.ascontiguousarray(state.radius),
+            np.ascontiguousarray(state.responsibility), np.ascontiguousarray(state.is_user),
+            np.ascontiguousarray(state.heading), np.ascontiguousarray(state.pref_speed),
+            np.ascontiguousarray(state.limits), idx, cnt, np.ascontiguousarray(oidx[0]), int(ocnt[0]),
+            self._verts, self._next, self._prev, self._dir, self._convex, float(p.time_horizon),
+            float(p.time_horizon_obst), float(dt), self.coupled, lines)
+        return lines[:count].copy()
+
     # ------------------------------------------------------------------ contacts
 
     def resolve_contacts(self, pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray, *,

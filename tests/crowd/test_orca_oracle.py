@@ -6,12 +6,17 @@ stores), ρ = 0.5 for everyone, no user, no contact pass, with and without
 random boxes (added to pyrvo with ``add_obstacle`` + ``process_obstacles`` and
 to us through ``ObstacleSet.from_polygons``).
 
-RVO2 computes in float32, we in float64. Where the program is infeasible
-(``linear_program3``, the dense case) the optimum of the "least violation"
-program can be a flat ridge, and float32 rounding moves RVO2 along it; there,
-and only there, we accept a different velocity when it violates RVO2's own
-ORCA lines no more than RVO2's answer does (to 1e-3) and it happens for at
-most 1 % of the agents.
+Three checks, each sharp (the ``*_can_fail`` tests show it):
+
+* every agent's ORCA lines equal RVO2's, line by line (pyrvo's
+  ``get_agent_orca_line`` returns ``(direction, point)``: the first tuple has
+  unit length);
+* every new velocity equals RVO2's to 1e-3 m/s, except in the dense case
+  (``linear_program3``), where the "least violation" optimum can be a flat
+  ridge along which float32 rounding moves RVO2; there a different velocity is
+  accepted for at most 1 % of the agents;
+* in every dense case, our velocity's largest violation of RVO2's own lines
+  equals RVO2's (both are the optimum of the same program), to 1e-3 m/s.
 """
 
 from __future__ import annotations
@@ -55,11 +60,12 @@ def _rvo2_step(pos, vel, pref, boxes):
 
 
 def _rvo2_lines(sim, i) -> np.ndarray:
+    """RVO2's lines of agent ``i`` as our rows ``(point_x, point_y, dir_x, dir_y)``."""
     rows = []
     for q in range(sim.get_agent_num_orca_lines(i)):
-        line = sim.get_agent_orca_line(i, q)
-        rows.append(np.asarray([_vec(line[0]), _vec(line[1])]).reshape(4))
-    return np.array(rows).reshape(-1, 4)
+        direction, point = sim.get_agent_orca_line(i, q)
+        rows.append([*_vec(point), *_vec(direction)])
+    return np.array(rows, np.float64).reshape(-1, 4)
 
 
 def _max_violation(lines: np.ndarray, v: np.ndarray) -> float:
@@ -70,38 +76,86 @@ def _max_violation(lines: np.ndarray, v: np.ndarray) -> float:
     return float(np.max(d[:, 0] * p[:, 1] - d[:, 1] * p[:, 0]))
 
 
-@pytest.mark.parametrize("n_boxes", [0, 6])
-@pytest.mark.parametrize("seed", [1, 2, 3])
-def test_one_step_matches_rvo2(seed: int, n_boxes: int) -> None:
+def _case(seed: int, n_boxes: int):
     rng = np.random.default_rng(seed)
     n = int(rng.integers(50, 201))
     pos = f32(spread_points(rng, n, 20.0, 0.7))
     vel = f32(rng.uniform(-1.0, 1.0, (n, 2)))
     pref = f32(rng.uniform(-1.5, 1.5, (n, 2)))
     boxes = disjoint_boxes(rng, n_boxes, 20.0) if n_boxes else []
-
     sim = _rvo2_step(pos, vel, pref, boxes)
     # Disjoint boxes: RVO2 split no edge, so its obstacle vertices are ours.
     assert sim.get_num_obstacle_vertices() == 4 * n_boxes
-    ref = np.array([_vec(sim.get_agent_velocity(i)) for i in range(n)])
-
     obstacles = ObstacleSet.from_polygons(boxes) if boxes else ObstacleSet.empty()
     state = crowd(pos, vel, pref, radius=RADIUS, max_speed=MAX_SPEED, responsibility=0.5)
-    steering = Steering(PARAMS, obstacles, coupled=False)
+    return sim, state, Steering(PARAMS, obstacles, coupled=False)
+
+
+def _lines_match(ours: np.ndarray, theirs: np.ndarray, tol: float = 1e-4) -> bool:
+    """Same lines in the same order; obstacle lines at equal distance may come in either order."""
+    if ours.shape != theirs.shape:
+        return False
+    if np.allclose(ours, theirs, atol=tol):
+        return True
+    key = lambda a: np.lexsort(np.round(a / tol).T[::-1])  # noqa: E731
+    return bool(np.allclose(ours[key(ours)], theirs[key(theirs)], atol=tol))
+
+
+def _dense_ok(lines: np.ndarray, ours: np.ndarray, ref: np.ndarray) -> bool:
+    """Both velocities are optima of the same least-violation program (dense case)."""
+    return abs(_max_violation(lines, ours) - _max_violation(lines, ref)) <= 1e-3
+
+
+@pytest.mark.parametrize("n_boxes", [0, 6])
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_one_step_matches_rvo2(seed: int, n_boxes: int) -> None:
+    sim, state, steering = _case(seed, n_boxes)
+    n = len(state)
+    ref = np.array([_vec(sim.get_agent_velocity(i)) for i in range(n)])
     ours = steering.compute_velocities(state, DT)
 
+    for i in range(n):
+        assert _lines_match(steering.orca_lines(state, DT, i), _rvo2_lines(sim, i)), (
+            f"agent {i}: ORCA lines differ from RVO2's")
     err = np.linalg.norm(ours - ref, axis=1)
     bad = np.flatnonzero(err > 1e-3)
     for i in bad:
         assert steering.last_status[i] & STATUS_DENSE, (
             f"agent {i}: feasible case differs from RVO2 by {err[i]:.2e} m/s")
-        lines = _rvo2_lines(sim, i)
-        assert _max_violation(lines, ours[i]) <= _max_violation(lines, ref[i]) + 1e-3
         assert np.linalg.norm(ours[i]) <= MAX_SPEED + 1e-9
     assert bad.size <= max(1, n // 100), f"{bad.size} of {n} agents differ from RVO2"
+    dense = np.flatnonzero(steering.last_status & STATUS_DENSE)
+    assert dense.size > 0  # the dense-case check below is exercised
+    for i in dense:
+        assert _dense_ok(_rvo2_lines(sim, i), ours[i], ref[i]), f"agent {i}: dense optimum differs"
     if n_boxes:
         # The boxes matter: some agents have obstacle lines.
         assert sum(sim.get_agent_num_obstacle_neighbors(i) for i in range(n)) > 0
+
+
+def test_line_and_dense_checks_can_fail() -> None:
+    """The line comparison catches one line moved by 1 cm/s, and pyrvo's tuple read the
+    wrong way round (point, direction), as this test once did; the dense check catches a
+    velocity 5 cm/s off the least-violation optimum."""
+    sim, state, steering = _case(3, 0)
+    n = len(state)
+    ref = np.array([_vec(sim.get_agent_velocity(i)) for i in range(n)])
+    ours = steering.compute_velocities(state, DT)
+    dense = np.flatnonzero(steering.last_status & STATUS_DENSE)
+    assert dense.size > 0
+    for i in dense:
+        lines = _rvo2_lines(sim, i)
+        mine = steering.orca_lines(state, DT, i)
+        bumped = mine.copy()
+        bumped[-1, :2] += 0.01 * np.array([-bumped[-1, 3], bumped[-1, 2]])
+        assert not _lines_match(bumped, lines)
+        assert not _lines_match(mine, lines[:, [2, 3, 0, 1]])
+        # Step off the optimum toward the forbidden side of the most violated line.
+        d, p = lines[:, 2:], lines[:, :2] - ours[i]
+        k = int(np.argmax(d[:, 0] * p[:, 1] - d[:, 1] * p[:, 0]))
+        off = ours[i] + 0.05 * np.array([d[k, 1], -d[k, 0]])
+        assert _dense_ok(lines, ours[i], ref[i])
+        assert not _dense_ok(lines, off, ref[i])
 
 
 def test_oracle_can_fail() -> None:
