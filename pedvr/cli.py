@@ -13,7 +13,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -25,7 +28,14 @@ from pedvr.scenes import DEFAULT_SCENE, resolve_scene, shipped_scenes
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(f"{self.prog}: {message}")
+        # main() prints "pedvr: error: "; name the subcommand, not the program again.
+        where = self.prog.removeprefix("pedvr").strip()
+        hint = f"; see 'pedvr {where + ' ' if where else ''}--help'"
+        raise UsageError(f"{where + ': ' if where else ''}{message}{hint}")
+
+
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Defaults in every option's help; descriptions keep their line breaks."""
 
 
 def _positive(kind: Callable[[str], float]) -> Callable[[str], float]:
@@ -34,6 +44,8 @@ def _positive(kind: Callable[[str], float]) -> Callable[[str], float]:
             v = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
         if v <= 0:
             raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
         return v
@@ -51,23 +63,48 @@ def _unit(text: str) -> float:
     return v
 
 
+CONDITION_HELP = """conditions (PedVR §6):
+  decoupled  plain ORCA, no motion limits; the body follows the disc (the study baseline)
+  pedvr      coupled: the body's motion limits inside ORCA, the body is the truth
+  pedvr+g    coupled, and agents look at the user when the user approaches (PedVR eqs. 1-3)"""
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("pedvr")
+    except PackageNotFoundError:  # a source tree that was never installed
+        return "0.1.0+src"
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="pedvr", description="Virtual pedestrians around a real user.")
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    p.add_argument("--version", action="version", version=f"pedvr {_version()}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND",
+                           title="commands")
 
-    run = sub.add_parser("run", help="run a scene")
-    run.add_argument("scene", nargs="?", default=None,
-                     help=f"scene file (.toml, SteerSuite .xml) or shipped scene; default {DEFAULT_SCENE}")
-    run.add_argument("--backend", default="auto", choices=("auto", "xr", "desktop", "headless"))
-    run.add_argument("--duration", type=_positive(float), default=None, help="simulated seconds")
+    run = sub.add_parser("run", help="run a scene", formatter_class=_HelpFormatter,
+                         description="Run a scene in a headset, a window or headless.",
+                         epilog=CONDITION_HELP)
+    run.add_argument("scene", nargs="?", default=DEFAULT_SCENE,
+                     help="scene file (.toml, SteerSuite .xml) or shipped scene name")
+    run.add_argument("--backend", default="auto", choices=("auto", "xr", "desktop", "headless"),
+                     help="auto: OpenXR if a headset answers, else a window if there is a display, "
+                          "else headless")
+    run.add_argument("--duration", type=_positive(float), default=None,
+                     help="simulated seconds (default: the scene's duration)")
     run.add_argument("--seed", type=int, default=None, help="overrides the scene's seed")
-    run.add_argument("--condition", default="pedvr", choices=CONDITIONS)
+    run.add_argument("--condition", default="pedvr", choices=CONDITIONS,
+                     help="crowd model (see conditions below)")
     run.add_argument("--responsibility", type=_unit, default=None,
                      help="share ρ of avoidance virtual agents take toward the user (0..1)")
-    run.add_argument("--record", type=Path, default=None, help="trajectory file (.npz)")
-    run.add_argument("--metrics-json", type=Path, default=None, help="metrics file (.json)")
+    run.add_argument("--record", type=Path, default=None,
+                     help="trajectory file (.npz; default: OUT/SCENE-seedN-CONDITION.npz)")
+    run.add_argument("--metrics-json", type=Path, default=None,
+                     help="metrics file (.json; default: OUT/SCENE-seedN-CONDITION.json)")
     run.add_argument("--out", type=Path, default=Path("pedvr-out"),
-                     help="folder for outputs not named explicitly (default ./pedvr-out)")
+                     help="folder for outputs not named explicitly")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.add_argument("--frames", type=Path, default=None, metavar="DIR",
                      help="headless: write first-person and overhead PNGs into DIR (offscreen, EGL)")
@@ -85,14 +122,14 @@ def build_parser() -> argparse.ArgumentParser:
                      help="condition label the HUD shows (blind studies: never the condition's name)")
     run.add_argument("--no-vsync", action="store_true", help="desktop: do not wait for the vertical blank")
 
-    scene = sub.add_parser("scene", help="scene files")
-    ssub = scene.add_subparsers(dest="scene_command", required=True, parser_class=_Parser)
+    scene = sub.add_parser("scene", help="scene files (check, list)")
+    ssub = scene.add_subparsers(dest="scene_command", required=True, parser_class=_Parser, metavar="ACTION")
     check = ssub.add_parser("check", help="validate scene files")
     check.add_argument("files", nargs="+")
     ssub.add_parser("list", help="list shipped scenes")
 
     bench = sub.add_parser("bench", help="benchmarks")
-    bsub = bench.add_subparsers(dest="bench_command", required=True, parser_class=_Parser)
+    bsub = bench.add_subparsers(dest="bench_command", required=True, parser_class=_Parser, metavar="BENCH")
     st = bsub.add_parser("steering", help="antipodal-circle ORCA benchmark, optionally against RVO2")
     st.add_argument("--agents", type=_positive(int), action="append", default=None)
     st.add_argument("--vs", choices=("rvo2",), default=None)
@@ -142,6 +179,7 @@ def _run(args: argparse.Namespace) -> int:
     from pedvr.xr.select import choose_backend, fallback_after
 
     files = args.frames is not None or args.video is not None
+    _check_outputs(args)
     if files and args.backend in ("xr", "desktop"):
         raise UsageError(f"--frames/--video write files from the headless renderer; drop --backend "
                          f"{args.backend} or use --backend headless")
@@ -184,6 +222,44 @@ def _run(args: argparse.Namespace) -> int:
             backend = nxt
 
 
+def _writable_folder(path: Path, flag: str) -> None:
+    """Create ``path`` (a folder) if needed; one clear line if that cannot be done."""
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"{flag} {path}: exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"{flag} {path}: cannot create the folder ({exc.strerror})") from None
+    try:  # os.access says yes to root everywhere, even in /proc: try it
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError as exc:
+        raise UsageError(f"{flag} {path}: the folder is not writable ({exc.strerror})") from None
+
+
+def _writable_file(path: Path, flag: str) -> None:
+    """``path`` can be written: not a folder, in a folder that exists or can be made, writable."""
+    if path.is_dir():
+        raise UsageError(f"{flag} {path}: is a folder; give a file name")
+    _writable_folder(path.parent, flag + " folder")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise UsageError(f"{flag} {path}: the file exists and is not writable")
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Every output of ``pedvr run`` can be written, checked before the run starts (a long run
+    must not end in a traceback and lose its results)."""
+    if args.frames is not None:
+        _writable_folder(args.frames, "--frames")
+    if args.video is not None:
+        _writable_file(args.video, "--video")
+    if args.record is None or args.metrics_json is None:
+        _writable_folder(args.out, "--out")
+    if args.record is not None:
+        _writable_file(args.record, "--record")
+    if args.metrics_json is not None:
+        _writable_file(args.metrics_json, "--metrics-json")
+
+
 def _scene(args: argparse.Namespace) -> int:
     from pedvr.errors import SceneError
     from pedvr.scene.loader import load_scene
@@ -202,9 +278,13 @@ def _scene(args: argparse.Namespace) -> int:
             status = 2
             continue
         n = sum(sp.count or len(sp.positions) for sp in s.spawns)
-        print(f"{f}: ok: scene {s.name!r}, {n} agents, {len(s.world.obstacles)} obstacles, "
-              f"{len(s.behavior.states)} states")
+        print(f"{f}: ok: scene {s.name!r}, {_count(n, 'agent')}, "
+              f"{_count(len(s.world.obstacles), 'obstacle')}, {_count(len(s.behavior.states), 'state')}")
     return status
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def _print_results(results: list[dict[str, object]], as_json: bool) -> None:

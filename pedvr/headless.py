@@ -25,7 +25,7 @@ if TYPE_CHECKING:
 
 
 def run_tag(scene: SceneConfig, *, seed: int | None, condition: str) -> str:
-    return f"{scene.name}-seed{scene.seed if seed is None else seed}-{condition.replace('+', 'g')}"
+    return f"{scene.name}-seed{scene.seed if seed is None else seed}-{condition.replace('+', '-')}"
 
 
 def write_outputs(

@@ -19,6 +19,8 @@ from scipy.spatial import cKDTree
 from pedvr.crowd.state import CrowdState
 
 OVERLAP_TOLERANCE = 0.01  # m: the quality bar (DESIGN.md)
+STALL_DISTANCE = 0.5  # m: an agent with a goal that moved less than this ...
+STALL_SECONDS = 20.0  # s: ... in this long is stalled (a deadlock, or a jam that does not clear)
 
 
 @dataclass
@@ -46,6 +48,10 @@ class Metrics:
     door_overlap: float = 0.0  # m: deepest a door leaf cut into a walker's disc
     door_openings: int = 0  # times a closed leaf was opened
     door_push: float = 0.0  # m: the largest step a leaf forced on a body (walkers steer round leaves)
+    stalled_ever: set[int] = field(default_factory=set)
+    _anchor_pos: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # by id
+    _anchor_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # by id, s
+    _stalled_now: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # ids
 
     def observe_body(self, crowd: CrowdState, *, pelvis: np.ndarray) -> None:
         """Pelvis ``(N,3)`` (3D, Y up) against the committed 2D agents: the largest
@@ -90,10 +96,42 @@ class Metrics:
             self.max_turn_rate = max(self.max_turn_rate, float(dh.max()))
         self._overlaps(crowd)
 
+    def _user(self, crowd: CrowdState) -> None:
+        """The user's distances, every step (not only when some pair of discs is close)."""
+        user = np.flatnonzero(crowd.is_user)
+        others = np.flatnonzero(~crowd.is_user)
+        if user.size and others.size:
+            du = np.linalg.norm(crowd.pos[others] - crowd.pos[user[0]], axis=1)
+            self.min_user_distance = min(self.min_user_distance, float(du.min()))
+
+    def observe_progress(self, ids: np.ndarray, pos: np.ndarray, wants: np.ndarray, t: float) -> None:
+        """Track who is stalled: rows with ``wants`` (a goal they have not reached) that stayed
+        within ``STALL_DISTANCE`` of where they were ``STALL_SECONDS`` ago, or longer.
+
+        Kept by stable id (ids are small integers), vectorised: each id has an anchor (a
+        position and a time) that moves to the agent whenever it is ``STALL_DISTANCE`` away
+        or has no goal to walk to.
+        """
+        top = int(ids.max()) + 1 if ids.size else 0
+        if top > self._anchor_t.shape[0]:
+            more = max(top, 2 * self._anchor_t.shape[0]) - self._anchor_t.shape[0]
+            self._anchor_pos = np.concatenate([self._anchor_pos, np.full((more, 2), np.nan)])
+            self._anchor_t = np.concatenate([self._anchor_t, np.full(more, np.nan)])
+        a = self._anchor_pos[ids]
+        moved = ~(np.hypot(*(pos - a).T) < STALL_DISTANCE)  # NaN anchors count as moved
+        reset = moved | ~wants
+        self._anchor_pos[ids[reset]] = pos[reset]
+        self._anchor_t[ids[reset]] = t
+        stalled = wants & (t - self._anchor_t[ids] >= STALL_SECONDS)
+        self._stalled_now = ids[stalled]
+        if stalled.any():
+            self.stalled_ever.update(int(i) for i in self._stalled_now)
+
     def _overlaps(self, crowd: CrowdState) -> None:
         n = len(crowd)
         if n == 0:
             return
+        self._user(crowd)
         pos, rad = crowd.pos, crowd.radius
         if n > 1:
             pairs = cKDTree(pos).query_pairs(r=2.0 * float(rad.max()), output_type="ndarray")
@@ -105,13 +143,6 @@ class Metrics:
                 for k in np.flatnonzero(ov > OVERLAP_TOLERANCE):
                     a, b = int(crowd.ids[i[k]]), int(crowd.ids[j[k]])
                     self.overlap_pairs.add((min(a, b), max(a, b)))
-                user = np.flatnonzero(crowd.is_user)
-                if user.size:
-                    u = user[0]
-                    others = np.flatnonzero(~crowd.is_user)
-                    if others.size:
-                        du = np.linalg.norm(pos[others] - pos[u], axis=1)
-                        self.min_user_distance = min(self.min_user_distance, float(du.min()))
         if self.seg_a.shape[0]:
             d = self._edge_distance(pos, float(rad.max()))
             inside = self.inside(pos)  # type: ignore[operator]
@@ -152,6 +183,8 @@ class Metrics:
             "min_user_distance_m": None if not np.isfinite(self.min_user_distance)
             else round(self.min_user_distance, 6),
             "arrivals": self.arrivals,
+            "stalled_agents": int(self._stalled_now.size),
+            "stalled_agents_ever": len(self.stalled_ever),
             "mean_speed_mps": round(self.speed_sum / max(self.speed_count, 1), 6),
             "max_accel_mps2": round(self.max_accel, 6),
             "max_turn_rate_radps": round(self.max_turn_rate, 6),

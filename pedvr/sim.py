@@ -33,6 +33,7 @@ from pedvr.world import NavMesh, Visibility, edges, obstacle_set, walkable_area
 PHASES = ("sense", "decide", "plan", "avoid", "animate", "sync", "record")
 SLOWING_DIST = 0.8  # m: agents slow down linearly inside this distance of their final waypoint
 LOOKAHEAD = 8  # waypoints checked for visibility ahead of the current one
+STALL_GOAL_DIST = 0.5  # m: an agent this close to its goal (or with none) is not stalled, only waiting
 
 
 def _limits_row(p: AgentProfile) -> list[float]:
@@ -408,6 +409,9 @@ class Simulation:
 
     def _record(self, prev_vel: np.ndarray, prev_heading: np.ndarray) -> None:
         self.metrics.observe(self.crowd, prev_vel=prev_vel, prev_heading=prev_heading, dt=self.dt)
+        goal = self.behavior.goal
+        wants = ~self.crowd.is_user & (np.hypot(*(goal - self.crowd.pos).T) > STALL_GOAL_DIST)  # NaN: no goal
+        self.metrics.observe_progress(self.crowd.ids, self.crowd.pos, wants, self.t)
         self.metrics.observe_body(self.crowd, pelvis=self.body.state.world_pos[:, 0])
         if self.recording is not None:
             self.recording.add(self.t, self.crowd, self.doors.angle)

@@ -52,6 +52,13 @@ def test_auto_backend_falls_back_to_headless_and_says_why(tmp_path: Path, monkey
     (["run", "--backend", "xr"], 3, r"cannot start the OpenXR backend: .*; use --backend headless"),
     (["run", "--backend", "desktop"], 3, r"cannot open a desktop window: .*; use --backend headless"),
     (["frobnicate"], 2, r"invalid choice: 'frobnicate'"),
+    (["run", "--duration", "nan"], 2, r"^pedvr: error: run: argument --duration: 'nan' must be a finite number > 0"),
+    (["run", "--duration", "inf", "--frames", "x"], 2, r"argument --duration: 'inf' must be a finite number > 0"),
+    (["run", "--frames", "/proc/nope"], 2, r"--frames /proc/nope: cannot create the folder \("),
+    (["run", "--video", "/proc/x.mp4"], 2, r"--video folder /proc: the folder is not writable \("),
+    (["run", "--record", "/proc/r.npz"], 2, r"--record folder /proc: the folder is not writable \("),
+    ([], 2, r"^pedvr: error: the following arguments are required: COMMAND; see 'pedvr --help'$"),
+    (["run", "--seed", "x"], 2, r"^pedvr: error: run: argument --seed: invalid int value: 'x'; see 'pedvr run --help'$"),
 ])
 def test_bad_input_is_one_clear_line(argv: list[str], code: int, message: str,
                                      capsys: pytest.CaptureFixture) -> None:
@@ -61,6 +68,36 @@ def test_bad_input_is_one_clear_line(argv: list[str], code: int, message: str,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("pedvr: error: ")
     assert re.search(message, err[0]), err[0]
+
+
+def test_out_that_is_a_file_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    f = tmp_path / "taken"
+    f.write_text("not a folder")
+    assert main(["run", "--out", str(f), "--duration", "0.1", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"pedvr: error: --out {f}: exists and is not a folder"]
+    assert main(["run", "--record", str(tmp_path), "--duration", "0.1", "--quiet"]) == 2
+    assert capsys.readouterr().err.strip() == f"pedvr: error: --record {tmp_path}: is a folder; give a file name"
+
+
+def test_version_help_and_names(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from pedvr.cli import _version
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0 and capsys.readouterr().out.strip() == f"pedvr {_version()}"
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    helptext = capsys.readouterr().out
+    assert "(default: pedvr)" in helptext and "(default: antipodal_circle)" in helptext
+    assert "pedvr+g    coupled, and agents look at the user" in helptext
+    assert main(["run", "headon_corridor", "--condition", "pedvr+g", "--duration", "0.1", "--quiet",
+                 "--out", str(tmp_path)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["headon_corridor-seed3-pedvr-g.json",
+                                                          "headon_corridor-seed3-pedvr-g.npz"]
+    capsys.readouterr()
+    assert main(["scene", "check", "scenes/headon_corridor.toml"]) == 0
+    assert "1 agent, 0 obstacles, 2 states" in capsys.readouterr().out
 
 
 def test_python_dash_m_and_no_traceback_on_bad_scene(tmp_path: Path) -> None:

@@ -1,0 +1,51 @@
+"""Run metrics that must measure every step: the user's distance, stalled agents."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pedvr.scene.loader import load_scene, parse_scene
+from pedvr.scenes import resolve_scene
+from pedvr.sim import Simulation
+
+
+def test_min_user_distance_is_measured_even_when_no_discs_are_close() -> None:
+    """headon_corridor's agent passes the user without ever coming within two radii of anyone:
+    the figure was None; it is the closest centre distance in the recording."""
+    sim = Simulation(load_scene(resolve_scene("headon_corridor")), record=True)
+    sim.advance_to(8.0)
+    arr = sim.recording.arrays()  # type: ignore[union-attr]
+    u = int(np.flatnonzero(arr["is_user"])[0])
+    d = np.linalg.norm(arr["pos"][1:, 1 - u] - arr["pos"][1:, u], axis=1)
+    got = sim.summary()["min_user_distance_m"]
+    assert got is not None and abs(float(got) - float(d.min())) < 1e-5  # type: ignore[arg-type]
+
+
+def _walled(goal: list[float]) -> Simulation:
+    """A 10 x 4 m room split by a full-height wall at x = 0; one agent at x = -3."""
+    data = {
+        "scene": {"name": "stall", "seed": 1, "duration": 30.0},
+        "world": {"bounds": [[-5.0, -2.0], [5.0, 2.0]],
+                  "obstacles": [{"polygon": [[-0.1, -2.0], [0.1, -2.0], [0.1, 2.0], [-0.1, 2.0]]}]},
+        "agents": {"profiles": {"adult": {"radius": 0.25, "pref_speed": 1.3, "max_speed": 1.6}},
+                   "spawns": [{"profile": "adult", "state": "go", "positions": [[-3.0, 0.0]]}]},
+        "behavior": {"states": {"go": {"goal": {"selector": "point", "at": goal}}}},
+        "user": {"enabled": False, "start": [4.0, 0.0]},
+    }
+    return Simulation(parse_scene(data, source="stall.toml"))
+
+
+def test_an_agent_that_cannot_reach_its_goal_is_stalled_after_20_s() -> None:
+    sim = _walled([3.0, 0.0])  # behind the wall: no path, it stands
+    sim.advance_to(19.0)
+    assert sim.summary()["stalled_agents"] == 0
+    sim.advance_to(21.0)
+    s = sim.summary()
+    assert s["stalled_agents"] == 1 and s["stalled_agents_ever"] == 1
+
+
+def test_an_agent_that_arrived_is_not_stalled() -> None:
+    sim = _walled([-3.0, 1.5])  # reachable, 1.5 m away
+    sim.advance_to(25.0)
+    s = sim.summary()
+    assert s["stalled_agents"] == 0 and s["stalled_agents_ever"] == 0
