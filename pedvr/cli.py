@@ -22,7 +22,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from pedvr.errors import PedvrError, UsageError
-from pedvr.scene.config import CONDITIONS
+from pedvr.scene.config import CONDITIONS, USER_WALKS
 from pedvr.scenes import DEFAULT_SCENE, resolve_scene, shipped_scenes
 
 
@@ -51,6 +51,16 @@ def _positive(kind: Callable[[str], float]) -> Callable[[str], float]:
         return v
 
     return parse
+
+
+def _nonnegative(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(v) and 0.0 <= v <= 2.0):
+        raise argparse.ArgumentTypeError(f"{text!r} must be in [0, 2] m")
+    return v
 
 
 def _unit(text: str) -> float:
@@ -99,6 +109,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="crowd model (see conditions below)")
     run.add_argument("--responsibility", type=_unit, default=None,
                      help="share ρ of avoidance virtual agents take toward the user (0..1)")
+    run.add_argument("--personal-space", type=_nonnegative, default=None, metavar="M",
+                     help="metres agents keep from the user where there is room (default: the scene's, 0.3)")
+    run.add_argument("--user-walk", default=None, choices=USER_WALKS,
+                     help="headless user: walk the route straight, or react to agents like a person "
+                          "(default: the scene's, straight)")
     run.add_argument("--record", type=Path, default=None,
                      help="trajectory file (.npz; default: OUT/SCENE-seedN-CONDITION.npz)")
     run.add_argument("--metrics-json", type=Path, default=None,
@@ -199,7 +214,8 @@ def _run(args: argparse.Namespace) -> int:
                            height=args.height or (720 if desk else 360),
                            fps=args.fps, label=args.label, vsync=not args.no_vsync)
         common = {"duration": args.duration, "seed": args.seed, "condition": args.condition,
-                  "responsibility": args.responsibility, "record": args.record,
+                  "responsibility": args.responsibility, "personal_space": args.personal_space,
+                  "user_walk": args.user_walk, "record": args.record,
                   "metrics_json": args.metrics_json, "out": args.out}
         try:
             if backend == "headless":

@@ -46,7 +46,8 @@ def write_outputs(
         p.parent.mkdir(parents=True, exist_ok=True)
     summary = sim.summary()
     summary.update(extra)
-    meta = {k: summary[k] for k in ("scene", "scene_hash", "seed", "condition", "responsibility", "dt")}
+    meta = {k: summary[k] for k in ("scene", "scene_hash", "seed", "condition", "responsibility",
+                                    "personal_space_m", "user_walk", "dt")}
     meta["source"] = scene.source
     assert sim.recording is not None
     sim.recording.save(record, meta)
@@ -67,8 +68,12 @@ def write_outputs(
     )
     print(
         f"  max overlap {summary['max_overlap_m']} m, pairs overlapping > 1 cm: "
-        f"{summary['overlaps_over_1cm']}"
+        f"{summary['overlaps_over_1cm']}, into the user {summary['user_overlap_max_m']} m"
     )
+    if summary.get("user_clearance_p50_m") is not None:
+        print(f"  clearance to the user p5 {summary['user_clearance_p5_m']} m, p50 "
+              f"{summary['user_clearance_p50_m']} m; steps inside the personal space "
+              f"{summary['steps_in_user_margin']}")
     print(f"  step time p50 {summary['step_ms_p50']} ms, p95 {summary['step_ms_p95']} ms")
     print(f"  trajectory: {record}")
     print(f"  metrics:    {metrics_json}")
@@ -87,6 +92,8 @@ def run_headless(
     out: Path,
     progress: bool = True,
     view: ViewOptions | None = None,
+    personal_space: float | None = None,
+    user_walk: str | None = None,
 ) -> dict[str, object]:
     """Run, save the trajectory and metrics, print a summary; return the metrics.
 
@@ -104,13 +111,16 @@ def run_headless(
             seed=seed,
             condition=condition,
             responsibility=responsibility,
+            personal_space=personal_space,
+            user_walk=user_walk,
             record=record,
             metrics_json=metrics_json,
             out=out,
         )
     duration = scene.duration if duration is None else duration
     t0 = time.perf_counter()
-    sim = Simulation(scene, seed=seed, condition=condition, responsibility=responsibility, record=True)
+    sim = Simulation(scene, seed=seed, condition=condition, responsibility=responsibility, record=True,
+                     personal_space=personal_space, user_walk=user_walk)
     first = time.perf_counter()
     sim.step()
     first_step_s = time.perf_counter() - first

@@ -16,9 +16,11 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from pedvr.crowd.footprint import footprint_arrays, pair_support
 from pedvr.crowd.state import CrowdState
 
 OVERLAP_TOLERANCE = 0.01  # m: the quality bar (DESIGN.md)
+CLEARANCE_RANGE = 2.0  # m: the user's clearance is sampled while the nearest agent is this close
 STALL_DISTANCE = 0.5  # m: an agent with a goal that moved less than this ...
 STALL_SECONDS = 20.0  # s: ... in this long is stalled (a deadlock, or a jam that does not clear)
 
@@ -48,6 +50,12 @@ class Metrics:
     door_overlap: float = 0.0  # m: deepest a door leaf cut into a walker's disc
     door_openings: int = 0  # times a closed leaf was opened
     door_push: float = 0.0  # m: the largest step a leaf forced on a body (walkers steer round leaves)
+    personal_space: float = 0.3  # m: the margin agents keep from the user where there is room
+    user_overlap: float = 0.0  # m: the deepest any agent's footprint cut into the user's disc
+    wall_overlap: float = 0.0  # m: the deepest any agent's footprint cut into a wall
+    user_clearance: list[float] = field(default_factory=list)  # m, nearest agent per step, within range
+    steps_in_user_margin: int = 0
+    user_contact_steps: int = 0  # steps where steering alone would have left an agent inside the user
     stalled_ever: set[int] = field(default_factory=set)
     _anchor_pos: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # by id
     _anchor_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # by id, s
@@ -96,13 +104,44 @@ class Metrics:
             self.max_turn_rate = max(self.max_turn_rate, float(dh.max()))
         self._overlaps(crowd)
 
-    def _user(self, crowd: CrowdState) -> None:
-        """The user's distances, every step (not only when some pair of discs is close)."""
+    def _user(self, crowd: CrowdState, depth: np.ndarray, facing: np.ndarray) -> None:
+        """The user's distances, every step (not only when some pair of discs is close):
+        the closest centre distance, the deepest any footprint cuts into the user's disc,
+        and the clearance (surface to surface) to the nearest agent within
+        ``CLEARANCE_RANGE``, sampled once per step for the distribution."""
         user = np.flatnonzero(crowd.is_user)
         others = np.flatnonzero(~crowd.is_user)
-        if user.size and others.size:
-            du = np.linalg.norm(crowd.pos[others] - crowd.pos[user[0]], axis=1)
-            self.min_user_distance = min(self.min_user_distance, float(du.min()))
+        if not (user.size and others.size):
+            return
+        u = user[0]
+        rel = crowd.pos[others] - crowd.pos[u]
+        du = np.hypot(rel[:, 0], rel[:, 1])
+        self.min_user_distance = min(self.min_user_distance, float(du.min()))
+        unit = np.divide(rel, du[:, None], out=np.zeros_like(rel), where=du[:, None] > 1e-12)
+        reach = pair_support(crowd.radius, depth, facing, others, -unit)
+        clear = du - reach - crowd.radius[u]
+        k = int(np.argmin(clear))
+        self.user_overlap = max(self.user_overlap, float(-clear[k]))
+        if du[k] <= CLEARANCE_RANGE:
+            self.user_clearance.append(float(clear[k]))
+            if clear[k] < self.personal_space:
+                self.steps_in_user_margin += 1
+
+    def observe_user_contact(self, crowd: CrowdState, proposed: np.ndarray) -> None:
+        """Count a step in which steering left some agent's proposed position ``proposed``
+        (before the contact pass) more than 1 cm inside the user's disc: a contact the
+        contact pass then undid (with the safety step on, there are none)."""
+        user = np.flatnonzero(crowd.is_user)
+        others = np.flatnonzero(~crowd.is_user)
+        if not (user.size and others.size):
+            return
+        depth, facing = footprint_arrays(crowd.radius, crowd.turn, crowd.torso)
+        rel = proposed[others] - crowd.pos[user[0]]
+        d = np.hypot(rel[:, 0], rel[:, 1])
+        unit = np.divide(rel, d[:, None], out=np.zeros_like(rel), where=d[:, None] > 1e-12)
+        ov = pair_support(crowd.radius, depth, facing, others, -unit) + crowd.radius[user[0]] - d
+        if float(ov.max()) > OVERLAP_TOLERANCE:
+            self.user_contact_steps += 1
 
     def observe_progress(self, ids: np.ndarray, pos: np.ndarray, wants: np.ndarray, t: float) -> None:
         """Track who is stalled: rows with ``wants`` (a goal they have not reached) that stayed
@@ -128,32 +167,41 @@ class Metrics:
             self.stalled_ever.update(int(i) for i in self._stalled_now)
 
     def _overlaps(self, crowd: CrowdState) -> None:
+        """Overlaps between footprints (discs, or turned ellipses: :mod:`pedvr.crowd.footprint`)
+        and of footprints with obstacle edges, the same model that is steered."""
         n = len(crowd)
         if n == 0:
             return
-        self._user(crowd)
+        depth, facing = footprint_arrays(crowd.radius, crowd.turn, crowd.torso)
+        self._user(crowd, depth, facing)
         pos, rad = crowd.pos, crowd.radius
         if n > 1:
             pairs = cKDTree(pos).query_pairs(r=2.0 * float(rad.max()), output_type="ndarray")
             if pairs.size:
                 i, j = pairs[:, 0], pairs[:, 1]
-                d = np.linalg.norm(pos[i] - pos[j], axis=1)
-                ov = rad[i] + rad[j] - d
+                rel = pos[j] - pos[i]
+                d = np.hypot(rel[:, 0], rel[:, 1])
+                unit = np.divide(rel, d[:, None], out=np.zeros_like(rel), where=d[:, None] > 1e-12)
+                ov = (pair_support(rad, depth, facing, i, unit) + pair_support(rad, depth, facing, j, -unit)
+                      - d)
                 self.max_overlap = max(self.max_overlap, float(ov.max()))
                 for k in np.flatnonzero(ov > OVERLAP_TOLERANCE):
                     a, b = int(crowd.ids[i[k]]), int(crowd.ids[j[k]])
                     self.overlap_pairs.add((min(a, b), max(a, b)))
         if self.seg_a.shape[0]:
-            d = self._edge_distance(pos, float(rad.max()))
+            d, away = self._edge_distance(pos, float(rad.max()))
+            reach = np.where(np.isfinite(d), pair_support(rad, depth, facing, np.arange(n), away), rad)
             inside = self.inside(pos)  # type: ignore[operator]
-            ov = np.where(inside, rad + np.where(np.isfinite(d), d, 0.0), rad - d)
+            ov = np.where(inside, reach + np.where(np.isfinite(d), d, 0.0), reach - d)
             ov = np.where(crowd.is_user, -np.inf, ov)  # the user is not steered, only measured
             self.max_overlap = max(self.max_overlap, float(ov.max()))
+            self.wall_overlap = max(self.wall_overlap, float(ov.max()))
             for k in np.flatnonzero(ov > OVERLAP_TOLERANCE):
                 self.overlap_pairs.add((int(crowd.ids[k]), -1))
 
-    def _edge_distance(self, pos: np.ndarray, reach: float) -> np.ndarray:
-        """Distance from each point to the nearest obstacle edge within ``reach`` (else inf).
+    def _edge_distance(self, pos: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+        """Distance from each point to the nearest obstacle edge within ``reach`` (else inf),
+        and the unit direction from that nearest point to the point (zero where none).
 
         An STRtree over the edges keeps this near O(N log M) (forest: 500
         agents, 2800 edges), where the dense N×M form took 150 ms a step.
@@ -165,13 +213,19 @@ class Metrics:
             self._tree = shapely.STRtree(lines)
         pi, si = self._tree.query(shapely.points(pos), predicate="dwithin", distance=reach)
         d = np.full(pos.shape[0], np.inf)
+        away = np.zeros_like(pos)
         if pi.size:
             a, b, p = self.seg_a[si], self.seg_b[si], pos[pi]
             ab = b - a
             t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18),
                         0.0, 1.0)
-            np.minimum.at(d, pi, np.linalg.norm(p - (a + t[:, None] * ab), axis=1))
-        return d
+            vec = p - (a + t[:, None] * ab)
+            dist = np.hypot(vec[:, 0], vec[:, 1])
+            np.minimum.at(d, pi, dist)
+            best = dist <= d[pi]  # the nearest edge of each point (ties: any of them)
+            away[pi[best]] = np.divide(vec[best], dist[best, None], out=np.zeros_like(vec[best]),
+                                       where=dist[best, None] > 1e-12)
+        return d, away
 
     def summary(self) -> dict[str, object]:
         ms = np.asarray(self.step_ms) if self.step_ms else np.zeros(1)
@@ -182,6 +236,12 @@ class Metrics:
             "overlaps_over_1cm": len(self.overlap_pairs),
             "min_user_distance_m": None if not np.isfinite(self.min_user_distance)
             else round(self.min_user_distance, 6),
+            "user_overlap_max_m": round(max(self.user_overlap, 0.0), 6),
+            "wall_overlap_max_m": round(max(self.wall_overlap, 0.0), 6),
+            "user_clearance_p5_m": _pct(self.user_clearance, 5),
+            "user_clearance_p50_m": _pct(self.user_clearance, 50),
+            "steps_in_user_margin": self.steps_in_user_margin,
+            "user_contact_steps": self.user_contact_steps,
             "arrivals": self.arrivals,
             "stalled_agents": int(self._stalled_now.size),
             "stalled_agents_ever": len(self.stalled_ever),
@@ -195,6 +255,10 @@ class Metrics:
             "door_openings": self.door_openings,
             "door_push_max_m": round(self.door_push, 6),
         }
+
+
+def _pct(samples: list[float], q: float) -> float | None:
+    return round(float(np.percentile(samples, q)), 6) if samples else None
 
 
 @dataclass

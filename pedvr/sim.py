@@ -21,13 +21,14 @@ import shapely
 from pedvr.behavior.bfsm import BFSM, BehaviorState
 from pedvr.body import FullBody
 from pedvr.body.model import GestureSets
+from pedvr.crowd.encounter import UserEncounters
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
-from pedvr.crowd.user import ScriptedUser, StandingUser, UserAgent, UserInput
+from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
 from pedvr.errors import NavigationError, SceneError, UsageError
 from pedvr.etiquette.doors import CLOSED, DoorLeaves
 from pedvr.record import Metrics, Recording
-from pedvr.scene.config import CONDITIONS, AgentProfile, SceneConfig, SequenceGoal, Spawn
+from pedvr.scene.config import CONDITIONS, USER_WALKS, AgentProfile, SceneConfig, SequenceGoal, Spawn
 from pedvr.world import NavMesh, Visibility, edges, obstacle_set, walkable_area
 
 PHASES = ("sense", "decide", "plan", "avoid", "animate", "sync", "record")
@@ -48,18 +49,26 @@ class Simulation:
     ``seed``: overrides the scene's seed. ``condition``: ``decoupled`` (plain
     ORCA, no motion limits, the body follows the disc), ``pedvr`` (coupled) or
     ``pedvr+g`` (coupled, gaze on). ``responsibility``: overrides the scene's
-    share ρ taken toward the user. ``user_input``: the source of the user's
-    pose (default: a scripted walk along the red-sphere route). ``record``:
-    keep the per-step trajectory.
+    share ρ of each encounter's avoidance taken toward the user.
+    ``personal_space``: overrides the scene's margin (m) agents keep from the
+    user where there is room. ``user_input``: the source of the user's pose
+    (default: a scripted walk along the red-sphere route, ``straight`` or
+    ``reactive`` as ``user_walk`` or the scene says). ``record``: keep the
+    per-step trajectory.
     """
 
     def __init__(self, scene: SceneConfig, *, seed: int | None = None, condition: str = "pedvr",
                  responsibility: float | None = None, user_input: UserInput | None = None,
-                 record: bool = False) -> None:
+                 record: bool = False, personal_space: float | None = None,
+                 user_walk: str | None = None) -> None:
         if condition not in CONDITIONS:
             raise UsageError(f"condition {condition!r}: expected one of {', '.join(CONDITIONS)}")
         if responsibility is not None and not 0.0 <= responsibility <= 1.0:
             raise UsageError(f"responsibility {responsibility}: expected a number in [0, 1]")
+        if personal_space is not None and not 0.0 <= personal_space <= 2.0:
+            raise UsageError(f"personal_space {personal_space}: expected a number of metres in [0, 2]")
+        if user_walk is not None and user_walk not in USER_WALKS:
+            raise UsageError(f"user_walk {user_walk!r}: expected one of {', '.join(USER_WALKS)}")
         self.scene = scene
         self.seed = scene.seed if seed is None else int(seed)
         self.rng = np.random.default_rng(self.seed)
@@ -68,6 +77,9 @@ class Simulation:
         self.gaze_on = condition == "pedvr+g"
         self.responsibility = (scene.steering.user_responsibility if responsibility is None
                                else float(responsibility))
+        self.personal_space = (scene.steering.personal_space if personal_space is None
+                               else float(personal_space))
+        self.user_walk = scene.user.walk if user_walk is None else user_walk
         self.dt = scene.dt
         self.t = 0.0
         self.step_index = 0
@@ -81,6 +93,9 @@ class Simulation:
         radii = [p.radius for p in scene.profiles.values()] or [scene.user.radius]
         self.goal_mesh = self.navmesh_for(max(radii))
         self.steering = Steering(scene.steering, self.obstacles, coupled=self.coupled)
+        self.encounters = UserEncounters(personal_space=self.personal_space,
+                                         safety_horizon=scene.steering.user_safety_horizon,
+                                         edges=edges(scene.world))
         self.bfsm = BFSM(scene.behavior, self.goal_mesh)
         gestures = GestureSets(by_state={n: st.gestures for n, st in scene.behavior.states.items()
                                          if st.gestures is not None})
@@ -111,7 +126,8 @@ class Simulation:
             self._spawn(k, spawn)
 
         seg_a, seg_b = edges(scene.world)
-        self.metrics = Metrics(seg_a=seg_a, seg_b=seg_b, inside=self._inside_obstacle)
+        self.metrics = Metrics(seg_a=seg_a, seg_b=seg_b, inside=self._inside_obstacle,
+                               personal_space=self.personal_space)
         self.recording = Recording() if record else None
         self._face_unset()
         if self.recording is not None:
@@ -137,7 +153,15 @@ class Simulation:
             leg = mesh.find_path(here, target)
             pts.append(leg[1:])
             here = target
-        return ScriptedUser(np.concatenate(pts), speed=u.speed, heading=u.heading)
+        path = np.concatenate(pts)
+        if self.user_walk == "reactive":
+            def perceive() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                c = self.crowd
+                return c.pos, c.vel, c.radius, c.is_user
+
+            return ReactiveUser(path, speed=u.speed, heading=u.heading, radius=u.radius,
+                                perceive=perceive, inside=lambda p: mesh.contains((float(p[0]), float(p[1]))))
+        return ScriptedUser(path, speed=u.speed, heading=u.heading)
 
     def _face_unset(self) -> None:
         """New agents without a given facing face their first waypoint, or a random way when standing."""
@@ -166,6 +190,7 @@ class Simulation:
         rows.pref_speed *= self.body.append(n, ids=ids, pos=rows.pos, heading=rows.heading, is_user=is_user,
                                             limits=rows.limits)
         self.crowd.append(rows)
+        self.encounters.append(n)
         self.behavior.append(BehaviorState.rows(n))
         self.paths.extend(np.zeros((0, 2)) for _ in range(n))
         self.cursor = np.concatenate([self.cursor, np.ones(n, np.int64)])
@@ -357,21 +382,30 @@ class Simulation:
         return target, has_path
 
     def _avoid(self) -> None:
-        """ORCA: reciprocal between agents, asymmetric toward the user, inside the body's limits."""
+        """ORCA: reciprocal between agents, asymmetric toward the user (the agent's share ρ of
+        each encounter in its preferred velocity, :mod:`pedvr.crowd.encounter`), inside the
+        body's limits; then shoulders turn where people squeeze past each other."""
         self.body.fill_limits(self.crowd, self.crowd.limits)
         crowd = self.crowd
         pref = self.steering.unstick(crowd.vel, crowd.pref_vel, crowd.is_user, self.stuck_time, self.dt)
+        pref, short, to_user = self.encounters.steer(
+            pos=crowd.pos, vel=crowd.vel, pref_vel=pref, radius=crowd.radius,
+            responsibility=crowd.responsibility, is_user=crowd.is_user, dt=self.dt)
         saved = crowd.pref_vel
         crowd.pref_vel = pref
         if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)
             self.steering.set_moving_segments(self.doors.hinge, self.doors.tips())
         self._new_vel = self.steering.compute_velocities(crowd, self.dt)
         crowd.pref_vel = saved
+        turn, torso = self.steering.turn_shoulders(crowd, self.dt, short_of_room=short, to_user=to_user)
+        crowd.turn, crowd.torso = turn, torso
 
     def _animate(self) -> None:
         """The body turns commanded velocities into root motion; contacts are resolved; bodies are posed."""
         root, heading = self.body.animate(self.crowd, self._new_vel, self.dt, coupled=self.coupled)
-        self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user)
+        self.metrics.observe_user_contact(self.crowd, root)
+        self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user,
+                                                    turn=self.crowd.turn, torso=self.crowd.torso)
         if len(self.doors):
             self._root = self._move_doors(self._root)
         self._root_heading = heading
@@ -390,7 +424,8 @@ class Simulation:
         if len(root):
             self.metrics.door_push = max(self.metrics.door_push, float(np.hypot(*(pushed - root).T).max()))
         if not np.array_equal(pushed, root):  # a pushed disc may now press on another: settle once more
-            root = self.steering.resolve_contacts(pushed, crowd.radius, crowd.is_user)
+            root = self.steering.resolve_contacts(pushed, crowd.radius, crowd.is_user,
+                                                  turn=crowd.turn, torso=crowd.torso)
             root, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
         self.metrics.door_overlap = max(self.metrics.door_overlap, overlap)
         self.metrics.door_openings += int(np.count_nonzero(was_closed & (doors.phase != CLOSED)))
@@ -447,6 +482,7 @@ class Simulation:
             return
         keep = ~drop
         self.crowd.keep(keep)
+        self.encounters.keep(keep)
         self.body.keep(keep)
         self.behavior.keep(keep)
         self.paths = [p for p, k in zip(self.paths, keep, strict=True) if k]
@@ -466,6 +502,8 @@ class Simulation:
             "seed": self.seed,
             "condition": self.condition,
             "responsibility": self.responsibility,
+            "personal_space_m": self.personal_space,
+            "user_walk": self.user_walk if self.user is not None else None,
             "dt": self.dt,
             "sim_time_s": round(self.t, 6),
             "unreachable_goals": self.unreachable_goals,

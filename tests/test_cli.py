@@ -57,6 +57,8 @@ def test_auto_backend_falls_back_to_headless_and_says_why(tmp_path: Path, monkey
     (["run", "--frames", "/proc/nope"], 2, r"--frames /proc/nope: cannot create the folder \("),
     (["run", "--video", "/proc/x.mp4"], 2, r"--video folder /proc: the folder is not writable \("),
     (["run", "--record", "/proc/r.npz"], 2, r"--record folder /proc: the folder is not writable \("),
+    (["run", "--personal-space", "3"], 2, r"argument --personal-space: '3' must be in \[0, 2\] m"),
+    (["run", "--user-walk", "zigzag"], 2, r"argument --user-walk: invalid choice: 'zigzag'"),
     ([], 2, r"^pedvr: error: the following arguments are required: COMMAND; see 'pedvr --help'$"),
     (["run", "--seed", "x"], 2, r"^pedvr: error: run: argument --seed: invalid int value: 'x'; see 'pedvr run --help'$"),
 ])

@@ -1,8 +1,9 @@
 """Contract tests: every shipped scene and a set of SteerSuite cases.
 
 Each loads, runs 60 simulated seconds, stays finite, keeps every disc apart
-(no overlap > 1 cm), is deterministic, and agents reach goals; where there
-are doors, walkers push their leaves open and no leaf cuts into a walker.
+(no overlap > 1 cm), never overlaps the user, is deterministic, and agents
+reach goals; where there are doors, walkers push their leaves open and no leaf
+cuts into a walker.
 """
 
 from __future__ import annotations
@@ -60,6 +61,17 @@ def test_no_overlap_over_1cm(run: tuple[Path, Simulation]) -> None:
     s = sim.summary()
     assert s["overlaps_over_1cm"] == 0, s
     assert float(s["max_overlap_m"]) <= 0.01  # type: ignore[arg-type]
+
+
+def test_nothing_overlaps_the_user(run: tuple[Path, Simulation]) -> None:
+    """The person cannot be steered: no agent's footprint is ever inside the user's disc,
+    and with the safety step on, steering alone never puts one there."""
+    _, sim = run
+    if sim.user is None:
+        pytest.skip("SteerSuite cases have no user")
+    s = sim.summary()
+    assert float(s["user_overlap_max_m"]) <= 0.01, s  # type: ignore[arg-type]
+    assert s["user_contact_steps"] == 0, s
 
 
 def test_agents_reach_goals(run: tuple[Path, Simulation]) -> None:

@@ -13,7 +13,12 @@ previous one) makes it O(depth), which is what lets a 4000-agent antipodal
 circle jam settle below 1 cm within ``DEFAULT_ITERATIONS``. Per iteration,
 for every overlapping pair the overlap plus a small ``SLACK`` is split
 half/half between two virtual agents; against the user or an obstacle edge
-the agent takes all of it (the user never moves; walls never move).
+the agent takes all of it (the user never moves; walls never move). Pairs
+and edges use the bodies' footprints (:mod:`pedvr.crowd.footprint`): discs,
+or narrower ellipses for agents that turned their shoulders. The user's body
+wins over everything: after each iteration agents are projected out of the
+user's disc, so an agent pinned between the user and a wall gives way into
+the wall, never into the user (the metrics report it).
 Iterations stop when the largest overlap is at most ``tolerance`` or after
 ``max_iterations``.
 
@@ -34,6 +39,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import ObstacleGrid, build_agent_grid_arrays, edges_near
 from pedvr.kernels import PARALLEL_MIN_ROWS, parallel_kernel
 
@@ -45,8 +51,10 @@ _EDGE_CAP = 64
 
 
 @njit(cache=True, fastmath={"nsz", "arcp", "contract"})
-def _edge_push(px, py, r, ax, ay, bx, by, closed):
-    """Correction ``(cx, cy, depth)`` that moves a disc off the edge a -> b."""
+def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
+    """Correction ``(cx, cy, depth)`` that moves a footprint off the edge a -> b (its disc
+    radius ``r``, or, turned, its support radius toward the edge: ``b`` front to back
+    along the facing ``(fx, fy)``)."""
     ex = bx - ax
     ey = by - ay
     ll = ex * ex + ey * ey
@@ -70,6 +78,10 @@ def _edge_push(px, py, r, ax, ay, bx, by, closed):
         return 0.0, 0.0, 0.0
     if d >= r:
         return 0.0, 0.0, 0.0
+    if b < r and d > 1e-12:
+        r = support(r, b, fx, fy, dx / d, dy / d)
+        if d >= r:
+            return 0.0, 0.0, 0.0
     depth = r - d
     if d > 1e-12:
         ux = dx / d
@@ -81,9 +93,9 @@ def _edge_push(px, py, r, ax, ay, bx, by, closed):
 
 
 @parallel_kernel(fastmath={"nsz", "arcp", "contract"})
-def _corrections(cur, radius, is_user, origin, cell, nx, ny, cell_start, order, sorted_pos,
-                 vertices, nxt, prv, og_origin, og_cell, og_nx, og_ny, og_cell_start,
-                 og_cell_edges, og_edge_cells, edge_scratch, corr, depth):
+def _corrections(cur, radius, fp_depth, facing, is_user, origin, cell, nx, ny, cell_start, order,
+                 sorted_pos, vertices, nxt, prv, n_static, og_origin, og_cell, og_nx, og_ny,
+                 og_cell_start, og_cell_edges, og_edge_cells, edge_scratch, corr, depth):
     n = cur.shape[0]
     nchunks = edge_scratch.shape[0]
     cap = edge_scratch.shape[1]
@@ -101,6 +113,9 @@ def _corrections(cur, radius, is_user, origin, cell, nx, ny, cell_start, order, 
             px = cur[i, 0]
             py = cur[i, 1]
             ri = radius[i]
+            bi = fp_depth[i]
+            fxi = facing[i, 0]
+            fyi = facing[i, 1]
             cx = int((px - origin[0]) * inv)
             cy = int((py - origin[1]) * inv)
             sx = 0.0
@@ -120,6 +135,12 @@ def _corrections(cur, radius, is_user, origin, cell, nx, ny, cell_start, order, 
                         if dsq >= rr * rr:
                             continue
                         d = np.sqrt(dsq)
+                        if d > 1e-12 and (bi < ri or fp_depth[j] < radius[j]):
+                            rr = (support(ri, bi, fxi, fyi, -dx / d, -dy / d)
+                                  + support(radius[j], fp_depth[j], facing[j, 0], facing[j, 1],
+                                            dx / d, dy / d))
+                            if d >= rr:
+                                continue
                         ov = rr - d
                         worst = max(worst, ov)
                         share = 1.0 if is_user[j] else 0.5
@@ -145,7 +166,9 @@ def _corrections(cur, radius, is_user, origin, cell, nx, ny, cell_start, order, 
                     closed = nxt[e] != prv[e]
                     if not closed and e2 < e:
                         continue  # a two-vertex segment: handle it once
-                    ex, ey, dep = _edge_push(px, py, ri, vertices[e, 0], vertices[e, 1],
+                    # Moving segments (door leaves) see the disc, as the door controller does.
+                    be = bi if e < n_static else ri
+                    ex, ey, dep = _edge_push(px, py, ri, be, fxi, fyi, vertices[e, 0], vertices[e, 1],
                                              vertices[e2, 0], vertices[e2, 1], closed)
                     sx += ex
                     sy += ey
@@ -174,14 +197,112 @@ _corrections_par, _corrections_ser = _corrections.parallel, _corrections.serial
 _apply_par, _apply_ser = _apply.parallel, _apply.serial
 
 
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"})
+def _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx, og_ny,
+                    og_cell_start, og_cell_edges, og_edge_cells, scratch):
+    """Fraction along the move ``(x0, y0) -> (x1, y1)`` at which it first crosses an
+    obstacle edge (1.0 when it crosses none), and that edge's index (-1 for none)."""
+    mx = 0.5 * (x0 + x1)
+    my = 0.5 * (y0 + y1)
+    reach = 0.5 * np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2) + 1e-6
+    total = edges_near(mx, my, reach, og_origin, og_cell, og_nx, og_ny, og_cell_start,
+                       og_cell_edges, og_edge_cells, scratch, scratch.shape[0])
+    best = 1.0
+    hit = -1
+    dx = x1 - x0
+    dy = y1 - y0
+    for q in range(min(total, scratch.shape[0])):
+        e = scratch[q]
+        e2 = nxt[e]
+        ex = vertices[e2, 0] - vertices[e, 0]
+        ey = vertices[e2, 1] - vertices[e, 1]
+        den = dx * ey - dy * ex
+        if den == 0.0:
+            continue
+        wx = vertices[e, 0] - x0
+        wy = vertices[e, 1] - y0
+        t = (wx * ey - wy * ex) / den
+        u = (wx * dy - wy * dx) / den
+        if 0.0 <= t < best and 0.0 <= u <= 1.0:
+            best = t
+            hit = e
+    return best, hit
+
+
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"})
+def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt, og_origin,
+                 og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch):
+    """Project the agents ``near`` the user row ``user`` out of the user's disc (the user's
+    body cannot be moved, so it wins over walls and other agents); their heavy-ball
+    momentum is dropped so the next iteration does not carry them back in.
+
+    A push never carries an agent's centre through a wall: it stops at the wall and
+    slides along it; where not even that frees the user (the user walked into a corner
+    someone stands in), the agent stays where it can and the overlap is left for the
+    metrics to report.
+    """
+    ux = cur[user, 0]
+    uy = cur[user, 1]
+    ru = radius[user]
+    for k in range(near.shape[0]):
+        i = near[k]
+        dx = cur[i, 0] - ux
+        dy = cur[i, 1] - uy
+        d = np.sqrt(dx * dx + dy * dy)
+        if d >= ru + radius[i]:
+            continue
+        if d > 1e-12:
+            nx = dx / d
+            ny = dy / d
+        else:
+            nx = 1.0
+            ny = 0.0
+        rr = ru + support(radius[i], fp_depth[i], facing[i, 0], facing[i, 1], -nx, -ny)
+        if d >= rr:
+            continue
+        x0 = cur[i, 0]
+        y0 = cur[i, 1]
+        x1 = ux + (rr + SLACK) * nx
+        y1 = uy + (rr + SLACK) * ny
+        if vertices.shape[0] > 0:
+            frac, e = _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx,
+                                      og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch)
+            if e >= 0:
+                # Stop 1 mm before the wall, then slide the rest of the push along it.
+                stop = max(frac - 1e-3 / max(np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2), 1e-12), 0.0)
+                ex = vertices[nxt[e], 0] - vertices[e, 0]
+                ey = vertices[nxt[e], 1] - vertices[e, 1]
+                el = np.sqrt(ex * ex + ey * ey)
+                ex /= el
+                ey /= el
+                sx = x0 + stop * (x1 - x0)
+                sy = y0 + stop * (y1 - y0)
+                along = ((x1 - sx) * ex + (y1 - sy) * ey)
+                tx = sx + along * ex
+                ty = sy + along * ey
+                frac2, e2 = _first_crossing(sx, sy, tx, ty, vertices, nxt, og_origin, og_cell,
+                                            og_nx, og_ny, og_cell_start, og_cell_edges,
+                                            og_edge_cells, scratch)
+                if e2 >= 0:
+                    frac2 = max(frac2 - 1e-3 / max(abs(along), 1e-12), 0.0)
+                x1 = sx + frac2 * (tx - sx)
+                y1 = sy + frac2 * (ty - sy)
+        cur[i, 0] = x1
+        cur[i, 1] = y1
+        step[i, 0] = 0.0
+        step[i, 1] = 0.0
+
+
 @njit(cache=True)
-def contact_kernel(pos, radius, is_user, vertices, nxt, prv, og_origin, og_cell, og_nx, og_ny,
-                   og_cell_start, og_cell_edges, og_edge_cells, tolerance, max_iterations,
-                   momentum, edge_scratch, out_pos):
+def contact_kernel(pos, radius, fp_depth, facing, is_user, vertices, nxt, prv, n_static, og_origin,
+                   og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, tolerance,
+                   max_iterations, momentum, edge_scratch, out_pos):
     """Jacobi contact iterations; writes ``out_pos`` and returns ``(iterations, worst)``.
 
     ``worst`` is the largest overlap left, or -1 when ``edge_scratch`` was too
-    small for some agent's edges (retry with more room).
+    small for some agent's edges (retry with more room). After every iteration,
+    and at the end, agents are projected out of the user: where there is truly
+    no room, an agent gives way into a wall or another agent, never into the user.
     """
     n = pos.shape[0]
     for i in range(n):
@@ -190,8 +311,31 @@ def contact_kernel(pos, radius, is_user, vertices, nxt, prv, og_origin, og_cell,
     if n == 0:
         return 0, 0.0
     rmax = 0.0
+    user = -1
     for i in range(n):
         rmax = max(rmax, radius[i])
+        if is_user[i] and user < 0:
+            user = i
+    near = np.zeros(0, np.int64)
+    if user >= 0:
+        # Agents that can touch the user within this pass (pushes are a few cm per step).
+        reach = radius[user] + rmax + 0.5
+        cnt = 0
+        for i in range(n):
+            if i != user and not is_user[i]:
+                dx = pos[i, 0] - pos[user, 0]
+                dy = pos[i, 1] - pos[user, 1]
+                if dx * dx + dy * dy < reach * reach:
+                    cnt += 1
+        near = np.empty(cnt, np.int64)
+        cnt = 0
+        for i in range(n):
+            if i != user and not is_user[i]:
+                dx = pos[i, 0] - pos[user, 0]
+                dy = pos[i, 1] - pos[user, 1]
+                if dx * dx + dy * dy < reach * reach:
+                    near[cnt] = i
+                    cnt += 1
     corr = np.zeros((n, 2))
     step = np.zeros((n, 2))
     depth = np.zeros(n)
@@ -201,13 +345,15 @@ def contact_kernel(pos, radius, is_user, vertices, nxt, prv, og_origin, og_cell,
         origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(
             out_pos, 2.0 * rmax * 1.0001)
         if n >= PARALLEL_MIN_ROWS:
-            _corrections_par(out_pos, radius, is_user, origin, cell, nx, ny, cell_start, order,
-                             sorted_pos, vertices, nxt, prv, og_origin, og_cell, og_nx, og_ny,
-                             og_cell_start, og_cell_edges, og_edge_cells, edge_scratch, corr, depth)
+            _corrections_par(out_pos, radius, fp_depth, facing, is_user, origin, cell, nx, ny,
+                             cell_start, order, sorted_pos, vertices, nxt, prv, n_static, og_origin, og_cell,
+                             og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, edge_scratch,
+                             corr, depth)
         else:
-            _corrections_ser(out_pos, radius, is_user, origin, cell, nx, ny, cell_start, order,
-                             sorted_pos, vertices, nxt, prv, og_origin, og_cell, og_nx, og_ny,
-                             og_cell_start, og_cell_edges, og_edge_cells, edge_scratch, corr, depth)
+            _corrections_ser(out_pos, radius, fp_depth, facing, is_user, origin, cell, nx, ny,
+                             cell_start, order, sorted_pos, vertices, nxt, prv, n_static, og_origin, og_cell,
+                             og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, edge_scratch,
+                             corr, depth)
         worst = 0.0
         for i in range(n):
             if depth[i] < 0.0:
@@ -219,26 +365,43 @@ def contact_kernel(pos, radius, is_user, vertices, nxt, prv, og_origin, og_cell,
             _apply_par(out_pos, corr, step, momentum)
         else:
             _apply_ser(out_pos, corr, step, momentum)
+        if user >= 0:
+            _out_of_user(out_pos, radius, fp_depth, facing, user, near, step, vertices, nxt,
+                         og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
+                         og_edge_cells, edge_scratch[0])
         it += 1
+    if user >= 0:
+        _out_of_user(out_pos, radius, fp_depth, facing, user, near, step, vertices, nxt, og_origin,
+                     og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
+                     edge_scratch[0])
     return it, worst
 
 
 def resolve_contacts(pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray,
                      vertices: np.ndarray, nxt: np.ndarray, prv: np.ndarray,
-                     grid: ObstacleGrid, *, tolerance: float = DEFAULT_TOLERANCE,
+                     grid: ObstacleGrid, *, depth: np.ndarray | None = None,
+                     facing: np.ndarray | None = None, n_static: int | None = None,
+                     tolerance: float = DEFAULT_TOLERANCE,
                      max_iterations: int = DEFAULT_ITERATIONS) -> np.ndarray:
     """Positions ``(N,2)`` after the contact pass; ``pos`` is not modified.
 
-    The user row keeps its position exactly. Returns new positions; the
-    largest remaining overlap is at most ``tolerance`` unless
-    ``max_iterations`` ran out first (jams denser than discs can pack).
+    The user row keeps its position exactly, and no agent is left inside the
+    user's disc. ``depth``/``facing`` are the footprints (:mod:`pedvr.crowd.footprint`;
+    default: discs). Returns new positions; the largest remaining overlap is at most
+    ``tolerance`` unless ``max_iterations`` ran out first (jams denser than discs
+    can pack) or an agent is pinned between the user and a wall (it then overlaps
+    the wall).
     """
     out = np.empty_like(pos)
+    n = pos.shape[0]
+    depth = np.ascontiguousarray(radius if depth is None else depth, np.float64)
+    facing = np.ascontiguousarray(np.tile([1.0, 0.0], (n, 1)) if facing is None else facing, np.float64)
     cap = _EDGE_CAP
     chunks = 8
     while True:
         scratch = np.zeros((chunks, cap), np.int64)
-        _, worst = contact_kernel(pos, radius, is_user, vertices, nxt, prv, grid.origin,
+        _, worst = contact_kernel(pos, radius, depth, facing, is_user, vertices, nxt, prv,
+                                  vertices.shape[0] if n_static is None else int(n_static), grid.origin,
                                   grid.cell, grid.shape[0], grid.shape[1], grid.cell_start,
                                   grid.cell_edges, grid.edge_cells, float(tolerance),
                                   int(max_iterations), MOMENTUM, scratch, out)
@@ -304,7 +467,8 @@ def max_obstacle_penetration(pos, radius, vertices, nxt, prv):
         for e in range(m):
             e2 = nxt[e]
             closed = nxt[e] != prv[e]
-            _, _, dep = _edge_push(pos[i, 0], pos[i, 1], radius[i], vertices[e, 0],
-                                   vertices[e, 1], vertices[e2, 0], vertices[e2, 1], closed)
+            _, _, dep = _edge_push(pos[i, 0], pos[i, 1], radius[i], radius[i], 1.0, 0.0,
+                                   vertices[e, 0], vertices[e, 1], vertices[e2, 0],
+                                   vertices[e2, 1], closed)
             worst = max(worst, dep)
     return worst

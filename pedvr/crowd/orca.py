@@ -15,10 +15,18 @@ float32 comparison flips a branch.
 
 Responsibility (DESIGN.md "crowd")
     For a neighbour pair the ORCA line passes through ``v_i + share * u``.
-    Between virtual agents ``share = 0.5`` (reciprocity). When the neighbour is
-    the user (``is_user[j]``), ``share = responsibility[i]``: 1 makes the user a
-    moving obstacle that does not reciprocate, 0 makes ``i`` not deflect.
+    Between virtual agents ``share = 0.5`` (reciprocity). Toward the user, ORCA's
+    per-step share would be void: against a partner that does not reciprocate, a
+    share ρ of the remaining correction every step converges to all of it within a
+    fraction of a second. So the share ρ is taken over the encounter, in the
+    preferred velocity (:mod:`pedvr.crowd.encounter`), and the user's line here is
+    only the late safety step: share 1, the short ``user_horizon``, contact radii.
     User rows are never steered: their output velocity is their input one.
+
+Footprints
+    Combined radii are the bodies' support radii along the line of centres
+    (:mod:`pedvr.crowd.footprint`): discs, except for agents that turned their
+    shoulders to squeeze past someone.
 
 Coupled mode (PedVR §4.1: the body's motion limits in the same program)
     With ``coupled`` the hard prefix of the program holds, after the obstacle
@@ -71,6 +79,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import obstacle_neighbors_of
 from pedvr.crowd.state import (
     LIMIT_ACCEL,
@@ -250,13 +259,16 @@ def linear_program3(lines, n, num_hard, begin, radius, rx, ry, proj):
 
 
 @njit(cache=True, fastmath=_FM)
-def obstacle_lines(lines, n, px, py, vx, vy, radius, inv_tho, obst_idx, n_obst,
-                   vertices, nxt, prv, direction, convex):
+def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, inv_tho, obst_idx, n_obst,
+                   vertices, nxt, prv, direction, convex, n_static):
     """Append obstacle ORCA lines (RVO2's first loop) and return the new count.
 
-    ``obst_idx[:n_obst]`` are the edges (first-vertex indices) nearest first.
+    ``obst_idx[:n_obst]`` are the edges (first-vertex indices) nearest first. The agent's
+    radius toward each edge is its footprint's support from the edge's nearest point
+    (``disc_radius`` unless it turned its shoulders: ``depth`` along the facing ``(fx,
+    fy)``), so it changes continuously as the agent moves and turns. Edges from vertex
+    ``n_static`` on (moving door leaves) always see the disc, as the door controller does.
     """
-    radius_sq = radius * radius
     inf = np.inf
     for q in range(n_obst):
         o1 = obst_idx[q]
@@ -265,6 +277,18 @@ def obstacle_lines(lines, n, px, py, vx, vy, radius, inv_tho, obst_idx, n_obst,
         r1y = vertices[o1, 1] - py
         r2x = vertices[o2, 0] - px
         r2y = vertices[o2, 1] - py
+        radius = disc_radius
+        if depth < disc_radius and o1 < n_static:
+            ex = r2x - r1x
+            ey = r2y - r1y
+            ll = ex * ex + ey * ey
+            tt = 0.0 if ll <= 0.0 else min(max(-(r1x * ex + r1y * ey) / ll, 0.0), 1.0)
+            cx = -(r1x + tt * ex)
+            cy = -(r1y + tt * ey)
+            cl = math.sqrt(cx * cx + cy * cy)
+            if cl > 1e-9:
+                radius = support(disc_radius, depth, fx, fy, cx / cl, cy / cl)
+        radius_sq = radius * radius
 
         # Check if velocity obstacle of obstacle is already taken care of by
         # previously constructed obstacle ORCA lines.
@@ -660,11 +684,21 @@ def _solve(lines, n, num_hard, max_speed, prx, pry, proj):
 
 
 @njit(cache=True, fastmath=_FM)
-def agent_lines(i, pos, vel, radius, responsibility, is_user, heading, pref_speed, limits,
+def agent_lines(i, pos, vel, radius, depth, facing, is_user, heading, pref_speed, limits,
                 nbr_idx, nbr_count, obst_idx, n_obst, vertices, nxt, prv, direction, convex,
-                time_horizon, time_horizon_obst, dt, coupled, lines):
+                n_static, time_horizon, time_horizon_obst, user_horizon, dt, coupled, lines):
     """Write agent ``i``'s ORCA lines into ``lines``: obstacle lines, then (coupled) the
     velocity-limit lines (a, b) and the heading lines (c), then one line per neighbour.
+
+    Footprints: each pair's combined radius is the sum of the two bodies' support
+    radii along the line of centres, and each obstacle edge sees the agent's support
+    toward it (equal to the disc radii unless someone turned their shoulders).
+
+    The user: its line is the late safety step of the encounter model
+    (:mod:`pedvr.crowd.encounter`): share 1 (the user does not reciprocate) with the
+    short horizon ``user_horizon`` and the contact radii (no personal-space margin); the
+    agent's share ρ of the avoidance is taken earlier, in its preferred velocity.
+    ``user_horizon <= 0`` switches the safety step off (no line toward the user).
 
     Returns ``(n, num_obst, num_vel_lim, num_hard)``: the line count, the number of
     obstacle lines, of velocity-limit lines, and of hard lines (everything before the
@@ -675,8 +709,11 @@ def agent_lines(i, pos, vel, radius, responsibility, is_user, heading, pref_spee
     vx = vel[i, 0]
     vy = vel[i, 1]
     r = radius[i]
-    n = obstacle_lines(lines, 0, px, py, vx, vy, r, 1.0 / time_horizon_obst, obst_idx, n_obst,
-                       vertices, nxt, prv, direction, convex)
+    b = depth[i]
+    fx = facing[i, 0]
+    fy = facing[i, 1]
+    n = obstacle_lines(lines, 0, px, py, vx, vy, r, b, fx, fy, 1.0 / time_horizon_obst, obst_idx,
+                       n_obst, vertices, nxt, prv, direction, convex, n_static)
     num_obst = n
     num_vel_lim = 0
     if coupled:
@@ -686,29 +723,45 @@ def agent_lines(i, pos, vel, radius, responsibility, is_user, heading, pref_spee
     num_hard = n
     inv_th = 1.0 / time_horizon
     inv_dt = 1.0 / dt
-    rho = responsibility[i]
     for q in range(nbr_count[i]):
         j = nbr_idx[i, q]
-        share = rho if is_user[j] else 0.5
-        n = agent_line(lines, n, px, py, vx, vy, r, pos[j, 0], pos[j, 1], vel[j, 0], vel[j, 1],
-                       radius[j], inv_th, inv_dt, share)
+        if is_user[j]:
+            if user_horizon <= 0.0:
+                continue
+            share = 1.0
+            inv = 1.0 / user_horizon
+        else:
+            share = 0.5
+            inv = inv_th
+        qx = pos[j, 0]
+        qy = pos[j, 1]
+        ri = r
+        rj = radius[j]
+        dx = qx - px
+        dy = qy - py
+        d = math.sqrt(dx * dx + dy * dy)
+        if d > 1e-9 and (b < r or depth[j] < rj):
+            ri = support(r, b, fx, fy, dx / d, dy / d)
+            rj = support(rj, depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d)
+        n = agent_line(lines, n, px, py, vx, vy, ri, qx, qy, vel[j, 0], vel[j, 1], rj, inv,
+                       inv_dt, share)
     return n, num_obst, num_vel_lim, num_hard
 
 
 @njit(cache=True, fastmath=_FM)
-def agent_new_velocity(i, pos, vel, pref_vel, radius, max_speed, responsibility, is_user,
+def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, max_speed, is_user,
                        heading, pref_speed, limits, nbr_idx, nbr_count, obst_idx, n_obst,
-                       vertices, nxt, prv, direction, convex, time_horizon, time_horizon_obst,
-                       dt, coupled, lines, proj):
+                       vertices, nxt, prv, direction, convex, n_static, time_horizon,
+                       time_horizon_obst, user_horizon, dt, coupled, lines, proj):
     """New velocity of agent ``i`` (RVO2's ``computeNewVelocity`` plus limits).
 
     ``lines``/``proj`` are scratch of at least ``n_obst + K + MAX_MOTION_LINES``
     rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags.
     """
     n, num_obst, num_vel_lim, num_hard = agent_lines(
-        i, pos, vel, radius, responsibility, is_user, heading, pref_speed, limits, nbr_idx,
-        nbr_count, obst_idx, n_obst, vertices, nxt, prv, direction, convex, time_horizon,
-        time_horizon_obst, dt, coupled, lines)
+        i, pos, vel, radius, depth, facing, is_user, heading, pref_speed, limits, nbr_idx,
+        nbr_count, obst_idx, n_obst, vertices, nxt, prv, direction, convex, n_static, time_horizon,
+        time_horizon_obst, user_horizon, dt, coupled, lines)
     num_agent = n - num_hard
     ms = max_speed[i]
     prx = pref_vel[i, 0]
@@ -739,10 +792,10 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, max_speed, responsibility,
 
 
 @parallel_kernel(fastmath=_FM)
-def orca_kernel(pos, vel, pref_vel, radius, max_speed, responsibility, is_user, heading,
+def orca_kernel(pos, vel, pref_vel, radius, depth, facing, max_speed, is_user, heading,
                 pref_speed, limits, nbr_idx, nbr_count, vertices, nxt, prv, direction, convex,
-                og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
-                time_horizon, time_horizon_obst, dt, coupled, chunk_bounds,
+                n_static, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
+                og_edge_cells, time_horizon, time_horizon_obst, user_horizon, dt, coupled, chunk_bounds,
                 scratch_lines, scratch_proj, scratch_oidx, scratch_odsq,
                 out_vel, out_status, out_obst_count):
     """New velocities of every row, parallel over chunks of agents.
@@ -779,9 +832,10 @@ def orca_kernel(pos, vel, pref_vel, radius, max_speed, responsibility, is_user, 
                 out_status[i] = 0
                 continue
             rx, ry, status = agent_new_velocity(
-                i, pos, vel, pref_vel, radius, max_speed, responsibility, is_user, heading,
+                i, pos, vel, pref_vel, radius, depth, facing, max_speed, is_user, heading,
                 pref_speed, limits, nbr_idx, nbr_count, oidx, n_obst, vertices, nxt, prv,
-                direction, convex, time_horizon, time_horizon_obst, dt, coupled, lines, proj)
+                direction, convex, n_static, time_horizon, time_horizon_obst, user_horizon, dt,
+                coupled, lines, proj)
             out_vel[i, 0] = rx
             out_vel[i, 1] = ry
             out_status[i] = status

@@ -22,12 +22,19 @@ max_speed          (N,)         float64  speed limit for ORCA, m/s
 responsibility     (N,)         float64  share ρ of avoidance taken toward the user
 is_user            (N,)         bool     the row is the user agent
 limits             (N, 6)       float64  motion limits, columns LIMIT_* below
+turn               (N,)         float64  shoulder turn τ in [0, 1] (0: the disc)
+torso              (N,)         float64  torso facing while turned, rad, CCW from +x
 =================  ===========  =======  ==========================================
+
+``turn`` and ``torso`` describe the footprint (:mod:`pedvr.crowd.footprint`):
+a disc of ``radius`` unless the agent turned its shoulders to squeeze past
+someone. They may be left out when constructing a state: then every row is a
+disc (``turn`` 0, ``torso`` 0).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -55,6 +62,15 @@ class CrowdState:
     responsibility: np.ndarray
     is_user: np.ndarray
     limits: np.ndarray
+    turn: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    torso: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __post_init__(self) -> None:
+        n = len(self)
+        if self.turn.shape[0] != n:  # built without footprints: every row a disc
+            self.turn = np.zeros(n)
+        if self.torso.shape[0] != n:
+            self.torso = np.zeros(n)
 
     @classmethod
     def empty(cls) -> CrowdState:

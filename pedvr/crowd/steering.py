@@ -20,6 +20,7 @@ import numpy as np
 
 from pedvr.crowd import contact as _contact
 from pedvr.crowd import deadlock as _deadlock
+from pedvr.crowd import footprint as _fp
 from pedvr.crowd import neighbors as _nb
 from pedvr.crowd import orca as _orca
 from pedvr.crowd.state import N_LIMITS, CrowdState
@@ -79,9 +80,14 @@ class Steering:
         self._prev = np.ascontiguousarray(obstacles.prev, dtype=np.int64)
         self._dir = np.ascontiguousarray(obstacles.direction, dtype=np.float64).reshape(-1, 2)
         self._convex = np.ascontiguousarray(obstacles.convex, dtype=np.bool_)
+        self._n_static = len(obstacles)  # vertices from here on are moving segments (door leaves)
         self.obstacle_grid = _nb.build_obstacle_grid(self._verts, self._next, OBSTACLE_CELL)
         self._obst_cap = max(1, min(32, len(obstacles)))
         self._scratch_key: tuple[int, int, int] | None = None
+        self._neighbors: tuple[np.ndarray, np.ndarray] | None = None
+        # The late safety step toward the user (pedvr.crowd.encounter): ORCA's line toward
+        # the user has this horizon; 0 switches it off.
+        self.user_horizon = float(params.user_safety_horizon) if params.user_safety else 0.0
         self.last_status = np.zeros(0, np.int8)
         """Per row, after :meth:`compute_velocities`: ``orca.STATUS_*`` bit flags
         (dense case; heading limits dropped; all motion limits dropped)."""
@@ -129,6 +135,7 @@ class Steering:
             ("radius", (n,), np.float64), ("pref_speed", (n,), np.float64),
             ("max_speed", (n,), np.float64), ("responsibility", (n,), np.float64),
             ("is_user", (n,), np.bool_), ("limits", (n, N_LIMITS), np.float64),
+            ("turn", (n,), np.float64), ("torso", (n,), np.float64),
         ):
             _check(f"CrowdState.{name}", getattr(state, name), shape, dtype)
         for name in ("pos", "vel", "pref_vel", "heading"):
@@ -181,20 +188,22 @@ class Steering:
         cnt = np.empty(n, np.int64)
         _nb.agent_neighbors_kernel(pos, float(p.neighbor_dist), k, g.origin, g.cell, g.shape[0],
                                    g.shape[1], g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt)
+        self._neighbors = (idx, cnt)
+        depth, facing = _fp.footprint_arrays(state.radius, state.turn, state.torso)
         og = self.obstacle_grid
         obst_count = np.empty(n, np.int64)
         while True:
             bounds, lines, proj, oidx, odsq = self._scratch(n, kk)
             _orca.orca_kernel(
                 pos, np.ascontiguousarray(state.vel), np.ascontiguousarray(state.pref_vel),
-                np.ascontiguousarray(state.radius), np.ascontiguousarray(state.max_speed),
-                np.ascontiguousarray(state.responsibility), np.ascontiguousarray(state.is_user),
+                np.ascontiguousarray(state.radius), depth, facing, np.ascontiguousarray(state.max_speed),
+                np.ascontiguousarray(state.is_user),
                 np.ascontiguousarray(state.heading), np.ascontiguousarray(state.pref_speed),
                 np.ascontiguousarray(state.limits), idx, cnt, self._verts, self._next, self._prev,
-                self._dir, self._convex, og.origin, og.cell, og.shape[0], og.shape[1],
+                self._dir, self._convex, self._n_static, og.origin, og.cell, og.shape[0], og.shape[1],
                 og.cell_start, og.cell_edges, og.edge_cells, float(p.time_horizon),
-                float(p.time_horizon_obst), float(dt), self.coupled, bounds, lines, proj, oidx,
-                odsq, out, self.last_status, obst_count)
+                float(p.time_horizon_obst), self.user_horizon, float(dt), self.coupled, bounds,
+                lines, proj, oidx, odsq, out, self.last_status, obst_count)
             need = int(obst_count.max())
             if need <= self._obst_cap:
                 return out
@@ -221,31 +230,71 @@ class Steering:
         oidx, ocnt = _nb.obstacle_neighbors(pos[row:row + 1], np.array([rng * rng]), self._verts,
                                             self._next, og)
         lines = np.zeros((int(ocnt[0]) + idx.shape[1] + _orca.MAX_MOTION_LINES, 4))
+        depth, facing = _fp.footprint_arrays(state.radius, state.turn, state.torso)
         count, _, _, _ = _orca.agent_lines(
-            row, pos, np.ascontiguousarray(state.vel), np.ascontiguousarray(state.radius),
-            np.ascontiguousarray(state.responsibility), np.ascontiguousarray(state.is_user),
+            row, pos, np.ascontiguousarray(state.vel), np.ascontiguousarray(state.radius), depth, facing,
+            np.ascontiguousarray(state.is_user),
             np.ascontiguousarray(state.heading), np.ascontiguousarray(state.pref_speed),
             np.ascontiguousarray(state.limits), idx, cnt, np.ascontiguousarray(oidx[0]), int(ocnt[0]),
-            self._verts, self._next, self._prev, self._dir, self._convex, float(p.time_horizon),
-            float(p.time_horizon_obst), float(dt), self.coupled, lines)
+            self._verts, self._next, self._prev, self._dir, self._convex, self._n_static,
+            float(p.time_horizon), float(p.time_horizon_obst), self.user_horizon, float(dt), self.coupled,
+            lines)
         return lines[:count].copy()
+
+    # ------------------------------------------------------------------ footprints
+
+    def turn_shoulders(self, state: CrowdState, dt: float, *, short_of_room: np.ndarray | None = None,
+                       to_user: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """New ``(turn (N,), torso (N,))`` after this step (see :mod:`pedvr.crowd.footprint`):
+        agents squeezing past someone turn their shoulders, the others untwist. Uses the
+        neighbour lists of the last :meth:`compute_velocities` on the same state.
+        ``short_of_room``/``to_user`` come from the user encounter (default: none)."""
+        n = len(state)
+        if self._neighbors is None or self._neighbors[0].shape[0] != n:
+            self._neighbors = self.neighbors(np.ascontiguousarray(state.pos))
+        idx, cnt = self._neighbors
+        short = np.zeros(n, np.bool_) if short_of_room is None else np.ascontiguousarray(short_of_room)
+        room = np.zeros((n, 2)) if to_user is None else np.ascontiguousarray(to_user, np.float64)
+        turn = np.empty(n)
+        torso = np.empty(n)
+        if n:
+            pos = np.ascontiguousarray(state.pos)
+            wall = np.full(n, np.inf)
+            turned = np.flatnonzero(state.turn > 0.0)
+            if turned.size and len(self._next):
+                og = self.obstacle_grid
+                _fp.wall_distance_kernel(pos, turned, np.ascontiguousarray(state.radius), self._verts,
+                                         self._next, og.origin, og.cell, og.shape[0], og.shape[1],
+                                         og.cell_start, og.cell_edges, og.edge_cells, wall)
+            _fp.turn_kernel(pos, np.ascontiguousarray(state.vel),
+                            np.ascontiguousarray(state.radius), np.ascontiguousarray(state.is_user),
+                            np.ascontiguousarray(state.turn), np.ascontiguousarray(state.torso), idx, cnt,
+                            short, room, wall, float(dt), turn, torso)
+        return turn, torso
 
     # ------------------------------------------------------------------ contacts
 
     def resolve_contacts(self, pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray, *,
+                         turn: np.ndarray | None = None, torso: np.ndarray | None = None,
                          tolerance: float = _contact.DEFAULT_TOLERANCE,
                          max_iterations: int = _contact.DEFAULT_ITERATIONS) -> np.ndarray:
         """New positions ``(N,2)`` with overlaps pushed apart (see :mod:`pedvr.crowd.contact`).
 
         The user row never moves; agents take the whole correction against the
-        user and against obstacle edges.
+        user and against obstacle edges, and are never left inside the user.
+        ``turn``/``torso`` give the footprints (default: discs).
         """
         n = pos.shape[0] if isinstance(pos, np.ndarray) else -1
         pos = _check("pos", pos, (n, 2), np.float64)
         radius = _check("radius", radius, (n,), np.float64)
         is_user = _check("is_user", is_user, (n,), np.bool_)
+        depth = facing = None
+        if turn is not None and torso is not None:
+            depth, facing = _fp.footprint_arrays(radius, _check("turn", turn, (n,), np.float64),
+                                                 _check("torso", torso, (n,), np.float64))
         return _contact.resolve_contacts(pos, radius, is_user, self._verts, self._next,
-                                         self._prev, self.obstacle_grid, tolerance=tolerance,
+                                         self._prev, self.obstacle_grid, depth=depth, facing=facing,
+                                         n_static=self._n_static, tolerance=tolerance,
                                          max_iterations=max_iterations)
 
     # ------------------------------------------------------------------ deadlocks

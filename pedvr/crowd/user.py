@@ -9,6 +9,7 @@ steered: its velocity is a filtered finite difference of its poses (PedVR
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Protocol
 
 import numpy as np
@@ -100,3 +101,106 @@ class UserAgent:
             self.sphere += 1
             self.sphere_times.append(t)
         return pos, self.vel.copy(), heading
+
+
+class ReactiveUser:
+    """A scripted user who reacts like a person (for headless dry runs of a study).
+
+    It walks ``path`` at ``speed`` like :class:`ScriptedUser`, but looks at the
+    crowd (``perceive() -> (pos (N,2), vel (N,2), radius (N,), is_user (N,))``,
+    the committed state of the last step) and, when a pedestrian is about to
+    pass closer than ``radius + r_j + comfort`` within ``LOOKAHEAD`` seconds,
+    steps aside after ``reaction_time`` seconds (a perception-reaction delay),
+    away from the pedestrian's side, by what is still missing — so it takes
+    whatever share of the avoidance the pedestrian leaves it, as a participant
+    does. With nobody about to come too close it drifts back to its route.
+    ``inside(point) -> bool`` keeps it on walkable ground.
+
+    The constants are pedvr's choice: reaction 0.5 s (pedestrian reaction times
+    in head-on encounters are 0.3-0.7 s), comfort 0.15 m, side steps at most
+    0.6 m/s, back to the route at 0.3 m/s.
+    """
+
+    LOOKAHEAD = 3.0  # s
+    RANGE = 6.0  # m
+    MAX_LATERAL = 0.6  # m/s
+    RETURN_SPEED = 0.3  # m/s
+
+    def __init__(self, path: np.ndarray, *, speed: float, heading: float, radius: float,
+                 perceive: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
+                 inside: Callable[[np.ndarray], bool], reaction_time: float = 0.5,
+                 comfort: float = 0.15) -> None:
+        self._route = ScriptedUser(path, speed=speed, heading=heading)
+        self.speed = speed
+        self.radius = radius
+        self.reaction_time = reaction_time
+        self.comfort = comfort
+        self._perceive = perceive
+        self._inside = inside
+        self._t: float | None = None
+        self._s = 0.0  # arc length walked along the route
+        self._offset = np.zeros(2)  # displacement from the route, m
+        self._threat_since: float | None = None
+        self._heading = heading
+
+    def pose(self, t: float) -> tuple[np.ndarray, float]:
+        dt = 0.0 if self._t is None else max(t - self._t, 0.0)
+        self._t = t
+        before, _ = self._route.pose(self._s / self.speed if self.speed > 0 else 0.0)
+        here = before + self._offset
+        self._s = min(self._s + self.speed * dt, self._route.length)
+        base, heading = self._route.pose(self._s / self.speed if self.speed > 0 else 0.0)
+        forward = (base - before) / dt if dt > 0 else np.zeros(2)
+        lateral = self._evade(t, here, forward)
+        if lateral is None:  # nobody to avoid: drift back onto the route
+            back = -self._offset
+            dist = float(np.hypot(*back))
+            step = min(dist, self.RETURN_SPEED * dt)
+            lateral_step = back / dist * step if dist > 1e-9 else np.zeros(2)
+        else:
+            lateral_step = lateral * dt
+        offset = self._offset + lateral_step
+        if self._inside(base + offset):
+            self._offset = offset
+        elif not self._inside(base + self._offset):
+            self._offset = self._offset * 0.5  # squeezed by a corner: give up some of the offset
+        pos = base + self._offset
+        motion = forward + (lateral_step / dt if dt > 0 else 0.0)
+        if float(np.hypot(*motion)) > 0.05:
+            self._heading = math.atan2(motion[1], motion[0])
+        elif self._route.length > 0:
+            self._heading = heading
+        return pos, self._heading
+
+    def _evade(self, t: float, here: np.ndarray, forward: np.ndarray) -> np.ndarray | None:
+        """The lateral velocity that keeps the comfort distance, or None without a threat."""
+        pos, vel, radius, is_user = self._perceive()
+        others = ~is_user
+        if not others.any():
+            self._threat_since = None
+            return None
+        p = pos[others] - here
+        w = forward - vel[others]  # my velocity relative to theirs
+        ww = np.einsum("ij,ij->i", w, w)
+        tca = np.divide(np.einsum("ij,ij->i", p, w), ww, out=np.zeros_like(ww), where=ww > 1e-9)
+        m = p - w * tca[:, None]
+        miss = np.hypot(m[:, 0], m[:, 1])
+        need = self.radius + radius[others] + self.comfort
+        dist = np.hypot(p[:, 0], p[:, 1])
+        threat = (tca > 0.0) & (tca < self.LOOKAHEAD) & (dist < self.RANGE) & (miss < need)
+        if not threat.any():
+            self._threat_since = None
+            return None
+        if self._threat_since is None:
+            self._threat_since = t
+        if t - self._threat_since < self.reaction_time:
+            return np.zeros(2)  # seen, not yet reacted: keep walking
+        k = int(np.flatnonzero(threat)[np.argmin(tca[threat])])
+        away = -m[k] / miss[k] if miss[k] > 1e-3 else np.array([forward[1], -forward[0]])
+        norm = float(np.hypot(*away))
+        if norm < 1e-9:
+            return np.zeros(2)
+        away = away / norm
+        amount = float(need[k] - miss[k])
+        speed = min(self.MAX_LATERAL, amount / max(float(tca[k]) - 0.3, 0.3))
+        return away * speed

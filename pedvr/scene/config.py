@@ -108,7 +108,10 @@ class SteeringParams:
     max_neighbors: int = 10
     time_horizon: float = 2.0
     time_horizon_obst: float = 1.0
-    user_responsibility: float = 1.0  # share ρ a virtual agent takes toward the user
+    user_responsibility: float = 1.0  # share ρ of each encounter's avoidance an agent takes toward the user
+    personal_space: float = 0.3  # m added to the user's radius for avoidance (not for contact)
+    user_safety: bool = True  # the late safety step toward the user (off: pure ρ, contacts possible)
+    user_safety_horizon: float = 1.0  # s: horizon of that safety step
 
 
 @dataclass(frozen=True)
@@ -206,12 +209,19 @@ class Spawn:
     goal_sequence: tuple[SequenceGoal, ...] = ()  # for the "sequence" goal selector
 
 
+USER_WALKS = ("straight", "reactive")
+
+
 @dataclass(frozen=True)
 class UserConfig:
     """The user agent: where it starts and the red-sphere route it follows.
 
     In headless runs a scripted user walks the route along the navigation
-    mesh at ``speed``; interactive backends feed the same interface.
+    mesh at ``speed``; interactive backends feed the same interface. ``walk``
+    says how the scripted user walks: ``straight`` (the route, whatever
+    happens: the reference for the responsibility trials) or ``reactive``
+    (like a person: it steps aside for pedestrians about to come too close,
+    after a reaction delay; see :class:`pedvr.crowd.user.ReactiveUser`).
     """
 
     start: Vec2
@@ -221,6 +231,7 @@ class UserConfig:
     route: tuple[Vec2, ...] = ()
     sphere_radius: float = 0.5
     enabled: bool = True
+    walk: str = "straight"
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ from pedvr.errors import SceneError
 from pedvr.scene.config import (
     DOOR_KINDS,
     GESTURE_CLIPS,
+    USER_WALKS,
     AgentProfile,
     BehaviorConfig,
     Door,
@@ -324,7 +325,8 @@ def _obstacle(c: _Checker, o: dict[str, Any], path: str) -> Obstacle | None:
 def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
     d = SteeringParams()
     c.known(s, "steering", ("neighbor_dist", "max_neighbors", "time_horizon", "time_horizon_obst",
-                            "user_responsibility"))
+                            "user_responsibility", "personal_space", "user_safety",
+                            "user_safety_horizon"))
     pos = lambda x: x > 0  # noqa: E731
     return SteeringParams(
         neighbor_dist=c.number(s, "neighbor_dist", "steering.neighbor_dist", required=False,
@@ -340,6 +342,13 @@ def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
                                          required=False, default=d.user_responsibility,
                                          check=lambda x: 0 <= x <= 1, expect="in [0, 1]"),
                                 d.user_responsibility),
+        personal_space=_or(c.number(s, "personal_space", "steering.personal_space", required=False,
+                                    default=d.personal_space, check=lambda x: 0 <= x <= 2,
+                                    expect="in [0, 2] m"), d.personal_space),
+        user_safety=c.boolean(s, "user_safety", "steering.user_safety", default=d.user_safety),
+        user_safety_horizon=c.number(s, "user_safety_horizon", "steering.user_safety_horizon",
+                                     required=False, default=d.user_safety_horizon, check=pos,
+                                     expect="> 0 s") or d.user_safety_horizon,
     )
 
 
@@ -644,7 +653,7 @@ def _blocked(world: WorldConfig | None) -> Any:
 
 def _user(c: _Checker, u: dict[str, Any], world: WorldConfig | None) -> UserConfig | None:
     c.known(u, "user", ("start", "heading_deg", "radius", "speed", "route", "sphere_radius",
-                        "enabled"))
+                        "enabled", "walk"))
     s = u.get("start", MISSING)
     start = c.point(s, "user.start") if s is not MISSING else None
     if s is MISSING:
@@ -658,6 +667,10 @@ def _user(c: _Checker, u: dict[str, Any], world: WorldConfig | None) -> UserConf
     sphere = c.number(u, "sphere_radius", "user.sphere_radius", required=False, default=0.5,
                       check=lambda x: x > 0, expect="> 0 m")
     enabled = c.boolean(u, "enabled", "user.enabled", default=True)
+    walk = u.get("walk", "straight")
+    if walk not in USER_WALKS:
+        c.bad("user.walk", walk, f"expected one of {', '.join(USER_WALKS)}")
+        walk = "straight"
     blocked = _blocked(world)
     if blocked is not None:
         for key, p in [("user.start", start)] + [(f"user.route[{k}]", q) for k, q in enumerate(route)]:
@@ -666,4 +679,4 @@ def _user(c: _Checker, u: dict[str, Any], world: WorldConfig | None) -> UserConf
     if start is None or heading is None or radius is None or speed is None or sphere is None:
         return None
     return UserConfig(start=start, heading=math.radians(heading), radius=radius, speed=speed,
-                      route=route, sphere_radius=sphere, enabled=enabled)
+                      route=route, sphere_radius=sphere, enabled=enabled, walk=walk)

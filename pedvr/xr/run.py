@@ -77,13 +77,18 @@ def build(
     seed: int | None,
     condition: str,
     responsibility: float | None,
+    personal_space: float | None = None,
+    user_walk: str | None = None,
 ) -> tuple[Simulation, Presenter, str]:
-    """The simulation, its presenter, and the renderer's name; raises BackendUnavailableError."""
+    """The simulation, its presenter, and the renderer's name; raises BackendUnavailableError.
+
+    ``user_walk`` applies to the headless backend's scripted user only; a real user
+    walks as they like."""
+    crowd_opts = {"seed": seed, "condition": condition, "responsibility": responsibility,
+                  "personal_space": personal_space, "record": True}
     if backend == "xr":
         presenter, user = _xr_presenter(scene, opts)
-        sim = Simulation(
-            scene, seed=seed, condition=condition, responsibility=responsibility, user_input=user, record=True
-        )  # type: ignore[arg-type]
+        sim = Simulation(scene, user_input=user, **crowd_opts)  # type: ignore[arg-type]
         return sim, presenter, "openxr"
     if backend == "desktop":
         from pedvr.xr.desktop import DesktopPresenter
@@ -103,14 +108,12 @@ def build(
             hud_label=opts.label,
             vsync=opts.vsync,
         )
-        sim = Simulation(
-            scene, seed=seed, condition=condition, responsibility=responsibility, user_input=kb, record=True
-        )
+        sim = Simulation(scene, user_input=kb, **crowd_opts)  # type: ignore[arg-type]
         return sim, desk, str(desk.ctx.info.get("GL_RENDERER", "unknown"))
     if backend == "headless":
         from pedvr.xr.headless import HeadlessPresenter
 
-        sim = Simulation(scene, seed=seed, condition=condition, responsibility=responsibility, record=True)
+        sim = Simulation(scene, user_walk=user_walk, **crowd_opts)  # type: ignore[arg-type]
         head = HeadlessPresenter(
             sim,
             frames_dir=opts.frames,
@@ -137,6 +140,8 @@ def run_with_view(
     record: Path | None,
     metrics_json: Path | None,
     out: Path,
+    personal_space: float | None = None,
+    user_walk: str | None = None,
 ) -> dict[str, object]:
     """Run the frame loop on ``backend`` and save the run (see :func:`pedvr.headless.write_outputs`)."""
     from pedvr.headless import write_outputs
@@ -144,7 +149,8 @@ def run_with_view(
     duration = scene.duration if duration is None else duration
     t0 = time.perf_counter()
     sim, presenter, renderer_name = build(
-        scene, backend=backend, opts=opts, seed=seed, condition=condition, responsibility=responsibility
+        scene, backend=backend, opts=opts, seed=seed, condition=condition, responsibility=responsibility,
+        personal_space=personal_space, user_walk=user_walk,
     )
     interrupted = False
     tel = Telemetry(backend=presenter.name)

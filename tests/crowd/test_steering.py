@@ -41,16 +41,26 @@ def test_user_velocity_is_never_changed() -> None:
     assert out[1].tolist() == state.vel[1].tolist()
 
 
-@pytest.mark.parametrize("rho", [0.0, 0.5, 1.0])
-def test_responsibility_scales_the_deflection(rho: float) -> None:
-    steering, state = _head_on(rho)
-    base = steering.compute_velocities(state, 0.1)[0] - state.vel[0]
-    steering1, state1 = _head_on(1.0)
-    full = steering1.compute_velocities(state1, 0.1)[0] - state1.vel[0]
-    # Preferred = current velocity and a single ORCA line: the agent moves by
-    # exactly its share of u (the line passes through v + rho u).
-    assert np.linalg.norm(full) > 0.05
-    np.testing.assert_allclose(base, rho * full, atol=1e-9)
+def test_orca_toward_the_user_is_only_the_late_safety_step() -> None:
+    """ρ is taken over the encounter, in the preferred velocity (pedvr.crowd.encounter);
+    ORCA's own line toward the user is the safety step: share 1 whatever ρ, with the short
+    user horizon (1 s), and none at all when the scene switches the safety off."""
+    outs = []
+    for rho in (0.0, 0.5, 1.0):
+        steering, state = _head_on(rho)
+        outs.append(steering.compute_velocities(state, 0.1))
+    assert all(np.array_equal(o, outs[0]) for o in outs)
+    # 4 m apart closing at 2 m/s: contact in 1.75 s, beyond the 1 s horizon: no deflection.
+    np.testing.assert_array_equal(outs[0][0], [1.0, 0.0])
+    # 2 m apart: contact in 0.75 s: the agent deflects.
+    steering, state = _head_on(0.0)
+    state.pos[1] = (2.0, 0.1)
+    near = steering.compute_velocities(state, 0.1)[0]
+    assert abs(near[1]) > 0.05
+    off = Steering(SteeringParams(neighbor_dist=5.0, max_neighbors=10, time_horizon=2.0,
+                                  time_horizon_obst=1.0, user_safety=False),
+                   ObstacleSet.empty(), coupled=False)
+    np.testing.assert_array_equal(off.compute_velocities(state, 0.1)[0], [1.0, 0.0])
 
 
 def test_rho_zero_agent_keeps_its_preferred_velocity() -> None:

@@ -1,0 +1,180 @@
+"""Body footprints: discs that narrow to ellipses when people turn their shoulders.
+
+A walking person is about a shoulder width across (``2 r``, the disc of
+PedVR §3.1) and about 0.26 m deep front to back. Crowd models keep the disc;
+pedvr keeps it too, except where two people must squeeze past each other:
+there people turn their shoulders so that the narrow, front-to-back side of
+the body faces the other person (PedVR §7, future work; Best et al. 2016 on
+footprints). The model (pedvr's choice; the papers give no formula):
+
+* Each agent has a turn amount ``τ ∈ [0, 1]`` and a torso facing ``ψ``
+  (rad, world frame). Its footprint is the ellipse with semi-axis ``a = r``
+  along the shoulders (``s = (-sin ψ, cos ψ)``) and ``b = r (1 - τ (1 -
+  DEPTH_RATIO))`` front to back (``f = (cos ψ, sin ψ)``). With ``τ = 0`` it is
+  the disc of radius ``r``, whatever ``ψ``.
+* Distances between footprints use the support function along the line of
+  centres, ``h(d) = sqrt(a² (d·s)² + b² (d·f)²)``: two bodies touch when
+  their centre distance is ``h_i(d) + h_j(-d)``, a body touches a wall when
+  its centre is ``h(n)`` from it (``n`` the direction from the wall to the
+  centre). For two ellipses this is the usual first-order approximation (exact
+  when a principal axis lies along the line of centres, the case of two people
+  passing shoulder to shoulder); ORCA, the contact pass and the overlap
+  metrics all use it, so what is steered is what is measured.
+* Who turns: an agent that passes someone (relative speed above
+  ``PASS_SPEED``) whose disc is within ``SQUEEZE_GAP`` of its own, or that
+  the user encounter model (:mod:`pedvr.crowd.encounter`) finds short of room
+  beside the user, turns toward ``τ = 1`` at ``TURN_RATE`` per second and
+  untwists at the same rate once nobody is that close. The torso faces across
+  the line along which the two pass (perpendicular to their relative velocity),
+  toward the other person, as people squeezing past each other mostly do.
+
+``DEPTH_RATIO = 0.52``: a chest depth of 0.26 m beside a 0.50 m shoulder width
+(adult anthropometry: chest depth 0.23-0.28 m, biacromial width 0.36-0.46 m
+plus the arms). The user is always a disc: pedvr cannot turn the person.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from pedvr.crowd.neighbors import obstacle_neighbors_of
+from pedvr.kernels import parallel_kernel
+
+DEPTH_RATIO = 0.52  # front-to-back half depth / shoulder half width
+SQUEEZE_GAP = 0.15  # m: a passing neighbour's disc this close (surface to surface) makes the agent turn
+PASS_SPEED = 0.2  # m/s: relative speed above which a close neighbour is passing (not queueing)
+TURN_RATE = 2.5  # 1/s: τ changes at most this much per second (0.4 s to turn fully)
+TORSO_RATE = 4.0  # rad/s: how fast a turned torso re-orients to a new passing line
+
+
+@njit(cache=True, inline="always")
+def support(a, b, fx, fy, dx, dy):
+    """Support radius of the ellipse (``a`` along the shoulders, ``b`` along the facing
+    ``(fx, fy)``) in the unit direction ``(dx, dy)``."""
+    along_f = dx * fx + dy * fy
+    along_s = -dx * fy + dy * fx
+    return math.sqrt(a * a * along_s * along_s + b * b * along_f * along_f)
+
+
+@njit(cache=True, inline="always")
+def depth_of(radius, turn):
+    """Front-to-back half depth ``b`` for a turn amount ``τ``."""
+    return radius * (1.0 - turn * (1.0 - DEPTH_RATIO))
+
+
+@parallel_kernel()
+def turn_kernel(pos, vel, radius, is_user, turn, torso, nbr_idx, nbr_count, short_of_room,
+                room_dir, wall_dist, dt, out_turn, out_torso):
+    """New ``τ`` and torso facing per row (compute, then the caller commits).
+
+    ``short_of_room[i]`` (from the user encounter) makes the agent turn with its torso
+    facing ``room_dir[i]`` (a unit vector across the passing line) even before it is
+    that close. A turned agent untwists only where its disc fits: no neighbour's disc
+    within ``SQUEEZE_GAP`` and no wall closer than its radius (``wall_dist[i]``, the
+    distance to the nearest obstacle edge); otherwise it holds its turn. User rows
+    never turn.
+    """
+    for i in prange(pos.shape[0]):
+        out_turn[i] = 0.0
+        out_torso[i] = torso[i]
+        if is_user[i]:
+            continue
+        best = 1e30
+        fx = 0.0
+        fy = 0.0
+        found = False
+        px = pos[i, 0]
+        py = pos[i, 1]
+        crowded = wall_dist[i] < radius[i]
+        for q in range(nbr_count[i]):
+            j = nbr_idx[i, q]
+            dx = pos[j, 0] - px
+            dy = pos[j, 1] - py
+            d = math.sqrt(dx * dx + dy * dy)
+            gap = d - radius[i] - radius[j]
+            if gap < SQUEEZE_GAP:
+                crowded = True
+            if gap >= SQUEEZE_GAP or gap >= best or d < 1e-9:
+                continue
+            rvx = vel[i, 0] - vel[j, 0]
+            rvy = vel[i, 1] - vel[j, 1]
+            rs = math.sqrt(rvx * rvx + rvy * rvy)
+            if rs < PASS_SPEED:
+                continue
+            # Face across the passing line (perpendicular to the relative velocity),
+            # toward the other person.
+            nx = -rvy / rs
+            ny = rvx / rs
+            if nx * dx + ny * dy < 0.0:
+                nx = -nx
+                ny = -ny
+            best = gap
+            fx = nx
+            fy = ny
+            found = True
+        if not found and short_of_room[i]:
+            fx = room_dir[i, 0]
+            fy = room_dir[i, 1]
+            found = True
+        target = 1.0 if found else (turn[i] if crowded else 0.0)
+        step = TURN_RATE * dt
+        out_turn[i] = min(max(target, turn[i] - step), turn[i] + step)
+        if found:
+            # The ellipse is the same for f and -f: take the one nearer the current torso
+            # (at most a quarter turn), and turn toward it at TORSO_RATE, so the footprint
+            # never jumps (a jump toward a wall would leave the agent inside it).
+            want = math.atan2(fy, fx)
+            delta = (want - torso[i] + math.pi) % (2.0 * math.pi) - math.pi
+            if delta > 0.5 * math.pi:
+                delta -= math.pi
+            elif delta < -0.5 * math.pi:
+                delta += math.pi
+            if turn[i] <= 0.0:
+                out_torso[i] = torso[i] + delta  # a disc: any facing, at once
+            else:
+                lim = TORSO_RATE * dt
+                out_torso[i] = torso[i] + min(max(delta, -lim), lim)
+
+
+@njit(cache=True)
+def wall_distance_kernel(pos, rows, radius, vertices, nxt, origin, cell, nx, ny, cell_start,
+                         cell_edges, edge_cells, out):
+    """``out[i]``: distance from each of ``rows`` to its nearest obstacle edge when one is
+    within its radius (left as it is otherwise). For the turned agents only: they are few."""
+    cap = 16
+    idx = np.empty(cap, np.int64)
+    dsq = np.empty(cap)
+    for k in range(rows.shape[0]):
+        i = rows[k]
+        reach = radius[i]
+        while True:
+            cnt = obstacle_neighbors_of(pos[i, 0], pos[i, 1], reach * reach, vertices, nxt, origin,
+                                        cell, nx, ny, cell_start, cell_edges, edge_cells, idx, dsq)
+            if cnt <= cap:
+                break
+            cap = cnt
+            idx = np.empty(cap, np.int64)
+            dsq = np.empty(cap)
+        if cnt > 0:
+            out[i] = math.sqrt(dsq[0])
+
+
+def footprint_arrays(radius: np.ndarray, turn: np.ndarray,
+                     torso: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``depth (N,)`` (the ellipse's ``b``, m) and ``facing (N, 2)`` (unit ``f``) for the kernels."""
+    depth = radius * (1.0 - turn * (1.0 - DEPTH_RATIO))
+    facing = np.stack([np.cos(torso), np.sin(torso)], axis=1)
+    return np.ascontiguousarray(depth), np.ascontiguousarray(facing)
+
+
+def pair_support(radius: np.ndarray, depth: np.ndarray, facing: np.ndarray, rows: np.ndarray,
+                 d: np.ndarray) -> np.ndarray:
+    """Vectorised :func:`support` of ``rows`` along unit directions ``d (P, 2)`` (for metrics)."""
+    a, b, f = radius[rows], depth[rows], facing[rows]
+    along_f = d[:, 0] * f[:, 0] + d[:, 1] * f[:, 1]
+    along_s = -d[:, 0] * f[:, 1] + d[:, 1] * f[:, 0]
+    return np.sqrt(a * a * along_s * along_s + b * b * along_f * along_f)
+

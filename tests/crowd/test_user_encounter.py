@@ -1,0 +1,221 @@
+"""The user in the crowd (issue 10): ρ as a share of the encounter, the late safety step,
+personal space, shoulder turning, and nobody ever inside the user's body."""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+
+import numpy as np
+import pytest
+
+from pedvr.crowd.footprint import DEPTH_RATIO, pair_support, support
+from pedvr.scene.loader import load_scene, parse_scene
+from pedvr.scenes import resolve_scene
+from pedvr.sim import Simulation
+
+# -- the head-on corridor trials (PedVR §6) --------------------------------------------------
+
+
+def headon(rho: float, *, walk: str = "straight", dt: float | None = None, safety: bool = True) -> dict:
+    scene = load_scene(resolve_scene("headon_corridor"))
+    if dt is not None:
+        scene = dataclasses.replace(scene, dt=dt)
+    if not safety:
+        scene = dataclasses.replace(scene, steering=dataclasses.replace(scene.steering, user_safety=False))
+    sim = Simulation(scene, responsibility=rho, record=True, user_walk=walk)
+    sim.advance_to(10.0)
+    arr = sim.recording.arrays()  # type: ignore[union-attr]
+    u = int(np.flatnonzero(arr["is_user"])[0])
+    pu, pa = arr["pos"][:, u], arr["pos"][:, 1 - u]
+    dx = pa[:, 0] - pu[:, 0]
+
+    def at(d: float) -> tuple[float, float]:
+        k = int(np.flatnonzero(dx <= d)[0])
+        return float(pa[k, 1] - 0.1), float(pu[k, 1])
+
+    return {"shift_4m": at(4.0)[0], "shift_3m": at(3.0)[0], "user_1m": at(1.0)[1], "dx": dx,
+            "dev": np.abs(pa[:, 1] - 0.1), "summary": sim.summary(), "t": arr["t"]}
+
+
+@pytest.fixture(scope="module")
+def straight() -> dict[float, dict]:
+    return {rho: headon(rho) for rho in (0.0, 0.25, 0.5, 1.0)}
+
+
+def test_early_shift_grows_with_rho(straight: dict[float, dict]) -> None:
+    """Against a user who walks straight, the shift 3 m apart (before any safety step)
+    grows with ρ; ρ = 0.25 takes at most half of what ρ = 1 takes. On main before this
+    model, ρ = 0.25, 0.5 and 1 gave the same 0.154 m."""
+    s = [straight[r]["shift_3m"] for r in (0.0, 0.25, 0.5, 1.0)]
+    assert s == sorted(s) and s[1] < s[2] - 0.05 < s[3], s
+    assert s[1] <= 0.5 * s[3], s
+    assert s[3] > 0.35, s  # the whole clearance the corridor allows, taken early
+
+
+def test_rho_zero_holds_its_line_until_the_safety_step(straight: dict[float, dict]) -> None:
+    t = straight[0.0]
+    # The safety step (1 s horizon, closing at 2.7 m/s) starts about 3.2 m apart.
+    far = (t["dx"] > 3.3) & (t["dx"] < 9.0)
+    assert t["dev"][far].max() < 0.01
+    assert t["dev"][t["dx"] > 0.0].max() > 0.1  # and then steps aside, hurriedly
+
+
+def test_nobody_overlaps_the_user_whatever_rho(straight: dict[float, dict]) -> None:
+    for rho, t in straight.items():
+        s = t["summary"]
+        assert s["user_overlap_max_m"] <= 0.01 and s["max_overlap_m"] <= 0.01, (rho, s)
+
+
+def test_share_does_not_depend_on_the_step() -> None:
+    """ρ is a share of the encounter: the same shift at 90 Hz and at 45 Hz (per-step ORCA
+    shares converge to everything in a number of steps, so they depend on dt)."""
+    a, b = headon(0.5)["shift_3m"], headon(0.5, dt=1.0 / 45.0)["shift_3m"]
+    assert abs(a - b) < 0.03, (a, b)
+
+
+def test_reactive_user_takes_the_rest() -> None:
+    """The simulated participant (user.walk = "reactive") steps aside by what the agent
+    leaves: the less ρ, the more the user moves, so trajectories differ by condition."""
+    user = [abs(headon(rho, walk="reactive")["user_1m"]) for rho in (0.0, 0.5, 1.0)]
+    assert user[0] > user[1] + 0.1 > user[2], user
+    assert user[2] < 0.05
+
+
+def test_safety_off_is_pure_rho_and_the_contacts_are_counted() -> None:
+    """With the safety step off, ρ = 0 walks into the user: only the contact pass keeps
+    bodies apart, and the metrics count the steps it had to."""
+    t = headon(0.0, safety=False)
+    assert t["summary"]["user_contact_steps"] > 0
+    assert headon(0.0)["summary"]["user_contact_steps"] == 0
+
+
+# -- corridors: pinned between the user and a wall ----------------------------------------------
+
+
+def corridor(width: float, *, dead_end: bool, kind: str, n_agents: int, user_speed: float):
+    """A 12 m corridor, closed at x = +6 (dead end) or opening into a room at x = 3. The user
+    walks in from x = -5.5 (along the right-hand wall where the corridor is narrower than
+    1.05 m, as a person passing someone there does) to the far end."""
+    h = width / 2
+    if dead_end:
+        world = {"bounds": [[-6.0, -h], [6.0, h]]}
+        end_x = 5.0
+    else:
+        world = {"bounds": [[-6.0, -3.0], [9.0, 3.0]],
+                 "obstacles": [{"polygon": [[-6.0, h], [3.0, h], [3.0, 3.0], [-6.0, 3.0]]},
+                               {"polygon": [[-6.0, -3.0], [3.0, -3.0], [3.0, -h], [-6.0, -h]]}]}
+        end_x = 8.0
+    uy = -(h - 0.25 - 0.02) if width < 1.05 else 0.0
+    if kind == "standing":
+        states = {"s": {"goal": {"selector": "stay"}}}
+        spawns = [{"profile": "adult", "state": "s", "positions": [[1.5 * k, 0.0] for k in range(n_agents)]}]
+    elif kind == "ahead":
+        far = 4.5 if dead_end else end_x - 0.5
+        states = {f"s{k}": {"goal": {"selector": "point", "at": [far - 1.2 * (n_agents - 1 - k), 0.0]}}
+                  for k in range(n_agents)}
+        spawns = [{"profile": "slow", "state": f"s{k}", "positions": [[-2.0 + 1.2 * k, 0.0]], "facing_deg": 0}
+                  for k in range(n_agents)]
+    else:
+        x0 = 4.5 if dead_end else 6.0
+        states = {"s": {"goal": {"selector": "point", "at": [-5.5, 0.0]}}}
+        spawns = [{"profile": "adult", "state": "s", "positions": [[x0 - 1.2 * k, 0.0] for k in range(n_agents)],
+                   "facing_deg": 180}]
+    data = {"scene": {"name": "corridor", "seed": 1, "duration": 15.0}, "world": world,
+            "agents": {"profiles": {"adult": {"radius": 0.25, "pref_speed": 1.3, "max_speed": 1.6},
+                                    "slow": {"radius": 0.25, "pref_speed": 0.5, "max_speed": 1.6}},
+                       "spawns": spawns},
+            "behavior": {"states": states},
+            "user": {"start": [-5.5, uy], "heading_deg": 0, "route": [[end_x, uy]], "speed": user_speed}}
+    return parse_scene(data, source="corridor.toml")
+
+
+CORRIDORS = [(w, dead, kind, 1.4 if dead else 1.0)
+             for w, dead, kind in itertools.product((0.8, 0.9, 1.1, 1.3), (True, False),
+                                                    ("standing", "ahead", "oncoming"))]
+
+
+@pytest.mark.parametrize("width, dead_end, kind, speed", CORRIDORS,
+                         ids=[f"{w}m-{'dead' if d else 'open'}-{k}-{s}" for w, d, k, s in CORRIDORS])
+def test_corridor_nobody_overlaps(width: float, dead_end: bool, kind: str, speed: float) -> None:
+    """Three agents standing, walking slowly ahead or oncoming, the user at 1.0 / 1.4 m/s,
+    ρ = 1: no overlap over 1 cm, ever (before this model: up to 9 cm at 1.1 m, 14 cm at 0.9 m).
+    Agents flatten against the wall with shoulders turned and let the user pass."""
+    sim = Simulation(corridor(width, dead_end=dead_end, kind=kind, n_agents=3, user_speed=speed))
+    turned = 0.0
+    for _ in range(round((12.0 if dead_end else 15.0) / sim.dt)):
+        sim.step()
+        turned = max(turned, float(sim.crowd.turn.max()))
+    s = sim.summary()
+    assert s["max_overlap_m"] <= 0.01 and s["overlaps_over_1cm"] == 0, s
+    assert s["user_overlap_max_m"] <= 0.01, s
+    assert s["user_spheres_reached"] == 1, s  # the user got through
+    if width < 1.05:
+        assert turned == 1.0  # nobody fits beside the user there with shoulders square
+
+
+def test_no_room_at_all_gives_way_into_the_wall_never_into_the_user() -> None:
+    """0.6 m wide: a standing agent cannot fit beside the user even turned (0.5 + 0.26 m),
+    and the user walks right to the dead end (0.5 m short of it), so nothing is left in
+    front either. The user's body wins: the agent is pushed into the walls, and the metrics
+    say so."""
+    scene = corridor(0.6, dead_end=True, kind="standing", n_agents=1, user_speed=1.0)
+    scene = dataclasses.replace(scene, user=dataclasses.replace(scene.user, route=((5.5, scene.user.start[1]),)))
+    sim = Simulation(scene)
+    sim.advance_to(12.0)
+    s = sim.summary()
+    assert s["user_overlap_max_m"] <= 0.01, s
+    assert s["wall_overlap_max_m"] > 0.05 and s["overlaps_over_1cm"] >= 1, s
+
+
+# -- personal space ---------------------------------------------------------------------------
+
+
+def _crossing(ps: float, *, box: float = 8.0) -> dict:
+    data = {"scene": {"name": "x", "seed": 1, "duration": 12.0},
+            "world": {"bounds": [[-box, -box], [box, box]]},
+            "agents": {"profiles": {"adult": {"radius": 0.25, "pref_speed": 1.3, "max_speed": 1.6}},
+                       "spawns": [{"profile": "adult", "state": "go", "positions": [[0.0, -5.0]]}]},
+            "behavior": {"states": {"go": {"goal": {"selector": "point", "at": [0.0, 7.0]}}}},
+            "user": {"start": [-5.0, 0.0], "heading_deg": 0, "route": [[7.0, 0.0]]}}
+    sim = Simulation(parse_scene(data, source="x.toml"), personal_space=ps, record=True)
+    turned = 0.0
+    for _ in range(round(12.0 / sim.dt)):
+        sim.step()
+        turned = max(turned, float(sim.crowd.turn.max()))
+    out = sim.summary()
+    out["turned"] = turned
+    return out
+
+
+def test_personal_space_is_kept_where_there_is_room() -> None:
+    """Crossing paths in an open room: with the default 0.3 m margin the agent passes with
+    about that much room (surface to surface); with none it passes at contact distance."""
+    near, kept = _crossing(0.0), _crossing(0.3)
+    assert near["user_clearance_p5_m"] < 0.12
+    assert kept["user_clearance_p5_m"] > 0.2 and kept["min_user_distance_m"] > 0.7
+    assert kept["steps_in_user_margin"] < near["steps_in_user_margin"] + 200
+    assert kept["turned"] == 0.0  # nobody squeezes in open space
+
+
+def test_personal_space_shrinks_in_a_corridor_without_a_jam(straight: dict[float, dict]) -> None:
+    """headon_corridor (1.8 m): a 0.3 m margin does not fit beside the user; the agent keeps
+    what fits (0.15 m) and walks on."""
+    s = straight[1.0]["summary"]
+    assert 0.08 < s["user_clearance_p5_m"] < 0.3
+    assert s["stalled_agents"] == 0
+
+
+# -- footprints ---------------------------------------------------------------------------------
+
+
+def test_support_of_a_turned_footprint() -> None:
+    r = 0.25
+    b = r * DEPTH_RATIO
+    # Facing +y: narrow along y, full width along x; a disc when not turned.
+    assert support(r, b, 0.0, 1.0, 0.0, 1.0) == pytest.approx(b)
+    assert support(r, b, 0.0, 1.0, 1.0, 0.0) == pytest.approx(r)
+    assert support(r, r, 0.0, 1.0, 0.6, 0.8) == pytest.approx(r)
+    d = np.array([[0.6, 0.8]])
+    got = pair_support(np.array([r]), np.array([b]), np.array([[0.0, 1.0]]), np.array([0]), d)
+    assert got[0] == pytest.approx(np.sqrt((r * 0.6) ** 2 + (b * 0.8) ** 2))
