@@ -36,6 +36,8 @@ class Interactions:
         self.c = c
         self.objects = self._objects(b.get("objects", MISSING), blocked)
         self.library = library_trees()
+        # names declared, valid or not: a reference to an invalid one is not reported again as unknown
+        self.declared: set[str] = set()
         self.trees = self._trees(b.get("trees", MISSING), goal_sets)
         self.events = self._events(b.get("events", MISSING))
 
@@ -110,6 +112,7 @@ class Interactions:
         out: dict[str, TreeDef] = {}
         for name, t in raw.items():
             path = f"behavior.trees.{name}"
+            self.declared.add(f"tree:{name}")
             if name in self.library:
                 c.bad(path, "{...}", "a library tree has this name; choose another")
                 continue
@@ -129,13 +132,15 @@ class Interactions:
         out: dict[str, EventDef] = {}
         for name, e in raw.items():
             path = f"behavior.events.{name}"
+            self.declared.add(f"event:{name}")
             if not isinstance(e, dict):
                 c.bad(path, e, "expected a table with tree, priority, patience")
                 continue
             c.known(e, path, ("tree", "priority", "patience"))
             tree = c.string(e, "tree", f"{path}.tree")
             if tree is not None and tree not in self.known_trees:
-                c.bad(f"{path}.tree", tree, f"unknown tree; known: {', '.join(sorted(self.known_trees))}")
+                if f"tree:{tree}" not in self.declared:
+                    c.bad(f"{path}.tree", tree, f"unknown tree; known: {', '.join(sorted(self.known_trees))}")
                 tree = None
             prio = c.integer(e, "priority", f"{path}.priority", required=False, default=1,
                              check=lambda x: x >= 1, expect=">= 1 (personal trees and the BFSM are 0)")
@@ -154,7 +159,8 @@ class Interactions:
         name = s["tree"]
         known = self.known_trees
         if not isinstance(name, str) or name not in known:
-            self.c.bad(f"{path}.tree", name, f"unknown tree; known: {', '.join(sorted(known))}")
+            if f"tree:{name}" not in self.declared:
+                self.c.bad(f"{path}.tree", name, f"unknown tree; known: {', '.join(sorted(known))}")
             return None
         params = known[name].params
         if list(params.values()) != ["agent"]:
@@ -190,7 +196,7 @@ class Interactions:
         ev = None
         if ev_name is not None:
             ev = self.events.get(ev_name)
-            if ev is None:
+            if ev is None and f"event:{ev_name}" not in self.declared:
                 c.bad(f"{path}.event", ev_name,
                       f"unknown event; known: {', '.join(sorted(self.events)) or 'none'}")
         who: tuple[str, ...] = ()
@@ -257,7 +263,7 @@ class Interactions:
         if ev is None:
             return None
         tree = self.known_trees[ev.tree]
-        have = {"enter": ("agent", "user", "here") if who != ("user",) else ("user",),
+        have = {"enter": ("agent", "user", "here") if who != ("user",) else BIND_SYMBOLS,
                 "near": ("agent", "user", "midpoint", "here") if who == ("user", "agent")
                 else ("agent", "other", "midpoint", "here", "user"),
                 "time": BIND_SYMBOLS, "user_action": ("agent", "user", "midpoint", "here")}[kind]
@@ -292,8 +298,9 @@ class Interactions:
             allowed = tuple(s for s in _SYMBOLS_FOR[pk] if s in have)
             if v not in allowed:
                 extra = " or [x, y]" if pk == "point" else ""
-                c.bad(f"{path}.{p}", v,
-                      f"a {pk} parameter; this trigger binds {', '.join(allowed) or 'nothing'}{extra}")
+                article = "an" if pk[0] in "aeiou" else "a"
+                c.bad(f"{path}.{p}", v, f"{article} {pk} parameter; this trigger binds "
+                      f"{', '.join(allowed) or 'nothing'}{extra}")
                 continue
             out[p] = v
         return out

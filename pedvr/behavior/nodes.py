@@ -31,7 +31,7 @@ from pedvr.behavior import tree as bt
 from pedvr.behavior.objects import ObjectTarget, SmartObject, Use, object_kinds
 from pedvr.behavior.spec import PARAM_KINDS, NodeSpec, Ref, TreeDef
 from pedvr.registry import Registry
-from pedvr.validation import fmt, is_num
+from pedvr.validation import MISSING, fmt, is_num
 
 GESTURE_CLIPS = ("wave", "point", "shrug", "check_phone", "hands_in_pockets", "talk")
 Report = Callable[[str, object, str], None]
@@ -81,8 +81,8 @@ class _Bad(Exception):
 
 def _param(env: Env, v: str, kinds: tuple[str, ...], what: str) -> Ref:
     if v not in env.params:
-        known = ", ".join(env.params) or "none"
-        raise _Bad(f"unknown {what}; the tree's parameters: {known}")
+        known = ", ".join(f"{k} ({t})" for k, t in env.params.items()) or "none"
+        raise _Bad(f"not a parameter of this tree; expected {what}; its parameters: {known}")
     if env.params[v] not in kinds:
         raise _Bad(f"parameter {v!r} is a {env.params[v]}; expected {what} ({' or '.join(kinds)})")
     return Ref("param", v)
@@ -245,7 +245,7 @@ def parse_node(raw: object, key: str, env: Env) -> NodeSpec | None:
             env.report(f"{key}.{bad}" if bad is not None else key, raw.get(bad, "{}") if bad else "{}",
                        f"unknown node type; known: {', '.join(node_types)}")
         else:
-            env.report(key, "{...}", f"one node per table; this one names {', '.join(kinds)}")
+            env.report(key, raw, f"one node per table; this one names {', '.join(kinds)}")
         return None
     kind = kinds[0]
     nt = node_types[kind]
@@ -287,34 +287,35 @@ def parse_node(raw: object, key: str, env: Env) -> NodeSpec | None:
             ok = False
     for a, spec in nt.attrs.items():
         if spec.required and a not in raw:
-            env.report(f"{key}.{a}", "<missing>", f"required by {kind!r}")
+            env.report(f"{key}.{a}", MISSING, f"required by {kind!r}")
             ok = False
         elif a not in attrs and spec.default is not None:
             attrs[a] = spec.default
     if ok:
-        why = _extra_check(kind, main, attrs, env)
-        if why:
-            env.report(key, "{...}", why)
+        bad = _extra_check(kind, main, attrs, env)
+        if bad:
+            where, why = bad
+            env.report(f"{key}.{where}" if where else key, raw.get(where, raw) if where else raw, why)
             ok = False
     return NodeSpec(kind=kind, main=main, attrs=attrs, key=key) if ok else None
 
 
-def _extra_check(kind: str, main: Any, attrs: dict[str, Any], env: Env) -> str | None:
-    """Checks across a node's values."""
+def _extra_check(kind: str, main: Any, attrs: dict[str, Any], env: Env) -> tuple[str, str] | None:
+    """Checks across a node's values: ``(attribute or "", expectation)`` for a problem."""
     if kind == "random" and "weights" in attrs and len(attrs["weights"]) != len(main):
-        return f"random: {len(attrs['weights'])} weights for {len(main)} children"
+        return "weights", f"expected {len(main)} weights, one per child"
     if kind == "repeat" and "count" in attrs and "seconds" in attrs:
-        return "repeat: give count or seconds, not both"
+        return "", "repeat: give count or seconds, not both"
     if kind == "face" and ("toward" in attrs) == ("heading_deg" in attrs):
-        return "face: give exactly one of toward or heading_deg"
+        return "", "face: give exactly one of toward or heading_deg"
     if kind == "use":
         obj: Ref = attrs["object"]
         aff = attrs["affordance"]
         okind = (env.objects.get(obj.value) if obj.kind == "object" else
                  obj.value if obj.kind == "nearest" else None)
         if okind is not None and okind in object_kinds and aff not in object_kinds[okind].AFFORDANCES:
-            return (f"use: object kind {okind!r} has no affordance {aff!r}; its affordances: "
-                    f"{', '.join(object_kinds[okind].AFFORDANCES)}")
+            return "affordance", (f"unknown affordance of a {okind}; its affordances: "
+                                  f"{', '.join(object_kinds[okind].AFFORDANCES)}")
         if obj.kind == "param":
             env.uses.setdefault(obj.value, set()).add(aff)
     return None
@@ -354,7 +355,7 @@ def parse_tree(name: str, raw: object, key: str, *, report: Report, objects: dic
             rep(f"{key}.{k}", raw[k], "unknown key; expected params, root")
     params = parse_params(raw.get("params", {}), f"{key}.params", rep) or {}
     if "root" not in raw:
-        rep(f"{key}.root", "<missing>", "required: the tree's root node")
+        rep(f"{key}.root", MISSING, "required: the tree's root node")
         return None
     env = Env(params=params, objects=dict(objects or {}), goal_sets=goal_sets, report=rep)
     root = parse_node(raw["root"], f"{key}.root", env)
@@ -365,12 +366,15 @@ def parse_tree(name: str, raw: object, key: str, *, report: Report, objects: dic
 
 
 def define_tree(name: str, params: dict[str, str], root: dict[str, Any], *,
-                goal_sets: frozenset[str] = frozenset()) -> TreeDef:
-    """A checked tree from Python data in the scene format; ValueError lists every problem."""
+                goal_sets: frozenset[str] = frozenset(), objects: dict[str, str] | None = None) -> TreeDef:
+    """A checked tree from Python data in the scene format; ValueError lists every problem.
+
+    ``objects`` (name -> kind) and ``goal_sets`` are what the tree may name besides its parameters.
+    """
     lines: list[str] = []
     tree = parse_tree(name, {"params": params, "root": root}, name,
                       report=lambda k, v, why: lines.append(f"{k} = {fmt(v)}: {why}"),
-                      goal_sets=goal_sets, source="library")
+                      objects=objects, goal_sets=goal_sets, source="library")
     if tree is None:
         raise ValueError(f"tree {name!r}:\n" + "\n".join(lines))
     return tree
@@ -459,6 +463,8 @@ _reg("repeat", "child", {"count": Attr("count"), "seconds": Attr("seconds")},
 _reg("invert", "child", {}, lambda s, b: bt.Invert(build(s.main, b), name=s.key), "success <-> failure")
 _reg("succeed", "child", {}, lambda s, b: bt.Succeed(build(s.main, b), name=s.key), "always success")
 _reg("fail", "child", {}, lambda s, b: bt.Fail(build(s.main, b), name=s.key), "always failure")
+_reg("until", "child", {}, lambda s, b: bt.Until(build(s.main, b), name=s.key),
+     "wait until the child succeeds (its failure reads as running)")
 _reg("timeout", "child", {"seconds": Attr("seconds", True)},
      lambda s, b: bt.Timeout(build(s.main, b), seconds=s.attrs["seconds"], name=s.key),
      "failure if the child runs longer")

@@ -167,6 +167,10 @@ class Scheduler:
         self._claim(run)
         return run
 
+    def cancel(self, run: EventRun) -> None:
+        """End an event from code (a pending or running one): counted as interrupted."""
+        self._end_event(run, None, "cancelled")
+
     def user_action(self, name: str) -> None:
         """The backend reports an action of the user (a button, a key) for ``user_action`` triggers."""
         self.triggers.user_action(name)
@@ -217,7 +221,6 @@ class Scheduler:
     def tick(self, t: float) -> list[int]:
         ctx = self.ctx
         ctx.t = t
-        self._replan = []
         for o in self.objects.values():
             o.tick(ctx)
         self._sync_personal()
@@ -226,10 +229,11 @@ class Scheduler:
             if run.phase == PENDING:
                 self._try_start(run)
         for run in list(self.live):
-            if run.phase == ACTIVE and run.wake <= t + 1e-9:
-                if any(ctx.find(a) is None for a in run.actors):
-                    self._end_event(run, FAILURE, "an actor left")
-                    continue
+            if run.phase != ACTIVE:
+                continue
+            if any(ctx.find(a) is None for a in run.actors):
+                self._end_event(run, FAILURE, "an actor left")
+            elif run.wake <= t + 1e-9:
                 s = self._tick_run(run)
                 if s is not RUNNING:
                     self._end_event(run, s, s.value)
@@ -242,7 +246,8 @@ class Scheduler:
             s = self._tick_run(prun)
             if s is not RUNNING:
                 self._end_personal(prun, row, s)
-        return self._replan
+        back, self._replan = self._replan, []
+        return [r for r in (ctx.find(a) for a in back) if r is not None]
 
     def _tick_run(self, run: TreeRun) -> Status:
         ctx = self.ctx
@@ -430,4 +435,4 @@ class Scheduler:
         b.speed_scale[row] = sus.speed_scale
         b.face[row] = np.nan
         b.in_event[row] = False
-        self._replan.append(row)
+        self._replan.append(agent)

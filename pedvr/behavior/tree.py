@@ -394,6 +394,22 @@ class Fail(Decorator):
         return RUNNING if s is RUNNING else FAILURE
 
 
+class Until(Decorator):
+    """Wait for the child to succeed: its FAILURE reads as RUNNING (py_trees' ``FailureIsRunning``).
+
+    A condition below it is checked at every tick ("until the user is near").
+    """
+
+    __slots__ = ()
+
+    def update(self, ctx: Context) -> Status:
+        s = self.child.tick(ctx)
+        if s is FAILURE:
+            ctx.wake = ctx.t
+            return RUNNING
+        return s
+
+
 class Timeout(Decorator):
     """FAILURE, and the child stopped, if it is still running after ``seconds`` (drawn per run)."""
 

@@ -3,7 +3,9 @@
 Checked once per decision tick, before events start, over arrays:
 
 ``enter``        an actor (``who = "user"`` or ``"agent"``) enters ``region`` (the edge
-                 outside → inside; binds ``agent`` or ``user``).
+                 outside → inside). ``who = "agent"`` binds the entering ``agent`` (and
+                 ``user``); ``who = "user"`` binds ``user``, the eligible ``agent`` nearest
+                 the user, and the eligible ``other`` nearest that agent.
 ``near``         ``who = ["user", "agent"]``: the user comes within ``distance`` of an
                  eligible agent (binds ``user``, ``agent``); ``["agent", "agent"]``: two
                  eligible agents come within ``distance`` (binds ``agent``, ``other``; the
@@ -148,16 +150,19 @@ class Triggers:
         st.inside = now
         for key in new:
             if key[0] == ctx.user:
-                self._fire(k, st, t, key, {"user": ctx.user})
+                self._pick_and_fire(k, st, t, around=ctx.user, key=key)
             else:
                 self._fire(k, st, t, key, {"agent": key[0], "user": ctx.user})
 
-    def _pick_and_fire(self, k: int, st: _State, t: float, *, around: int | None) -> None:
+    def _pick_and_fire(self, k: int, st: _State, t: float, *, around: int | None,
+                       key: tuple[int, ...] = ()) -> None:
         ctx = self.scheduler.ctx
         crowd = ctx.crowd
         ok = self._eligible(k)
         rows = np.flatnonzero(ok)
         if rows.size == 0:
+            if key:  # the user entered with nobody to bind: events that need only the user still start
+                self._fire(k, st, t, key, {"user": ctx.user})
             return
         if around is None:
             first = int(rows[int(ctx.rng.integers(rows.size))])
@@ -176,7 +181,7 @@ class Triggers:
             p = crowd.pos[first]
             dist = np.hypot(crowd.pos[others, 0] - p[0], crowd.pos[others, 1] - p[1])
             found["other"] = int(crowd.ids[int(others[int(np.argmin(dist))])])
-        self._fire(k, st, t, (), found)
+        self._fire(k, st, t, key, found)
 
     # -- firing ---------------------------------------------------------------------------------
 
