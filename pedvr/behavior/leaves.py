@@ -17,7 +17,7 @@ Actions:
 ``Follow``     keep ``distance`` m behind a moving actor; runs until stopped.
 ``Stop``       stop walking; SUCCESS at once.
 ``Face``       turn on the spot toward a target or a heading; SUCCESS within 10°
-               (``hold``: keep turning toward it until stopped).
+               (``hold``: keep turning toward it until stopped; re-aimed at 2 Hz once on it).
 ``GazeAt``     look at a target (body ``gaze_at``); SUCCESS once on target, the gaze kept
                until the tree ends; with ``seconds``: look that long, then stop.
 ``Gesture``    play a clip (one drawn from a list) for ``seconds``; SUCCESS when it ends.
@@ -59,6 +59,7 @@ from pedvr.body.model import Status as BodyStatus
 
 B_RUNNING, B_SUCCESS = BodyStatus.RUNNING, BodyStatus.SUCCESS
 FACE_TOLERANCE = math.radians(10.0)
+FACE_HOLD_EVERY = 0.5  # s: a held facing that is on target looks again this often
 REACH_SPEED_MARGIN = 1.25  # a walker can be pushed a little faster than its max speed
 FOLLOW_REPLAN = 0.4  # m: a followed actor that moved this far gets a new goal
 FOLLOW_EVERY = 0.3  # s between follow updates
@@ -311,8 +312,10 @@ class Face(Action):
             want = math.atan2(dy, dx)
         ctx.claim(self.agent, "face", self)
         ctx.behavior.face[r] = want
-        if not self.hold and abs(_wrap(float(ctx.crowd.heading[r]) - want)) < FACE_TOLERANCE:
+        on = abs(_wrap(float(ctx.crowd.heading[r]) - want)) < FACE_TOLERANCE
+        if on and not self.hold:
             return SUCCESS
+        self.wake = ctx.t + FACE_HOLD_EVERY if on else 0.0  # turning: every tick; holding: 2 Hz
         return RUNNING
 
     def terminate(self, ctx: Context, new_status: Status) -> None:

@@ -33,8 +33,8 @@ tree starts when an agent enters the state, stops when it leaves, and when
 it ends by itself its outcome is the state's ``success`` / ``failure``
 transition event (without one the tree starts again).
 
-Order and determinism: events tick in the order they started, then
-personal trees in the order they started; every random draw comes from the
+Order and determinism: events tick in the order they started, then the
+personal trees that are due (a heap of wake times) in the order they started; every random draw comes from the
 simulation's rng in that order. Trees read positions committed by the last
 step and write only goals, facings, speed scales and body capability
 commands, which nothing reads before the next phase.
@@ -42,6 +42,7 @@ commands, which nothing reads before the next phase.
 
 from __future__ import annotations
 
+import heapq
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -131,6 +132,8 @@ class Scheduler:
             for n in bfsm.names]
         self._has_tree = np.array([t is not None for t in self.state_tree] + [False], np.bool_)
         self.personal: dict[int, PersonalRun] = {}
+        self._due: list[tuple[float, int, PersonalRun]] = []  # heap (wake, seq, run); stale entries skipped
+        self._ids_seen: np.ndarray | None = None
         self.live: list[EventRun] = []  # pending and running events, in start order
         self.control: dict[int, EventRun] = {}
         self.suspended: dict[int, Suspension] = {}
@@ -140,6 +143,7 @@ class Scheduler:
                        "events_interrupted": 0, "events_dropped": 0}
         self._seq = 0
         self._replan: list[int] = []
+        self.ticked = 0  # trees ticked at the last tick (the others slept)
 
     @property
     def objects(self) -> dict[str, SmartObject]:
@@ -221,6 +225,7 @@ class Scheduler:
     def tick(self, t: float) -> list[int]:
         ctx = self.ctx
         ctx.t = t
+        self.ticked = 0
         for o in self.objects.values():
             o.tick(ctx)
         self._sync_personal()
@@ -228,29 +233,40 @@ class Scheduler:
         for run in list(self.live):
             if run.phase == PENDING:
                 self._try_start(run)
+        left = ctx.crowd.ids is not self._ids_seen  # rows changed: some actor may have left
+        self._ids_seen = ctx.crowd.ids
         for run in list(self.live):
             if run.phase != ACTIVE:
                 continue
-            if any(ctx.find(a) is None for a in run.actors):
+            if left and any(ctx.find(a) is None for a in run.actors):
                 self._end_event(run, FAILURE, "an actor left")
             elif run.wake <= t + 1e-9:
                 s = self._tick_run(run)
                 if s is not RUNNING:
                     self._end_event(run, s, s.value)
-        for agent, prun in list(self.personal.items()):
-            if prun.wake > t + 1e-9:
-                continue
-            row = ctx.find(agent)
+        # Personal trees that are due, in the order they started; the others sleep in the heap.
+        due: list[PersonalRun] = []
+        heap = self._due
+        while heap and heap[0][0] <= t + 1e-9:
+            wake, _, prun = heapq.heappop(heap)
+            if self.personal.get(prun.agent) is prun and prun.wake == wake:
+                due.append(prun)
+        due.sort(key=lambda r: r.seq)
+        for prun in due:
+            row = ctx.find(prun.agent)
             if row is None:
                 continue
             s = self._tick_run(prun)
             if s is not RUNNING:
                 self._end_personal(prun, row, s)
+            else:
+                heapq.heappush(heap, (prun.wake, prun.seq, prun))
         back, self._replan = self._replan, []
         return [r for r in (ctx.find(a) for a in back) if r is not None]
 
     def _tick_run(self, run: TreeRun) -> Status:
         ctx = self.ctx
+        self.ticked += 1
         ctx.run = run
         ctx.wake = math.inf
         assert run.root is not None
@@ -289,7 +305,9 @@ class Scheduler:
             param = next(iter(tree.params))
             root = build(tree.root, Bindings({param: agent}, objects=self.objects, user=ctx.user))
             self._seq += 1
-            self.personal[agent] = PersonalRun(root, self._seq, agent=agent, state=int(b.state[row]))
+            prun = PersonalRun(root, self._seq, agent=agent, state=int(b.state[row]))
+            self.personal[agent] = prun
+            heapq.heappush(self._due, (prun.wake, prun.seq, prun))
             b.tree_state[row] = b.state[row]
 
     def _stop(self, run: TreeRun) -> None:

@@ -65,7 +65,7 @@ NEVER = math.inf
 def draw_seconds(rng: np.random.Generator, spec: tuple[float, float]) -> float:
     """A duration from ``(lo, hi)``: ``lo`` when ``hi <= lo``, else uniform in ``[lo, hi]``."""
     lo, hi = spec
-    return lo if hi <= lo else float(rng.uniform(lo, hi))
+    return lo if hi <= lo else lo + (hi - lo) * float(rng.random())
 
 
 class Behaviour:
