@@ -186,3 +186,16 @@ priority = 2
     assert sim.scheduler.log[-1]["outcome"] == "succeeded"
     # back to its state: its tree starts again and it sits down once more
     assert step_until(sim, lambda: chair.occupant == A, seconds=15.0)
+
+
+def test_a_sit_stopped_on_the_way_stops_walking_and_frees_the_reservation() -> None:
+    sim = make_sim(agents=[(-6.0, 1.0, "stand")], behavior=CHAIRS, world=POCKET)
+    chair = sim.scheduler.objects["seat"]
+    d = tree(sim, {"use": "a", "object": "seat", "affordance": "sit"}, {"a": "agent"}, {"a": A})
+    d.drive(1.5)
+    assert d.status.value == "running" and chair.reserved == A
+    d.halt()
+    assert chair.reserved is None and chair.occupant is None
+    assert np.isnan(sim.behavior.goal[row(sim, A)]).all()
+    sim.advance_to(sim.t + 2.0)
+    assert float(np.hypot(*sim.crowd.vel[row(sim, A)])) < 0.05

@@ -226,7 +226,7 @@ max_running = 2
 """
     agents = [(-6.0, -1.0, "walk"), (6.0, 1.0, "walk"), (0.0, -4.0, "walk"), (3.0, 3.0, "walk")]
 
-    def run(seed: int) -> tuple[bytes, list[dict[str, object]]]:
+    def run(seed: int) -> tuple[bytes, list[object]]:
         import tomllib
 
         from pedvr.scene.loader import parse_scene
@@ -235,9 +235,10 @@ max_running = 2
 
         sim = Simulation(parse_scene(tomllib.loads(scene_text(agents=agents, behavior=behavior)), source="t"),
                          seed=seed, record=True)
-        sim.advance_to(25.0)
+        sim.advance_to(12.0)
         assert sim.recording is not None
-        return sim.recording.arrays()["pos"].tobytes(), sim.scheduler.log
+        events = [*sim.scheduler.log, *((r.event.name, r.agents, r.requested, r.phase) for r in sim.scheduler.live)]
+        return sim.recording.arrays()["pos"].tobytes(), events
 
     a, b, c = run(3), run(3), run(4)
     assert a[0] == b[0] and a[1] == b[1]
