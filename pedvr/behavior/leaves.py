@@ -56,6 +56,7 @@ from pedvr.behavior.tree import (
 )
 from pedvr.body.model import Handle
 from pedvr.body.model import Status as BodyStatus
+from pedvr.errors import NavigationError
 
 B_RUNNING, B_SUCCESS = BodyStatus.RUNNING, BodyStatus.SUCCESS
 FACE_TOLERANCE = math.radians(10.0)
@@ -129,7 +130,7 @@ class DrawnTarget(Target):
 
             try:
                 self.p = ctx.walkable.random_point(ctx.rng, shapely_box(*self.box))
-            except Exception:  # no walkable area in the box: the leaf fails, reported by its status
+            except NavigationError:  # no walkable area in the box: the leaf that drew it fails
                 self.p = None
             return self.p is not None
         assert self.goal_set is not None
@@ -411,7 +412,8 @@ class Gesture(Action):
 
     def terminate(self, ctx: Context, new_status: Status) -> None:
         owner = ctx.release(self.agent, "gesture", self)
-        if new_status is INVALID and owner and self.handle is not None and self.handle.running:
+        if new_status is INVALID and owner and self.handle is not None and self.handle.running \
+                and ctx.find(self.agent) is not None:
             ctx.body.gesture(self.agent, None)
 
 

@@ -281,9 +281,11 @@ class Scheduler:
         ctx = self.ctx
         b = ctx.behavior
         n = b.state.shape[0]
-        if len(self.personal) > int(np.count_nonzero(b.tree_state >= 0)):
+        if len(self.personal) > int(np.count_nonzero(b.tree_state >= 0)):  # agents left the scene
             for agent in [a for a in self.personal if ctx.find(a) is None]:
-                self.personal.pop(agent).end()
+                self._stop(self.personal.pop(agent))
+            for key in [k for k in ctx.owners if ctx.find(k[0]) is None]:
+                del ctx.owners[key]
         if n == 0 or not self._has_tree.any():
             return
         want = self._has_tree[b.state] & ~b.in_event & ~ctx.crowd.is_user

@@ -244,3 +244,17 @@ max_running = 2
     assert a[0] == b[0] and a[1] == b[1]
     assert len(a[1]) >= 2
     assert a[0] != c[0] and a[1] != c[1]
+
+
+def test_agents_removed_mid_tree_leave_nothing_behind() -> None:
+    sim = make_sim(agents=[(-3.0, 0.0, "pacing"), (3.0, 0.0, "stand")],
+                   behavior=PERSONAL + '[behavior.trees.talk]\nparams = { a = "agent" }\n'
+                   'root = { gesture = "a", clip = "talk", seconds = 5.0 }\n'
+                   '[behavior.events.talk]\ntree = "talk"\n')
+    run = sim.scheduler.start_event("talk", {"a": B})
+    sim.advance_to(1.0)
+    assert A in sim.scheduler.personal and run.phase == "running"
+    sim.remove_agents([A, B])
+    sim.advance_to(1.2)
+    assert not sim.scheduler.personal and run.phase == "ended"
+    assert not sim.scheduler.ctx.owners and not sim.scheduler.control
