@@ -450,9 +450,10 @@ _reg("sequence", "children", {"memory": Attr("bool", default=True)},
 _reg("selector", "children", {"memory": Attr("bool", default=False)},
      lambda s, b: bt.Selector(_kids(s, b), memory=s.attrs["memory"], name=s.key),
      "the first child that does not fail (re-tried every tick unless memory = true)")
-_reg("parallel", "children", {"success": Attr("policy", default="all")},
-     lambda s, b: bt.Parallel(_kids(s, b), success=s.attrs["success"], name=s.key),
-     "children together; success when all (or one) succeed")
+_reg("parallel", "children", {"success": Attr("policy", default="all"), "failure": Attr("policy")},
+     lambda s, b: bt.Parallel(_kids(s, b), success=s.attrs["success"], failure=s.attrs.get("failure"),
+                              name=s.key),
+     "children together; success when all (or one) succeed, failure when one (or all) fail")
 _reg("random", "children", {"weights": Attr("weights")},
      lambda s, b: bt.RandomSelector(_kids(s, b), weights=s.attrs.get("weights"), name=s.key),
      "a selector whose order is drawn by weight")

@@ -47,6 +47,18 @@ class SmartObject:
         self.at = decl.at
         self.facing = decl.facing
         self.params = dict(decl.params)
+        # what happened here, for the run's metrics: uses that succeeded and failures by reason
+        self.uses: dict[str, int] = {}
+        self.failures: dict[str, int] = {}
+
+    def count(self, affordance: str) -> None:
+        """Count a successful use of ``affordance``."""
+        self.uses[affordance] = self.uses.get(affordance, 0) + 1
+
+    def fail(self, why: str) -> Status:
+        """Count a failure of an affordance by reason; returns FAILURE for the affordance's node."""
+        self.failures[why] = self.failures.get(why, 0) + 1
+        return FAILURE
 
     def available(self, affordance: str, agent: int, ctx: Context) -> bool:
         """Whether ``agent`` could use ``affordance`` now (``use`` with ``nearest`` skips objects
@@ -152,8 +164,6 @@ class Chair(SmartObject):
         self.reserved: int | None = None
         self.blocked_after = float(self.params.get("blocked_after", 2.0))
         self.approach_time = float(self.params.get("approach_time", 30.0))
-        self.sits = 0
-        self.failures: dict[str, int] = {}
 
     def available(self, affordance: str, agent: int, ctx: Context) -> bool:
         if affordance == "sit":
@@ -172,10 +182,6 @@ class Chair(SmartObject):
             self.occupant = None
         if self.reserved is not None and ctx.find(self.reserved) is None:
             self.reserved = None
-
-    def fail(self, why: str) -> Status:
-        self.failures[why] = self.failures.get(why, 0) + 1
-        return FAILURE
 
     def vacate(self, ctx: Context, agent: int, owner: object) -> None:
         """The sitter leaves: it stands up (if ``owner`` still holds its posture) and the seat is free."""
@@ -258,7 +264,7 @@ class _ChairSit(Behaviour):
         s = self.step.tick(ctx)
         if s is SUCCESS:
             ch.occupant = self.agent
-            ch.sits += 1
+            ch.count("sit")
         return s
 
     def terminate(self, ctx: Context, new_status: Status) -> None:

@@ -127,9 +127,10 @@ class Scheduler:
         self.trees: dict[str, TreeDef] = {**library_trees(), **config.trees}
         self.events: dict[str, EventDef] = dict(config.events)
         self.bfsm = bfsm
-        self.state_tree: list[TreeDef | None] = [
-            self.trees[config.states[n].tree] if config.states[n].tree else None  # type: ignore[index]
-            for n in bfsm.names]
+        self.state_tree: list[TreeDef | None] = []
+        for n in bfsm.names:
+            tree = config.states[n].tree
+            self.state_tree.append(None if tree is None else self.trees[tree])
         self._has_tree = np.array([t is not None for t in self.state_tree] + [False], np.bool_)
         self.personal: dict[int, PersonalRun] = {}
         self._due: list[tuple[float, int, PersonalRun]] = []  # heap (wake, seq, run); stale entries skipped
@@ -212,11 +213,15 @@ class Scheduler:
 
     def summary(self) -> dict[str, object]:
         out: dict[str, object] = dict(self.counts)
-        out["chair_sits"] = sum(int(getattr(o, "sits", 0)) for o in self.objects.values())
+        out["chair_sits"] = sum(o.uses.get("sit", 0) for o in self.objects.values() if o.kind == "chair")
+        uses: dict[str, int] = {}
         fails: dict[str, int] = {}
         for o in self.objects.values():
-            for why, n in getattr(o, "failures", {}).items():
-                fails[why] = fails.get(why, 0) + n
+            for name, n in o.uses.items():
+                uses[f"{o.kind}.{name}"] = uses.get(f"{o.kind}.{name}", 0) + n
+            for why, n in o.failures.items():
+                fails[f"{o.kind}.{why}"] = fails.get(f"{o.kind}.{why}", 0) + n
+        out["affordance_uses"] = uses
         out["affordance_failures"] = fails
         return out
 

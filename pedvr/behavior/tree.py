@@ -260,21 +260,30 @@ class RandomSelector(Composite):
 class Parallel(Composite):
     """All children ticked together (ADAPT: gaze or gesture while approaching).
 
-    ``success="all"`` (py_trees' ``SuccessOnAll``): SUCCESS when every child
-    succeeded, FAILURE as soon as one fails. ``success="one"``
-    (``SuccessOnOne``): SUCCESS as soon as one succeeds, FAILURE when all
-    failed. A child that finished is not ticked again in the same run
-    (py_trees' ``synchronise``). When the parallel ends, the children still
-    running are stopped.
+    Success policy ``success``: ``"all"`` (py_trees' ``SuccessOnAll``): SUCCESS
+    when every child succeeded; ``"one"`` (``SuccessOnOne``): as soon as one
+    succeeds. Failure policy ``failure``: ``"one"``: FAILURE as soon as one
+    child fails; ``"all"``: go on while any child runs. By default the failure
+    policy is the complement of the success policy (all/one, one/all). When
+    every child has finished without meeting the success policy, FAILURE.
+    Within a tick the success policy is checked first. A child that finished
+    is not ticked again in the same run (py_trees' ``synchronise``). When the
+    parallel ends, the children still running are stopped.
     """
 
-    __slots__ = ("one", "done")
+    __slots__ = ("success_one", "failure_one", "done")
 
-    def __init__(self, children: Seq[Behaviour], *, success: str = "all", name: str = "") -> None:
+    def __init__(self, children: Seq[Behaviour], *, success: str = "all", failure: str | None = None,
+                 name: str = "") -> None:
         super().__init__(children, name)
         if success not in ("all", "one"):
             raise ValueError(f"{self.name}: success policy {success!r}: expected 'all' or 'one'")
-        self.one = success == "one"
+        if failure is None:
+            failure = "all" if success == "one" else "one"
+        if failure not in ("all", "one"):
+            raise ValueError(f"{self.name}: failure policy {failure!r}: expected 'all' or 'one'")
+        self.success_one = success == "one"
+        self.failure_one = failure == "one"
         self.done: list[Status | None] = [None] * len(self.children)
 
     def initialise(self, ctx: Context) -> None:
@@ -291,16 +300,12 @@ class Parallel(Composite):
                     done[k] = s
             if s is SUCCESS:
                 ok += 1
-                if self.one:
-                    return SUCCESS
             elif s is FAILURE:
                 bad += 1
-                if not self.one:
-                    return FAILURE
         n = len(done)
-        if ok == n:
+        if ok == n or (ok and self.success_one):
             return SUCCESS
-        if bad == n:
+        if (bad and self.failure_one) or ok + bad == n:
             return FAILURE
         return RUNNING
 

@@ -62,7 +62,7 @@ def test_sit_walks_up_turns_and_sits_on_the_seat_then_stands_when_the_tree_ends(
     assert math.dist(sim.crowd.pos[r], chair.at) <= 0.15
     assert abs(math.remainder(float(sim.crowd.heading[r]) - math.pi / 2, 2 * math.pi)) < math.radians(10)
     assert sim.body.state.sitting[r] and sitting_weight(sim, A) == 1.0
-    assert chair.occupant == A and chair.sits == 1
+    assert chair.occupant == A and chair.uses == {"sit": 1}
     d.drive(3.0, until_done=False)
     assert math.dist(sim.crowd.pos[r], chair.at) <= 0.15  # seated bodies stay put
     d.halt()  # the tree ends: the sitter stands up and the seat is free

@@ -210,6 +210,20 @@ def test_parallel_success_on_all_and_failure_on_one() -> None:
     assert ("slow", "invalid") in terms(log)  # the parallel ended: the child still running is stopped
 
 
+def test_parallel_failure_policy_all_waits_for_every_child() -> None:
+    log: list[tuple[str, str, str]] = []
+    par = Parallel([Probe("bad", [FAILURE], log), Probe("slow", [RUNNING, SUCCESS], log)], failure="all")
+    c = ctx()
+    assert tick(par, c) is RUNNING  # one failed, the other still runs
+    assert tick(par, c) is FAILURE  # all finished, not all succeeded
+    race = Parallel([Probe("ok", [RUNNING, SUCCESS], log), Probe("no", [RUNNING, RUNNING, FAILURE], log)],
+                    success="one", failure="one")
+    assert tick(race, c) is RUNNING
+    assert tick(race, c) is SUCCESS  # the first to finish decides
+    with pytest.raises(ValueError, match="failure policy 'some'"):
+        Parallel([Wait((1.0, 1.0))], failure="some")
+
+
 def test_parallel_success_on_one_stops_the_others() -> None:
     log: list[tuple[str, str, str]] = []
     hold = Probe("hold", [RUNNING], log)
