@@ -31,7 +31,9 @@ claimed.
 Personal trees belong to BFSM states (``tree = "name"`` in a state): the
 tree starts when an agent enters the state, stops when it leaves, and when
 it ends by itself its outcome is the state's ``success`` / ``failure``
-transition event (without one the tree starts again).
+transition event (without one the tree starts again). Each agent keeps one
+instance of each of its states' trees, so per-node state (a cooldown) lasts
+across runs; an event builds its tree afresh each time it starts.
 
 Order and determinism: events tick in the order they started, then the
 personal trees that are due (a heap of wake times) in the order they started; every random draw comes from the
@@ -133,6 +135,7 @@ class Scheduler:
             self.state_tree.append(None if tree is None else self.trees[tree])
         self._has_tree = np.array([t is not None for t in self.state_tree] + [False], np.bool_)
         self.personal: dict[int, PersonalRun] = {}
+        self._roots: dict[tuple[int, int], Behaviour] = {}  # (agent, state) -> its personal tree
         self._due: list[tuple[float, int, PersonalRun]] = []  # heap (wake, seq, run); stale entries skipped
         self._ids_seen: np.ndarray | None = None
         self.live: list[EventRun] = []  # pending and running events, in start order
@@ -223,6 +226,7 @@ class Scheduler:
                 fails[f"{o.kind}.{why}"] = fails.get(f"{o.kind}.{why}", 0) + n
         out["affordance_uses"] = uses
         out["affordance_failures"] = fails
+        out["event_log"] = list(self.log)  # every ended event: name, agents, times, outcome, why
         return out
 
     # -- the tick -------------------------------------------------------------------------------
@@ -291,6 +295,8 @@ class Scheduler:
                 self._stop(self.personal.pop(agent))
             for key in [k for k in ctx.owners if ctx.find(k[0]) is None]:
                 del ctx.owners[key]
+            for gone in [k for k in self._roots if ctx.find(k[0]) is None]:
+                del self._roots[gone]
         if n == 0 or not self._has_tree.any():
             return
         want = self._has_tree[b.state] & ~b.in_event & ~ctx.crowd.is_user
@@ -307,10 +313,14 @@ class Scheduler:
             agent = int(ctx.crowd.ids[row])
             if ctx.sitting(agent):
                 continue
-            tree = self.state_tree[int(b.state[row])]
-            assert tree is not None
-            param = next(iter(tree.params))
-            root = build(tree.root, Bindings({param: agent}, objects=self.objects, user=ctx.user))
+            sid = int(b.state[row])
+            root = self._roots.get((agent, sid))
+            if root is None:  # built once per agent and state: its nodes (a cooldown) outlive a run
+                tree = self.state_tree[sid]
+                assert tree is not None
+                param = next(iter(tree.params))
+                root = build(tree.root, Bindings({param: agent}, objects=self.objects, user=ctx.user))
+                self._roots[(agent, sid)] = root
             self._seq += 1
             prun = PersonalRun(root, self._seq, agent=agent, state=int(b.state[row]))
             self.personal[agent] = prun

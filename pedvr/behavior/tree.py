@@ -441,7 +441,8 @@ class Cooldown(Decorator):
     """After a run of the child ends, it is not run again for ``seconds``: FAILURE meanwhile.
 
     The cooldown belongs to the node instance, so it holds across runs of the
-    tree (a personal tree restarted by its BFSM state keeps its nodes).
+    tree: an agent's personal tree keeps its nodes when its BFSM state starts
+    it again; an event's tree is new at each event (see the scheduler).
     """
 
     __slots__ = ("seconds", "ready_at")

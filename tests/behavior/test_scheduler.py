@@ -258,3 +258,27 @@ def test_agents_removed_mid_tree_leave_nothing_behind() -> None:
     sim.advance_to(1.2)
     assert not sim.scheduler.personal and run.phase == "ended"
     assert not sim.scheduler.ctx.owners and not sim.scheduler.control
+
+
+def test_a_personal_tree_keeps_its_cooldown_across_runs() -> None:
+    behavior = """
+[behavior.trees.fidget]
+params = { me = "agent" }
+root = { selector = [ { cooldown = { gesture = "me", clip = "shrug", seconds = 0.5 }, seconds = 4.0 },
+                      { wait = 0.5 } ] }
+[behavior.states.fidgeting]
+goal = { selector = "stay" }
+tree = "fidget"
+"""
+    sim = make_sim(agents=[(0.0, 0.0, "fidgeting")], behavior=behavior)
+    starts = []
+    last = -1.0
+    while sim.t < 9.0:
+        sim.step()
+        g = float(sim.body.state.g_start[row(sim, A)])
+        if sim.body.state.g_kind[row(sim, A)] == 3 and g != last:  # a new shrug
+            starts.append(g)
+            last = g
+    # the tree ran again every 0.5-1 s, but shrugs came only once per 4 s cooldown
+    assert len(starts) == 3, starts
+    assert all(b - a >= 4.0 for a, b in zip(starts, starts[1:], strict=False))
