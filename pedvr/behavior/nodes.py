@@ -507,7 +507,8 @@ _reg("set_speed", "agent", {"scale": Attr("scale", True)},
      lambda s, b: lv.SetSpeed(b.agent(s.main), s.attrs["scale"], name=s.key),
      "scale the preferred speed (restored when the tree ends)")
 _reg("use", "agent", {"object": Attr("object", True), "affordance": Attr("affordance", True)},
-     lambda s, b: Use(b.agent(s.main), b.object(s.attrs["object"]), s.attrs["affordance"], name=s.key),
+     lambda s, b: Use(b.agent(s.main), b.object(s.attrs["object"]), affordance=s.attrs["affordance"],
+                      name=s.key),
      "invoke a smart object's affordance")
 _reg("near", "actor", {"of": Attr("target", True), "within": Attr("positive", True)},
      lambda s, b: lv.Near(b.actor(s.main), b.target(s.attrs["of"]), within=s.attrs["within"], name=s.key),

@@ -99,7 +99,7 @@ class Use(Behaviour):
 
     __slots__ = ("agent", "obj", "affordance_name", "node", "chosen")
 
-    def __init__(self, agent: int, obj: SmartObject | str, affordance: str, name: str = "") -> None:
+    def __init__(self, agent: int, obj: SmartObject | str, *, affordance: str, name: str = "") -> None:
         super().__init__(name)
         self.agent = agent
         self.obj = obj
