@@ -4,6 +4,7 @@
 ``pedvr scene check FILE...``  validate scene files; exit 2 on problems
 ``pedvr scene list``           the shipped scenes
 ``pedvr bench steering``       ORCA step time against RVO2
+``pedvr bench behavior``       behavior scheduler tick time (trees, events)
 
 Errors a user can cause print as ``pedvr: error: ...`` lines and a non-zero
 exit code, never a traceback.
@@ -154,6 +155,11 @@ def build_parser() -> argparse.ArgumentParser:
     bd.add_argument("--agents", type=_positive(int), action="append", default=None)
     bd.add_argument("--steps", type=_positive(int), default=300)
     bd.add_argument("--json", action="store_true")
+    bh = bsub.add_parser("behavior", help="scheduler tick: personal trees and running two-actor events")
+    bh.add_argument("--agents", type=_positive(int), action="append", default=None)
+    bh.add_argument("--events", type=int, default=20, help="conversations kept running (default 20)")
+    bh.add_argument("--seconds", type=_positive(float), default=20.0, help="simulated seconds timed")
+    bh.add_argument("--json", action="store_true")
     rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
     rb.add_argument("--agents", type=_positive(int), action="append", default=None)
     rb.add_argument("--width", type=_positive(int), default=1280)
@@ -317,6 +323,14 @@ def _bench(args: argparse.Namespace) -> int:
 
         _print_results([run_render_bench(n, width=args.width, height=args.height, frames=args.frames)
                         for n in args.agents or [100, 500]], args.json)
+        return 0
+    if args.bench_command == "behavior":
+        from pedvr.behavior.bench import run_behavior_bench
+
+        if not 0 <= args.events <= 70:
+            raise UsageError(f"--events {args.events}: expected 0 to 70 (conversations that fit the plaza)")
+        _print_results([run_behavior_bench(n, events=args.events, seconds=args.seconds)
+                        for n in args.agents or [200]], args.json)
         return 0
     if args.bench_command == "body":
         from pedvr.body.bench import run_body_bench

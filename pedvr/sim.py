@@ -19,6 +19,9 @@ import numpy as np
 import shapely
 
 from pedvr.behavior.bfsm import BFSM, BehaviorState
+from pedvr.behavior.context import Context
+from pedvr.behavior.objects import make_objects
+from pedvr.behavior.scheduler import Scheduler
 from pedvr.body import FullBody
 from pedvr.body.model import GestureSets
 from pedvr.crowd.encounter import UserEncounters
@@ -113,6 +116,7 @@ class Simulation:
         self._new_vel = np.zeros((0, 2))
         self._root = np.zeros((0, 2))
         self._root_heading = np.zeros(0)
+        self._pinned = np.zeros(0, np.bool_)
         self.unreachable_goals = 0
 
         self.user: UserAgent | None = None
@@ -124,6 +128,12 @@ class Simulation:
                            is_user=True, heading=np.asarray([scene.user.heading]))
         for k, spawn in enumerate(scene.spawns):
             self._spawn(k, spawn)
+        # ADAPT §6: personal trees, events, smart objects and triggers (pedvr.behavior.scheduler)
+        self.scheduler = Scheduler(scene.behavior, Context(
+            crowd=self.crowd, behavior=self.behavior, body=self.body, visibility=self.visibility,
+            walkable=self.goal_mesh, rng=self.rng, goal_sets=scene.behavior.goal_sets,
+            objects=make_objects(scene.behavior.objects),
+            user=None if self.user is None else int(self.crowd.ids[0])), bfsm=self.bfsm)
 
         seg_a, seg_b = edges(scene.world)
         self.metrics = Metrics(seg_a=seg_a, seg_b=seg_b, inside=self._inside_obstacle,
@@ -282,7 +292,7 @@ class Simulation:
         self.crowd.pos[0], self.crowd.vel[0], self.crowd.heading[0] = pos, vel, heading
 
     def _decide(self) -> None:
-        """The BFSM sets goals at the decision rate (30 Hz by default)."""
+        """The BFSM, then behavior trees and events, set goals at the decision rate (30 Hz by default)."""
         self._leaving = np.zeros(len(self.crowd), np.bool_)
         self.metrics.gaze_events += self.body.gaze_rule(
             self.crowd, t=self.t, visibility=self.visibility, d1=self.scene.gaze_distance,
@@ -290,11 +300,14 @@ class Simulation:
         if self.step_index % self.scene.decision_every != 0:
             return
         d = self.bfsm.decide(self.behavior, t=self.t, dt=self.dt * self.scene.decision_every,
-                             pos=self.crowd.pos, rng=self.rng, sequences=self.sequences)
+                             pos=self.crowd.pos, rng=self.rng, sequences=self.sequences,
+                             frozen=self.scheduler.frozen())
         self.metrics.arrivals += d.arrived
         for row in np.flatnonzero(d.goal_changed & ~d.leaving):
             self._replan(int(row))
         self._leaving = d.leaving
+        for back in self.scheduler.tick(self.t):  # agents an event gave back to their BFSM
+            self._replan(back)
 
     def _navigate(self, row: int, target: tuple[float, float] | None) -> None:
         """The body's ``go_to`` capability: walk ``row`` to ``target`` along the navmesh.
@@ -364,7 +377,8 @@ class Simulation:
         unit = np.divide(d, dist[:, None], out=np.zeros_like(d), where=dist[:, None] > 1e-9)
         moving = has_path & (dist > 1e-6)
         pref_vel = np.where(moving[:, None], unit * speed[:, None], 0.0)
-        pref_heading = np.where(moving, np.arctan2(unit[:, 1], unit[:, 0]), crowd.heading)
+        still = np.where(np.isnan(self.behavior.face), crowd.heading, self.behavior.face)  # the Face action
+        pref_heading = np.where(moving, np.arctan2(unit[:, 1], unit[:, 0]), still)
         # commit
         self.cursor = cursor
         crowd.pref_vel = np.where(crowd.is_user[:, None], crowd.vel, pref_vel)
@@ -390,13 +404,16 @@ class Simulation:
         pref = self.steering.unstick(crowd.vel, crowd.pref_vel, crowd.is_user, self.stuck_time, self.dt)
         pref, short, to_user = self.encounters.steer(
             pos=crowd.pos, vel=crowd.vel, pref_vel=pref, radius=crowd.radius,
-            responsibility=crowd.responsibility, is_user=crowd.is_user, dt=self.dt)
+            responsibility=crowd.responsibility, is_user=crowd.is_user, dt=self.dt,
+            engaged=self.scheduler.engaged_with_user())
         saved = crowd.pref_vel
         crowd.pref_vel = pref
         if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)
             self.steering.set_moving_segments(self.doors.hinge, self.doors.tips())
         self._new_vel = self.steering.compute_velocities(crowd, self.dt)
         crowd.pref_vel = saved
+        self._pinned = self.scheduler.pinned()  # seated bodies do not slide (contacts move the others)
+        self._new_vel[self._pinned] = 0.0
         turn, torso = self.steering.turn_shoulders(crowd, self.dt, short_of_room=short, to_user=to_user)
         crowd.turn, crowd.torso = turn, torso
 
@@ -405,7 +422,8 @@ class Simulation:
         root, heading = self.body.animate(self.crowd, self._new_vel, self.dt, coupled=self.coupled)
         self.metrics.observe_user_contact(self.crowd, root)
         self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user,
-                                                    turn=self.crowd.turn, torso=self.crowd.torso)
+                                                    turn=self.crowd.turn, torso=self.crowd.torso,
+                                                    pinned=self._pinned)
         if len(self.doors):
             self._root = self._move_doors(self._root)
         self._root_heading = heading
@@ -425,7 +443,7 @@ class Simulation:
             self.metrics.door_push = max(self.metrics.door_push, float(np.hypot(*(pushed - root).T).max()))
         if not np.array_equal(pushed, root):  # a pushed disc may now press on another: settle once more
             root = self.steering.resolve_contacts(pushed, crowd.radius, crowd.is_user,
-                                                  turn=crowd.turn, torso=crowd.torso)
+                                                  turn=crowd.turn, torso=crowd.torso, pinned=self._pinned)
             root, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
         self.metrics.door_overlap = max(self.metrics.door_overlap, overlap)
         self.metrics.door_openings += int(np.count_nonzero(was_closed & (doors.phase != CLOSED)))
@@ -511,4 +529,5 @@ class Simulation:
             "user_spheres_total": None if self.user is None else int(self.user.route.shape[0]),
         })
         out.update(self.metrics.body_summary(slides=self.body.skate.slides(), steps=self.body.step_log))
+        out.update(self.scheduler.summary())
         return out

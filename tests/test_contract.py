@@ -3,7 +3,8 @@
 Each loads, runs 60 simulated seconds, stays finite, keeps every disc apart
 (no overlap > 1 cm), never overlaps the user, is deterministic, and agents
 reach goals; where there are doors, walkers push their leaves open and no leaf
-cuts into a walker.
+cuts into a walker; where there are events and smart objects (ADAPT §6), every
+triggered event runs to success and seats are sat on.
 """
 
 from __future__ import annotations
@@ -94,7 +95,8 @@ def test_user_follows_route(run: tuple[Path, Simulation]) -> None:
 
 
 @pytest.mark.parametrize("path", [p for p in _cases() if p.stem in ("antipodal_circle", "crossing-1",
-                                                                    "tradeshow")], ids=lambda p: p.stem)
+                                                                    "tradeshow", "shopping_mall")],
+                         ids=lambda p: p.stem)
 def test_deterministic(path: Path) -> None:
     a = _run(path, seed=5, seconds=10.0).recording.arrays()  # type: ignore[union-attr]
     b = _run(path, seed=5, seconds=10.0).recording.arrays()  # type: ignore[union-attr]
@@ -119,3 +121,25 @@ def test_door_leaves_move_and_never_cut_into_walkers(run: tuple[Path, Simulation
     # Walkers steer along open leaves; a leaf never has to shove a body more than 1 cm in a step
     # (shoving drags the body over its planted feet).
     assert float(s["door_push_max_m"]) <= 0.01, s  # type: ignore[arg-type]
+
+
+def _interaction_cases() -> list[Path]:
+    out = []
+    for p in _cases():
+        if p.suffix == ".toml":
+            b = load_any(p, seed=None).behavior
+            if b.events or b.objects or b.triggers:
+                out.append(p)
+    return out
+
+
+@pytest.mark.parametrize("run", _interaction_cases(), ids=lambda p: p.stem, indirect=True)
+def test_events_and_smart_objects_run(run: tuple[Path, Simulation]) -> None:
+    _, sim = run
+    s = sim.summary()
+    b = sim.scene.behavior
+    succeeded = {e["event"] for e in sim.scheduler.log if e["outcome"] == "succeeded"}
+    assert {t.event for t in b.triggers} <= succeeded, sim.scheduler.log  # every triggered event happened
+    assert s["events_failed"] == 0, sim.scheduler.log
+    if any(o.kind == "chair" for o in b.objects):
+        assert int(s["chair_sits"]) >= 1, s  # type: ignore[call-overload]

@@ -9,12 +9,18 @@ selector (:mod:`pedvr.behavior.goals`) and transitions out of it:
 * ``timer``: ``after`` seconds (drawn uniformly from ``[lo, hi]`` on entry)
   have passed since entering the state;
 * ``probability``: a Poisson event with ``rate`` per second, tested at each
-  decision tick.
+  decision tick;
+* ``success`` / ``failure``: the state's behavior tree (``tree``) ended so
+  (:mod:`pedvr.behavior.scheduler`; without such a transition the tree runs
+  again).
 
 Transitions are tested in the order the scene lists them; the first that
 fires wins. With several targets, the next state is drawn by ``weights``.
 Entering a ``final`` state marks the agent for removal (it has left the
 scene; SteerSuite agents leave at their last goal).
+
+Rows ``frozen`` by the scheduler (agents in a multi-actor event, or getting
+up from a seat) are not decided; the scheduler pauses their timers.
 
 Event checks are vectorised over agents; only agents whose transition fires
 run Python. All draws use the simulation's one rng, in row order, so a run
@@ -49,6 +55,11 @@ class BehaviorState:
     seq_index: np.ndarray  # (N,) int64 position in the goal sequence
     seq_until: np.ndarray  # (N,) float64 s: an idle/flow sequence entry ends then
     arrivals: np.ndarray  # (N,) int64 goals reached so far
+    # the behavior-tree layer (pedvr.behavior.scheduler, leaves):
+    face: np.ndarray  # (N,) float64 rad: preferred facing while standing, NaN for none (the Face action)
+    tree_state: np.ndarray  # (N,) int32: the state whose personal tree is running, -1 for none
+    tree_done: np.ndarray  # (N,) int8: the state's tree just ended: 1 success, 2 failure, 0 not
+    in_event: np.ndarray  # (N,) bool: claimed by a multi-actor event (its BFSM is frozen)
 
     @classmethod
     def rows(cls, n: int) -> BehaviorState:
@@ -61,6 +72,10 @@ class BehaviorState:
             seq_index=np.zeros(n, np.int64),
             seq_until=np.full(n, np.inf),
             arrivals=np.zeros(n, np.int64),
+            face=np.full(n, np.nan),
+            tree_state=np.full(n, -1, np.int32),
+            tree_done=np.zeros(n, np.int8),
+            in_event=np.zeros(n, np.bool_),
         )
 
     def append(self, other: BehaviorState) -> None:
@@ -137,12 +152,15 @@ class BFSM:
                 b.speed_scale[row] = s.speed_scale
 
     def decide(self, b: BehaviorState, *, t: float, dt: float, pos: np.ndarray,
-               rng: np.random.Generator, sequences: list[tuple[SequenceGoal, ...]]) -> Decision:
-        """One decision tick at time ``t`` (``dt`` since the last tick)."""
+               rng: np.random.Generator, sequences: list[tuple[SequenceGoal, ...]],
+               frozen: np.ndarray | None = None) -> Decision:
+        """One decision tick at time ``t`` (``dt`` since the last tick); ``frozen`` rows are skipped."""
         n = b.state.shape[0]
         goal_changed = np.zeros(n, np.bool_)
         leaving = np.zeros(n, np.bool_)
         active = b.state >= 0
+        if frozen is not None:
+            active &= ~frozen
         if not active.any():
             return Decision(goal_changed, leaving, 0)
         sid = np.where(active, b.state, 0)
@@ -152,8 +170,12 @@ class BFSM:
         # An idle/flow/flee sequence entry ends by time instead of distance.
         at_goal |= active & (t >= b.seq_until)
         timer = active & (t >= b.timer_end)
+        done = active & (b.tree_done != 0)
         candidates = np.flatnonzero(
-            at_goal | timer | (active & ~has_goal & self._idle_arrival[sid]) | (active & self._has_prob[sid]))
+            at_goal | timer | done | (active & ~has_goal & self._idle_arrival[sid])
+            | (active & self._has_prob[sid]))
+        tree_done = b.tree_done.copy()
+        b.tree_done[active] = 0
         arrived = 0
         for row in candidates.tolist():
             s = self._states[sid[row]]
@@ -171,6 +193,8 @@ class BFSM:
                     (tr.on == "arrival" and (at_goal[row] or (not has_goal[row] and s.goal is None)))
                     or (tr.on == "timer" and timer[row])
                     or (tr.on == "probability" and rng.random() < 1.0 - math.exp(-tr.rate * dt))
+                    or (tr.on == "success" and tree_done[row] == 1)
+                    or (tr.on == "failure" and tree_done[row] == 2)
                 )
                 if not fire:
                     continue

@@ -93,7 +93,7 @@ def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
 
 
 @parallel_kernel(fastmath={"nsz", "arcp", "contract"})
-def _corrections(cur, radius, fp_depth, facing, is_user, origin, cell, nx, ny, cell_start, order,
+def _corrections(cur, radius, fp_depth, facing, fixed, origin, cell, nx, ny, cell_start, order,
                  sorted_pos, vertices, nxt, prv, n_static, og_origin, og_cell, og_nx, og_ny,
                  og_cell_start, og_cell_edges, og_edge_cells, edge_scratch, corr, depth):
     n = cur.shape[0]
@@ -108,7 +108,7 @@ def _corrections(cur, radius, fp_depth, facing, is_user, origin, cell, nx, ny, c
             corr[i, 0] = 0.0
             corr[i, 1] = 0.0
             depth[i] = 0.0
-            if is_user[i]:
+            if fixed[i]:
                 continue
             px = cur[i, 0]
             py = cur[i, 1]
@@ -143,7 +143,7 @@ def _corrections(cur, radius, fp_depth, facing, is_user, origin, cell, nx, ny, c
                                 continue
                         ov = rr - d
                         worst = max(worst, ov)
-                        share = 1.0 if is_user[j] else 0.5
+                        share = 1.0 if fixed[j] else 0.5
                         if d > 1e-12:
                             ux = dx / d
                             uy = dy / d
@@ -294,10 +294,13 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
 
 
 @njit(cache=True)
-def contact_kernel(pos, radius, fp_depth, facing, is_user, vertices, nxt, prv, n_static, og_origin,
+def contact_kernel(pos, radius, fp_depth, facing, fixed, user, vertices, nxt, prv, n_static, og_origin,
                    og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, tolerance,
                    max_iterations, momentum, edge_scratch, out_pos):
     """Jacobi contact iterations; writes ``out_pos`` and returns ``(iterations, worst)``.
+
+    ``fixed`` rows never move (the user, seated bodies); ``user`` is the user's row (-1
+    without one), out of whose disc every other row, fixed or not, is projected.
 
     ``worst`` is the largest overlap left, or -1 when ``edge_scratch`` was too
     small for some agent's edges (retry with more room). After every iteration,
@@ -311,18 +314,15 @@ def contact_kernel(pos, radius, fp_depth, facing, is_user, vertices, nxt, prv, n
     if n == 0:
         return 0, 0.0
     rmax = 0.0
-    user = -1
     for i in range(n):
         rmax = max(rmax, radius[i])
-        if is_user[i] and user < 0:
-            user = i
     near = np.zeros(0, np.int64)
     if user >= 0:
         # Agents that can touch the user within this pass (pushes are a few cm per step).
         reach = radius[user] + rmax + 0.5
         cnt = 0
         for i in range(n):
-            if i != user and not is_user[i]:
+            if i != user:
                 dx = pos[i, 0] - pos[user, 0]
                 dy = pos[i, 1] - pos[user, 1]
                 if dx * dx + dy * dy < reach * reach:
@@ -330,7 +330,7 @@ def contact_kernel(pos, radius, fp_depth, facing, is_user, vertices, nxt, prv, n
         near = np.empty(cnt, np.int64)
         cnt = 0
         for i in range(n):
-            if i != user and not is_user[i]:
+            if i != user:
                 dx = pos[i, 0] - pos[user, 0]
                 dy = pos[i, 1] - pos[user, 1]
                 if dx * dx + dy * dy < reach * reach:
@@ -345,12 +345,12 @@ def contact_kernel(pos, radius, fp_depth, facing, is_user, vertices, nxt, prv, n
         origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(
             out_pos, 2.0 * rmax * 1.0001)
         if n >= PARALLEL_MIN_ROWS:
-            _corrections_par(out_pos, radius, fp_depth, facing, is_user, origin, cell, nx, ny,
+            _corrections_par(out_pos, radius, fp_depth, facing, fixed, origin, cell, nx, ny,
                              cell_start, order, sorted_pos, vertices, nxt, prv, n_static, og_origin, og_cell,
                              og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, edge_scratch,
                              corr, depth)
         else:
-            _corrections_ser(out_pos, radius, fp_depth, facing, is_user, origin, cell, nx, ny,
+            _corrections_ser(out_pos, radius, fp_depth, facing, fixed, origin, cell, nx, ny,
                              cell_start, order, sorted_pos, vertices, nxt, prv, n_static, og_origin, og_cell,
                              og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, edge_scratch,
                              corr, depth)
@@ -381,12 +381,13 @@ def resolve_contacts(pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray,
                      vertices: np.ndarray, nxt: np.ndarray, prv: np.ndarray,
                      grid: ObstacleGrid, *, depth: np.ndarray | None = None,
                      facing: np.ndarray | None = None, n_static: int | None = None,
-                     tolerance: float = DEFAULT_TOLERANCE,
+                     pinned: np.ndarray | None = None, tolerance: float = DEFAULT_TOLERANCE,
                      max_iterations: int = DEFAULT_ITERATIONS) -> np.ndarray:
     """Positions ``(N,2)`` after the contact pass; ``pos`` is not modified.
 
     The user row keeps its position exactly, and no agent is left inside the
-    user's disc. ``depth``/``facing`` are the footprints (:mod:`pedvr.crowd.footprint`;
+    user's disc. ``pinned`` rows (seated bodies) do not move either, except out of
+    the user's way. ``depth``/``facing`` are the footprints (:mod:`pedvr.crowd.footprint`;
     default: discs). Returns new positions; the largest remaining overlap is at most
     ``tolerance`` unless ``max_iterations`` ran out first (jams denser than discs
     can pack) or an agent is pinned between the user and a wall (it then overlaps
@@ -394,13 +395,16 @@ def resolve_contacts(pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray,
     """
     out = np.empty_like(pos)
     n = pos.shape[0]
+    users = np.flatnonzero(is_user)
+    user = int(users[0]) if users.size else -1
+    fixed = np.ascontiguousarray(is_user if pinned is None else (is_user | pinned), np.bool_)
     depth = np.ascontiguousarray(radius if depth is None else depth, np.float64)
     facing = np.ascontiguousarray(np.tile([1.0, 0.0], (n, 1)) if facing is None else facing, np.float64)
     cap = _EDGE_CAP
     chunks = 8
     while True:
         scratch = np.zeros((chunks, cap), np.int64)
-        _, worst = contact_kernel(pos, radius, depth, facing, is_user, vertices, nxt, prv,
+        _, worst = contact_kernel(pos, radius, depth, facing, fixed, user, vertices, nxt, prv,
                                   vertices.shape[0] if n_static is None else int(n_static), grid.origin,
                                   grid.cell, grid.shape[0], grid.shape[1], grid.cell_start,
                                   grid.cell_edges, grid.edge_cells, float(tolerance),

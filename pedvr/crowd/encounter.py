@@ -247,12 +247,13 @@ class UserEncounters:
         self.state.keep(mask)
 
     def steer(self, *, pos: np.ndarray, vel: np.ndarray, pref_vel: np.ndarray, radius: np.ndarray,
-              responsibility: np.ndarray, is_user: np.ndarray,
-              dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              responsibility: np.ndarray, is_user: np.ndarray, dt: float,
+              engaged: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Advance the encounters one step; return ``(pref_vel, short_of_room, facing)``:
         preferred velocities with each agent's share taken, ``(N,)`` bool, and ``(N,2)``
         unit torso facings for the rows short of room (across the passing line).
-        Without a user row everything passes through unchanged."""
+        Without a user row everything passes through unchanged, and so do ``engaged`` rows
+        (agents interacting with the user in a behavior event: they have no encounter)."""
         n = pos.shape[0]
         out = np.array(pref_vel, np.float64, copy=True)
         short = np.zeros(n, np.bool_)
@@ -268,4 +269,8 @@ class UserEncounters:
                          int(users[0]), self.personal_space, self.safety_horizon, float(dt),
                          self.edge_a, self.edge_b, s.on, s.axis, s.miss0, s.need, s.user_shift,
                          s.user_v0, out, short, to_user)
+        if engaged is not None and engaged.any():
+            s.on[engaged] = False
+            out[engaged] = pref_vel[engaged]
+            short[engaged] = False
         return out, short, to_user

@@ -276,25 +276,29 @@ class Steering:
 
     def resolve_contacts(self, pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray, *,
                          turn: np.ndarray | None = None, torso: np.ndarray | None = None,
+                         pinned: np.ndarray | None = None,
                          tolerance: float = _contact.DEFAULT_TOLERANCE,
                          max_iterations: int = _contact.DEFAULT_ITERATIONS) -> np.ndarray:
         """New positions ``(N,2)`` with overlaps pushed apart (see :mod:`pedvr.crowd.contact`).
 
         The user row never moves; agents take the whole correction against the
         user and against obstacle edges, and are never left inside the user.
-        ``turn``/``torso`` give the footprints (default: discs).
+        ``turn``/``torso`` give the footprints (default: discs). ``pinned`` rows (seated
+        bodies) do not move, except out of the user's way.
         """
         n = pos.shape[0] if isinstance(pos, np.ndarray) else -1
         pos = _check("pos", pos, (n, 2), np.float64)
         radius = _check("radius", radius, (n,), np.float64)
         is_user = _check("is_user", is_user, (n,), np.bool_)
+        if pinned is not None:
+            pinned = _check("pinned", pinned, (n,), np.bool_)
         depth = facing = None
         if turn is not None and torso is not None:
             depth, facing = _fp.footprint_arrays(radius, _check("turn", turn, (n,), np.float64),
                                                  _check("torso", torso, (n,), np.float64))
         return _contact.resolve_contacts(pos, radius, is_user, self._verts, self._next,
                                          self._prev, self.obstacle_grid, depth=depth, facing=facing,
-                                         n_static=self._n_static, tolerance=tolerance,
+                                         n_static=self._n_static, pinned=pinned, tolerance=tolerance,
                                          max_iterations=max_iterations)
 
     # ------------------------------------------------------------------ deadlocks

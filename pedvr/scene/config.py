@@ -15,6 +15,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
+from pedvr.behavior.spec import EventDef, ObjectDef, TreeDef, TriggerDef
+
 Vec2 = tuple[float, float]
 
 CONDITIONS = ("decoupled", "pedvr", "pedvr+g")
@@ -156,6 +158,7 @@ class StateConfig:
     final: bool = False  # entering a final state removes the agent (it has left)
     # PedVR §4.3: the gesture set of this state, (clip names, weights); None: the body's defaults
     gestures: tuple[tuple[str, ...], tuple[float, ...]] | None = None
+    tree: str | None = None  # a personal behavior tree run while in this state (pedvr.behavior.scheduler)
 
 
 @dataclass(frozen=True)
@@ -172,6 +175,11 @@ class BehaviorConfig:
     states: dict[str, StateConfig]
     goal_sets: dict[str, GoalSet] = field(default_factory=dict)
     decision_hz: float = 30.0
+    # ADAPT §6: parameterized trees, multi-actor events, smart objects, triggers (pedvr.behavior)
+    trees: dict[str, TreeDef] = field(default_factory=dict)
+    events: dict[str, EventDef] = field(default_factory=dict)
+    objects: tuple[ObjectDef, ...] = ()
+    triggers: tuple[TriggerDef, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from typing import Any
 
 from shapely.geometry import Point, Polygon, box
 
+from pedvr.behavior.declare import Interactions
 from pedvr.behavior.goals import selectors, validate_params
 from pedvr.errors import SceneError
 from pedvr.scene.config import (
@@ -42,7 +43,8 @@ from pedvr.scene.config import (
 from pedvr.validation import MISSING, Checker, is_num
 
 OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter")
-TRANSITION_EVENTS = ("arrival", "timer", "probability")
+# success / failure: the state's behavior tree ended so (pedvr.behavior.scheduler)
+TRANSITION_EVENTS = ("arrival", "timer", "probability", "success", "failure")
 
 
 class _Checker(Checker):
@@ -162,7 +164,7 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
     gaze_speed = c.number(gaze, "speed", "gaze.speed", required=False, default=2.0,
                           check=lambda x: x > 0, expect="> 0 m/s")
 
-    behavior = _behavior(c, c.table(data, "behavior", "behavior", required=True) or {})
+    behavior = _behavior(c, c.table(data, "behavior", "behavior", required=True) or {}, world)
     agents = c.table(data, "agents", "agents", required=True) or {}
     c.known(agents, "agents", ("profiles", "spawns"))
     profiles = _profiles(c, c.table(agents, "profiles", "agents.profiles", required=True) or {})
@@ -426,8 +428,8 @@ def _profiles(c: _Checker, raw: dict[str, Any]) -> dict[str, AgentProfile]:
     return out
 
 
-def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
-    c.known(b, "behavior", ("decision_hz", "goal_sets", "states"))
+def _behavior(c: _Checker, b: dict[str, Any], world: WorldConfig | None) -> BehaviorConfig | None:
+    c.known(b, "behavior", ("decision_hz", "goal_sets", "states", "trees", "events", "objects", "triggers"))
     hz = c.number(b, "decision_hz", "behavior.decision_hz", required=False, default=30.0,
                   check=lambda x: 0 < x <= 1000, expect="in (0, 1000] Hz")
     goal_sets: dict[str, GoalSet] = {}
@@ -447,6 +449,7 @@ def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
             continue
         goal_sets[gname] = GoalSet(gname, pts, tuple(float(x) for x in w))
 
+    inter = Interactions(c, b, goal_sets=frozenset(goal_sets), blocked=_blocked(world))
     states_raw = c.table(b, "states", "behavior.states", required=True) or {}
     if not states_raw:
         c.bad("behavior.states", "{}", "expected at least one state")
@@ -456,7 +459,8 @@ def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
         if not isinstance(s, dict):
             c.bad(path, s, "expected a table")
             continue
-        c.known(s, path, ("goal", "transitions", "speed_scale", "arrive_dist", "final", "gestures"))
+        c.known(s, path, ("goal", "transitions", "speed_scale", "arrive_dist", "final", "gestures", "tree"))
+        tree = inter.state_tree(s, path)
         gestures = _gestures(c, s.get("gestures", MISSING), f"{path}.gestures")
         goal = _goal(c, s.get("goal", MISSING), f"{path}.goal", goal_sets)
         trans = []
@@ -473,11 +477,16 @@ def _behavior(c: _Checker, b: dict[str, Any]) -> BehaviorConfig | None:
         arrive = c.number(s, "arrive_dist", f"{path}.arrive_dist", required=False, default=0.3,
                           check=lambda x: x > 0, expect="> 0 m")
         final = c.boolean(s, "final", f"{path}.final", default=False)
+        for i, tr in enumerate(trans):
+            if tr.on in ("success", "failure") and "tree" not in s:
+                c.bad(f"{path}.transitions[{i}].on", tr.on, "only a state with a tree takes this transition")
         if "goal" in s:
-            states[sname] = StateConfig(name=sname, goal=goal, transitions=tuple(trans),
+            states[sname] = StateConfig(name=sname, goal=goal, transitions=tuple(trans), tree=tree,
                                         speed_scale=speed_scale or 1.0, arrive_dist=arrive or 0.3,
                                         final=final, gestures=gestures)
-    return BehaviorConfig(states=states, goal_sets=goal_sets, decision_hz=hz or 30.0)
+    triggers = inter.triggers(b.get("triggers", MISSING), set(states_raw))
+    return BehaviorConfig(states=states, goal_sets=goal_sets, decision_hz=hz or 30.0, trees=inter.trees,
+                          events=inter.events, objects=inter.objects, triggers=triggers)
 
 
 def _gestures(c: _Checker, g: object, path: str) -> tuple[tuple[str, ...], tuple[float, ...]] | None:
