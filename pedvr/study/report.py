@@ -261,6 +261,7 @@ def _fig_levels(title: str, panels: list[tuple[str, list[str], dict[str, Any]]],
         ax.set_xlim(-0.5, len(levels) - 0.5)
         ax.set_title(name, fontsize=8)
         ax.tick_params(axis="y", labelsize=7)
+        ax.ticklabel_format(axis="y", useOffset=False)  # values as they are, not "1e-5 + 4.95e-1"
     fig.suptitle(f"{title} (mean ± SD)", fontsize=10)
     fig.tight_layout()
     _save(fig, path)
@@ -458,6 +459,13 @@ def _levels_table(
     )
 
 
+def _scoring_title(qs: dict[str, Any], qid: str) -> str:
+    from pedvr.study.scoring import scorers
+
+    name = qs["scoring"].get(qid, "")
+    return scorers[name].title if name in scorers else name
+
+
 def _questionnaires(doc: _Doc, result: dict[str, Any]) -> None:
     qs = result.get("questionnaires")
     if not qs or not (qs["by_block"] or qs["once"]):
@@ -475,7 +483,7 @@ def _questionnaires(doc: _Doc, result: dict[str, Any]) -> None:
         for block, b in blocks.items():
             named = [(SCORE_LABELS.get(k, k), v) for k, v in b["scores"].items()]
             doc.add(
-                Heading(3, f"{qid} ({qs['scoring'].get(qid, '')} scoring), {block}"),
+                Heading(3, f"{qid} ({_scoring_title(qs, qid)}), {block}"),
                 _levels_table("score", b["levels"], named, 2),
                 Bullets(tuple(_tests_line(n, r) for n, r in named)),
             )

@@ -218,6 +218,10 @@ class StudyStore:
             except sqlite3.DatabaseError as exc:
                 db.close()
                 last = exc
+                # Only a file SQLite cannot open read-only in place (no WAL index can be made beside it)
+                # is read as immutable; anything else (not a database, locked) is reported as it is.
+                if not any(w in str(exc) for w in ("readonly", "read-only", "unable to open")):
+                    break
         if isinstance(last, sqlite3.OperationalError):
             raise StudyStoreError(f"{self.path}: cannot open the study database to read it ({last})")
         raise StudyStoreError(f"{self.path}: not a SQLite database ({last})")

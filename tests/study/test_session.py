@@ -325,3 +325,10 @@ def test_not_a_study_database(tmp_path: Path) -> None:
     g.write_bytes(b"this is not sqlite at all, just some bytes" * 100)
     with pytest.raises(StudyStoreError, match=r"junk\.sqlite: not a SQLite database"):
         StudyStore(g)
+    # the same answers when opened read-only, as analysis and export do
+    with pytest.raises(StudyStoreError, match=r"junk\.sqlite: not a SQLite database"):
+        StudyStore(g, read_only=True)
+    with pytest.raises(StudyStoreError, match=r"other\.sqlite: a SQLite database, but not a pedvr study database"):
+        StudyStore(f, read_only=True)
+    with pytest.raises(StudyStoreError, match=r"missing\.sqlite: no such study database"):
+        StudyStore(tmp_path / "missing.sqlite", read_only=True)
