@@ -213,56 +213,47 @@ def yaw_of(qw: np.ndarray, qx: np.ndarray, qy: np.ndarray, qz: np.ndarray) -> np
 
 
 def load_trials(store: StudyStore, trial_ids: list[int] | None = None) -> Iterator[TrialRecord]:
-    """The recording of every trial (or of ``trial_ids``), in trial order."""
+    """The recording of every trial (or of ``trial_ids``), in trial order.
+
+    One trial's samples are read at a time (the ``samples`` key is ``(trial_id, frame)``), so a large
+    study needs the memory of its longest trial, not of all of them.
+    """
     where = "" if trial_ids is None else f" WHERE trial_id IN ({','.join(str(int(t)) for t in trial_ids)})"
-    trials = pd.read_sql_query(
-        f"SELECT trial_id, outcome, sim_time_s FROM trials{where} ORDER BY trial_id", store.db
+    trials = store.db.execute(f"SELECT trial_id, outcome, sim_time_s FROM trials{where} ORDER BY trial_id")
+    gaze = dict(
+        store.db.execute(
+            "SELECT trial_id, COUNT(*) FROM gaze_events WHERE event = 'start' AND target = 'user' "
+            "GROUP BY trial_id"
+        ).fetchall()
     )
-    if trials.empty:
-        return
-    ids = ",".join(str(int(t)) for t in trials["trial_id"])
-    s = pd.read_sql_query(
-        "SELECT trial_id, sim_t, head_x, head_y, head_qw, head_qx, head_qy, head_qz, nearest_agent_m, "
-        "spheres "
-        f"FROM samples WHERE trial_id IN ({ids}) ORDER BY trial_id, frame",
-        store.db,
-    )
-    c = pd.read_sql_query(
-        "SELECT trial_id, frame, agent_a, agent_b, overlap_m FROM contacts "
-        f"WHERE with_user = 1 AND trial_id IN ({ids}) "
-        "ORDER BY trial_id, frame",
-        store.db,
-    )
-    g = pd.read_sql_query(
-        f"SELECT trial_id, COUNT(*) AS n FROM gaze_events WHERE event = 'start' AND target = 'user' "
-        f"AND trial_id IN ({ids}) GROUP BY trial_id",
-        store.db,
-    )
-    gaze = dict(zip(g["trial_id"].astype(int), g["n"].astype(int), strict=True))
-    by_trial = {int(k): v for k, v in s.groupby("trial_id", sort=False)}
-    contacts = {int(k): v for k, v in c.groupby("trial_id", sort=False)}
-    empty = pd.DataFrame(columns=s.columns)
-    for row in trials.itertuples(index=False):
-        tid = int(row.trial_id)
-        x = by_trial.get(tid, empty)
-        cc = contacts.get(tid)
-
-        def f(col: str, x: pd.DataFrame = x) -> np.ndarray:
-            return x[col].to_numpy(dtype=float)
-
+    for tid, outcome, sim_time_s in trials.fetchall():
+        x = np.asarray(
+            store.db.execute(
+                "SELECT sim_t, head_x, head_y, head_qw, head_qx, head_qy, head_qz, nearest_agent_m, spheres "
+                "FROM samples WHERE trial_id = ? ORDER BY frame",
+                (tid,),
+            ).fetchall(),
+            dtype=float,
+        ).reshape(-1, 9)  # None (NULL) becomes NaN
+        contacts = np.asarray(
+            store.db.execute(
+                "SELECT frame, agent_a, agent_b, overlap_m FROM contacts "
+                "WHERE trial_id = ? AND with_user = 1 ORDER BY frame",
+                (tid,),
+            ).fetchall(),
+            dtype=float,
+        ).reshape(-1, 4)
         yield TrialRecord(
-            trial_id=tid,
-            outcome=None if pd.isna(row.outcome) else str(row.outcome),
-            sim_time_s=None if pd.isna(row.sim_time_s) else float(row.sim_time_s),
-            t=f("sim_t"),
-            head_xy=np.column_stack([f("head_x"), f("head_y")]),
-            head_yaw=yaw_of(f("head_qw"), f("head_qx"), f("head_qy"), f("head_qz")),
-            nearest_agent_m=f("nearest_agent_m"),
-            spheres=f("spheres"),
-            user_contacts=np.zeros((0, 4))
-            if cc is None
-            else cc[["frame", "agent_a", "agent_b", "overlap_m"]].to_numpy(dtype=float),
-            gaze_starts=gaze.get(tid, 0),
+            trial_id=int(tid),
+            outcome=None if outcome is None else str(outcome),
+            sim_time_s=None if sim_time_s is None else float(sim_time_s),
+            t=x[:, 0],
+            head_xy=x[:, 1:3],
+            head_yaw=yaw_of(x[:, 3], x[:, 4], x[:, 5], x[:, 6]),
+            nearest_agent_m=x[:, 7],
+            spheres=x[:, 8],
+            user_contacts=contacts,
+            gaze_starts=int(gaze.get(tid, 0)),
         )
 
 

@@ -4,6 +4,7 @@ databases, moved study folders, and one-line errors for bad output paths."""
 from __future__ import annotations
 
 import hashlib
+import json
 import shutil
 import sqlite3
 from pathlib import Path
@@ -16,6 +17,7 @@ from pedvr.study.console import ScriptedKeys
 from pedvr.study.errors import StudyStoreError
 from pedvr.study.export import export_study
 from pedvr.study.presenter import SimulatedParticipant
+from pedvr.study.protocol import scene_path
 from pedvr.study.store import SCHEMA_VERSION, StudyStore
 
 from .conftest import DATA, ROOT, InterruptingParticipant, run_session
@@ -249,3 +251,19 @@ def test_resume_with_a_changed_scene_or_protocol_says_what_differs(tmp_path: Pat
     lines = str(exc.value).splitlines()
     assert lines[0].startswith("participant P01 started with protocol ") and "resume with the original protocol" in lines[0]
     assert lines[1:] == ["step 2 (training): trial.time_limit_s was 0.3, the protocol now gives 0.4"]
+
+
+def test_a_participant_started_before_relative_scene_references_still_resumes(tmp_path: Path) -> None:
+    proto = _study_folder(tmp_path / "walk")
+    db = proto.parent / "walk.sqlite"
+    with StudyStore(db) as store:
+        run_session(proto, store, "P01", keys=ScriptedKeys([None] * 6 + ["a", "yes"]))
+        # what schema 2 stored: the scene as an absolute path (a shipped one too), no content hash
+        for r in store.query("SELECT step_index, spec FROM steps WHERE kind = 'trial'"):
+            spec = json.loads(r["spec"])
+            spec["trial"]["scene"] = str(scene_path(spec["trial"]["scene"], proto.parent))
+            del spec["trial"]["scene_hash"]
+            store.db.execute("UPDATE steps SET spec = ? WHERE participant = 'P01' AND step_index = ?",
+                             (json.dumps(spec, sort_keys=True), r["step_index"]))
+        result, _ = run_session(proto, store, "P01", resume=True)
+        assert result.status == "finished"
