@@ -13,6 +13,12 @@
 
 from __future__ import annotations
 
-from pedvr.study.errors import AnswerError, ParticipantExistsError, ProtocolError, StudyStoreError
+from pedvr.study.errors import (
+    AnswerError,
+    OutputError,
+    ParticipantExistsError,
+    ProtocolError,
+    StudyStoreError,
+)
 
-__all__ = ["AnswerError", "ParticipantExistsError", "ProtocolError", "StudyStoreError"]
+__all__ = ["AnswerError", "OutputError", "ParticipantExistsError", "ProtocolError", "StudyStoreError"]

@@ -35,8 +35,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from pedvr.study.errors import AnswerError, StudyStoreError
-from pedvr.study.questionnaire import SSQ_ITEMS, score_ssq
+from pedvr.study.errors import AnswerError, ProtocolError, StudyStoreError
+from pedvr.study.questionnaire import SSQ_ITEMS, Questionnaire, parse_questionnaire, score_ssq
+from pedvr.study.scoring import score_answers
 from pedvr.study.store import open_store
 
 RESPONSE_COLUMNS = ("participant", "scenario", "comparison", "question", "response")
@@ -131,7 +132,7 @@ def responses_from_db(db: str | Path) -> tuple[pd.DataFrame, list[str]]:
     """The recoded pairwise answers and the protocol's comparison order (Table 3's)."""
     from pedvr.study.export import responses_frame
 
-    with open_store(db, must_exist=True) as store:
+    with open_store(db, read_only=True) as store:
         df = responses_frame(store)
         order = store.meta("comparisons") or []
     df["response"] = df["response"].astype(np.int64)
@@ -224,40 +225,72 @@ def comparison_stats(g: pd.DataFrame) -> dict[str, Any]:
     return out
 
 
-def scenario_tests(idx: pd.DataFrame, comparisons: list[str]) -> dict[str, Any]:
-    """RM-ANOVA (Mauchly, GG), Bonferroni post hoc and Friedman over ``comparisons`` of one scenario."""
+def within_tests(long: pd.DataFrame, levels: list[str]) -> dict[str, Any]:
+    """Within-subjects tests of ``value`` over ``levels`` (``long``: columns subject, level, value).
+
+    Per level the mean, SD and n; then over the subjects who have every level
+    (listwise, as SPSS does; the others are listed under ``excluded``): a
+    one-way repeated-measures ANOVA with Mauchly's test and the
+    Greenhouse–Geisser correction, Bonferroni-corrected paired post hoc tests
+    and a Friedman test. A subject with several values at one level (a trial
+    run twice) counts with their mean. Tests need at least 2 levels and 3
+    complete subjects; where every subject has the same value at every level
+    there is nothing to test (``note`` says so and the tests are None).
+    """
     import pingouin as pg
 
-    wide = idx.pivot_table(index="participant", columns="comparison", values="index", aggfunc="first")
-    wide = wide.reindex(columns=comparisons)
+    wide = long.pivot_table(index="subject", columns="level", values="value", aggfunc="mean")
+    wide = wide.reindex(columns=levels)
     complete = wide.dropna()
-    excluded = sorted(set(wide.index) - set(complete.index))
-    out: dict[str, Any] = {"n": int(complete.shape[0]), "excluded": excluded, "comparison_order": comparisons}
-    if len(comparisons) < 2 or complete.shape[0] < 3:
-        out["rm_anova"] = out["posthoc_bonferroni"] = out["friedman"] = None
-        out["note"] = "needs at least 2 comparisons and 3 participants with all of them"
+    excluded = sorted(str(s) for s in set(wide.index) - set(complete.index))
+    out: dict[str, Any] = {
+        "levels": {
+            str(lv): {
+                "n": int(wide[lv].notna().sum()),
+                "mean": _f(wide[lv].mean()),
+                "sd": _f(wide[lv].std(ddof=1)) if wide[lv].notna().sum() > 1 else None,
+            }
+            for lv in levels
+        },
+        "n": int(complete.shape[0]),
+        "excluded": excluded,
+        "level_order": levels,
+        "rm_anova": None,
+        "posthoc_bonferroni": None,
+        "friedman": None,
+    }
+    if len(levels) < 2 or complete.shape[0] < 3:
+        have = complete.shape[0]
+        out["note"] = f"needs at least 2 levels and 3 participants with all of them (have {have})"
         return out
-    long = complete.reset_index().melt(id_vars="participant", var_name="comparison", value_name="index")
-    with warnings.catch_warnings():  # pingouin 0.7 calls a pandas API deprecated in pandas 3.1
-        warnings.filterwarnings("ignore", module="pingouin")
+    y = complete.to_numpy(dtype=float)
+    if np.allclose(y, y[:, :1]):
+        out["note"] = "no differences to test: every participant has the same value at every level"
+        return out
+    long_c = complete.reset_index().melt(id_vars="subject", var_name="level", value_name="value")
+    with warnings.catch_warnings():  # pingouin 0.7 calls a pandas API deprecated in pandas 3.1; NaN warnings
+        warnings.simplefilter("ignore")
         aov = pg.rm_anova(
-            data=long, dv="index", within="comparison", subject="participant", correction=True, detailed=True
+            data=long_c, dv="value", within="level", subject="subject", correction=True, detailed=True
         )
+        ph = pg.pairwise_tests(data=long_c, dv="value", within="level", subject="subject", padjust="bonf")
+        fr = pg.friedman(data=long_c, dv="value", within="level", subject="subject")
     eff, err = aov.iloc[0], aov.iloc[1]
-    k = len(comparisons)
+    k = len(levels)
     eps = _f(eff.get("eps")) if "eps" in aov.columns else 1.0
     if k == 2:
         eps = 1.0
     df1, df2 = float(eff["DF"]), float(err["DF"])
     p_gg = _f(eff["p_GG_corr"]) if "p_GG_corr" in aov.columns else _f(eff["p_unc"])
+    ss_e, ss_r = float(eff["SS"]), float(err["SS"])
     out["rm_anova"] = {
         "F": _f(eff["F"]),
         "df1": df1,
         "df2": df2,
         "p": _f(eff["p_unc"]),
-        "ss_effect": _f(eff["SS"]),
-        "ss_error": _f(err["SS"]),
-        "partial_eta_squared": _f(eff["SS"] / (eff["SS"] + err["SS"])),
+        "ss_effect": _f(ss_e),
+        "ss_error": _f(ss_r),
+        "partial_eta_squared": _f(ss_e / (ss_e + ss_r)) if ss_e + ss_r > 0 else None,
         "generalized_eta_squared": _f(eff["ng2"]),
         "mauchly_W": _f(eff["W_spher"]) if "W_spher" in aov.columns else None,
         "mauchly_p": _f(eff["p_spher"]) if "p_spher" in aov.columns else None,
@@ -267,7 +300,9 @@ def scenario_tests(idx: pd.DataFrame, comparisons: list[str]) -> dict[str, Any]:
         "df2_gg": df2 * (eps or 1.0),
         "p_gg": p_gg,
     }
-    ph = pg.pairwise_tests(data=long, dv="index", within="comparison", subject="participant", padjust="bonf")
+    if out["rm_anova"]["F"] is None:
+        out["rm_anova"] = None
+        out["note"] = "no ANOVA: no variation left within participants (F undefined)"
     out["posthoc_bonferroni"] = [
         {
             "a": str(r["A"]),
@@ -280,13 +315,26 @@ def scenario_tests(idx: pd.DataFrame, comparisons: list[str]) -> dict[str, Any]:
         }
         for _, r in ph.iterrows()
     ]
-    fr = pg.friedman(data=long, dv="index", within="comparison", subject="participant")
-    out["friedman"] = {
-        "Q": _f(fr["Q"].iloc[0]),
-        "dof": int(fr["ddof1"].iloc[0]),
-        "p": _f(fr["p_unc"].iloc[0]),
-        "kendall_W": _f(fr["W"].iloc[0]),
-    }
+    q = _f(fr["Q"].iloc[0])
+    out["friedman"] = (
+        None
+        if q is None
+        else {
+            "Q": q,
+            "dof": int(fr["ddof1"].iloc[0]),
+            "p": _f(fr["p_unc"].iloc[0]),
+            "kendall_W": _f(fr["W"].iloc[0]),
+        }
+    )
+    return out
+
+
+def scenario_tests(idx: pd.DataFrame, comparisons: list[str]) -> dict[str, Any]:
+    """RM-ANOVA (Mauchly, GG), Bonferroni post hoc and Friedman over ``comparisons`` of one scenario."""
+    long = idx.rename(columns={"participant": "subject", "comparison": "level", "index": "value"})
+    out = within_tests(long[["subject", "level", "value"]], comparisons)
+    out.pop("levels")
+    out["comparison_order"] = out.pop("level_order")
     return out
 
 
@@ -328,9 +376,64 @@ def analyze_responses(df: pd.DataFrame, *, comparison_order: list[str] | None = 
     return result
 
 
+SSQ_SCORES = ("nausea", "oculomotor", "disorientation", "total")
+
+
+def paired_change(before: np.ndarray, after: np.ndarray) -> dict[str, Any]:
+    """Paired tests of ``after`` against ``before`` (same participants, same order).
+
+    ``t``: Student's paired t-test with Cohen's d_z (mean change / SD of the
+    changes) and the 95 % CI of the mean change; ``wilcoxon``: the
+    Wilcoxon signed-rank test (scipy's default: zero changes dropped, exact
+    p for small samples without ties, else the normal approximation) with
+    the matched-pairs rank-biserial correlation r = (W+ − W−) / (W+ + W−) as
+    its effect size. Either is None where undefined (fewer than 2 pairs, no
+    variation in the changes, or only zero changes).
+    """
+    from scipy import stats
+
+    d = np.asarray(after, dtype=float) - np.asarray(before, dtype=float)
+    out: dict[str, Any] = {
+        "n": int(d.size),
+        "mean_change": _f(d.mean()) if d.size else None,
+        "t": None,
+        "wilcoxon": None,
+    }
+    if d.size >= 2 and float(d.std(ddof=1)) > 0:
+        t = stats.ttest_rel(after, before)
+        ci = t.confidence_interval(0.95)
+        out["t"] = {
+            "t": _f(t.statistic),
+            "dof": int(d.size - 1),
+            "p": _f(t.pvalue),
+            "cohen_dz": _f(d.mean() / d.std(ddof=1)),
+            "ci95": [_f(ci.low), _f(ci.high)],
+        }
+    nz = d[d != 0]
+    if nz.size >= 1:
+        ranks = stats.rankdata(np.abs(nz))
+        w_plus, w_minus = float(ranks[nz > 0].sum()), float(ranks[nz < 0].sum())
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # scipy warns that the normal approximation is inexact for n < 10
+            w = stats.wilcoxon(after, before)
+        out["wilcoxon"] = {
+            "W": _f(w.statistic),
+            "p": _f(w.pvalue),
+            "n_nonzero": int(nz.size),
+            "rank_biserial": _f((w_plus - w_minus) / (w_plus + w_minus)),
+        }
+    return out
+
+
 def ssq_scores(db: str | Path) -> dict[str, Any]:
-    """SSQ scores per participant: the first administration (before), the last (after), and the change."""
-    with open_store(db, must_exist=True) as store:
+    """SSQ scores per participant: the first administration (before), the last (after), and the change.
+
+    ``summary`` has the mean, SD and n of each subscale and the total before,
+    after and of the change; ``tests`` the paired tests of after against
+    before (:func:`paired_change`) per subscale and the total, over the
+    participants with both administrations complete.
+    """
+    with open_store(db, read_only=True) as store:
         df = pd.read_sql_query(
             "SELECT participant, step_index, item_number, raw_value FROM answers "
             "WHERE questionnaire_kind = 'ssq' ORDER BY participant, step_index, item_number",
@@ -368,7 +471,14 @@ def ssq_scores(db: str | Path) -> dict[str, Any]:
                 }
                 for k in rows[0]
             }
-    return {"participants": per, "summary": summary, "incomplete_administrations": incomplete}
+    both = [r for r in per if "after" in r]
+    tests = {
+        k: paired_change(
+            np.asarray([r["before"][k] for r in both]), np.asarray([r["after"][k] for r in both])
+        )
+        for k in SSQ_SCORES
+    } if both else {}
+    return {"participants": per, "summary": summary, "tests": tests, "incomplete_administrations": incomplete}
 
 
 REFERENCE_RUN_M = 1.0  # m of initial travel that set a walker's reference direction
@@ -420,10 +530,14 @@ def corridor_trajectories(db: str | Path) -> dict[str, Any]:
 
     Per trial: minimum centre distance between the user and the agent that
     came closest, each one's lateral deviation from its initial line of
-    travel (:meth:`_Walk.lateral_deviation`), and who gave way. Trials skipped, aborted or
-    interrupted are left out. ``trajectories`` keeps the (x, y) paths for plots.
+    travel (:meth:`_Walk.lateral_deviation`), who gave way, and the contacts
+    between the participant and an agent (episodes, :mod:`pedvr.study.measures`).
+    Trials skipped, aborted or interrupted are left out. ``trajectories``
+    keeps the (x, y) paths for plots, in time order (the first point is the start).
     """
-    with open_store(db, must_exist=True) as store:
+    from pedvr.study.measures import load_trials, measures
+
+    with open_store(db, read_only=True) as store:
         trials = pd.read_sql_query(
             "SELECT trial_id, participant, scenario, responsibility, outcome FROM trials "
             "WHERE design = 'sweep' AND outcome IN ('reached_last_sphere', 'time_limit') ORDER BY trial_id",
@@ -431,6 +545,10 @@ def corridor_trajectories(db: str | Path) -> dict[str, Any]:
         )
         rows: list[dict[str, Any]] = []
         paths: list[dict[str, Any]] = []
+        contacts = {
+            r.trial_id: measures["contacts"].compute(r)
+            for r in load_trials(store, [int(t) for t in trials["trial_id"]])
+        }
         for t in trials.itertuples(index=False):
             a = pd.read_sql_query(
                 "SELECT frame, agent_id, is_user, x, y FROM agent_samples WHERE trial_id = ? "
@@ -460,6 +578,7 @@ def corridor_trajectories(db: str | Path) -> dict[str, Any]:
                     "user_lateral_deviation_m": ud,
                     "agent_lateral_deviation_m": ad,
                     "gave_way": who_gave_way(ud, ad),
+                    "contacts": contacts.get(int(t.trial_id)),
                 }
             )
             paths.append(
@@ -486,12 +605,275 @@ def corridor_trajectories(db: str | Path) -> dict[str, Any]:
             "gave_way": {
                 w: sum(r["gave_way"] == w for r in rr) for w in ("user", "agent", "both", "neither")
             },
+            "contacts": int(sum(r["contacts"] or 0 for r in rr)),
+            "trials_with_contact": int(sum(1 for r in rr if (r["contacts"] or 0) > 0)),
         }
     return {"trials": rows, "by_responsibility": by, "trajectories": paths}
 
 
+# -- questionnaire scores, objective measures, the sample -----------------------------------------
+
+
+def _questionnaire_definitions(store: Any) -> dict[str, Questionnaire]:
+    """The questionnaires the database's sessions stored (meta ``questionnaire_files``), parsed."""
+    import tomllib
+
+    out: dict[str, Questionnaire] = {}
+    for qid, text in (store.meta("questionnaire_files") or {}).items():
+        try:
+            out[qid] = parse_questionnaire(tomllib.loads(text), source=f"{store.path} (stored {qid})")
+        except (ProtocolError, tomllib.TOMLDecodeError):
+            continue  # a definition this pedvr cannot read: scored like an unknown likert questionnaire
+    return out
+
+
+def questionnaire_scores(db: str | Path) -> dict[str, Any]:
+    """Scores of every scored questionnaire administration, compared across conditions.
+
+    A questionnaire is scored by its published scoring (:mod:`pedvr.study.scoring`,
+    from the definition the session stored in the database); a likert
+    questionnaire with no stored definition by the mean of its recoded items.
+    ``administrations`` has one row per (participant, step): the
+    questionnaire, block, scenario, condition, label and its scores.
+    ``by_block`` compares each score across the conditions of each block in
+    which the questionnaire followed every trial (``after_each_trial``) with
+    :func:`within_tests`; ``once`` describes questionnaires given without a
+    condition (mean, SD, n per score).
+    """
+    with open_store(db, read_only=True) as store:
+        defs = _questionnaire_definitions(store)
+        ans = pd.read_sql_query(
+            "SELECT participant, step_index, questionnaire, questionnaire_kind, item, block, scenario, "
+            "condition, "
+            "label, raw_value, recoded_value, text FROM answers "
+            "WHERE questionnaire_kind IN ('likert', 'form') ORDER BY participant, step_index, answer_id",
+            store.db,
+        )
+    rows: list[dict[str, Any]] = []
+    scorers_used: dict[str, str] = {}
+    for (pid, step), g in ans.groupby(["participant", "step_index"], sort=False):
+        qid = str(g["questionnaire"].iloc[0])
+        q = defs.get(qid)
+        if q is not None and q.scoring:
+            answers: dict[str, float | str | None] = {}
+            for r in g.itertuples(index=False):
+                text = str(r.text) if pd.notna(r.text) else None
+                answers[str(r.item)] = float(r.raw_value) if pd.notna(r.raw_value) else text
+            scores = score_answers(q, answers)
+            scorers_used[qid] = q.scoring
+        elif q is None and g["questionnaire_kind"].iloc[0] == "likert":
+            vals = g["recoded_value"].dropna()
+            scores = {"mean": float(vals.mean()) if len(vals) else None}
+            scorers_used[qid] = "mean"
+        else:
+            continue
+        first = g.iloc[0]
+        rows.append(
+            {
+                "participant": str(pid),
+                "step_index": int(step),
+                "questionnaire": qid,
+                "block": None if pd.isna(first["block"]) else str(first["block"]),
+                "scenario": None if pd.isna(first["scenario"]) else str(first["scenario"]),
+                "condition": None if pd.isna(first["condition"]) else str(first["condition"]),
+                "label": None if pd.isna(first["label"]) else str(first["label"]),
+                "scores": {k: _f(v) for k, v in scores.items()},
+            }
+        )
+    by_block: dict[str, dict[str, Any]] = {}
+    once: dict[str, dict[str, Any]] = {}
+    for qid in dict.fromkeys(r["questionnaire"] for r in rows):
+        mine = [r for r in rows if r["questionnaire"] == qid]
+        names = list(dict.fromkeys(k for r in mine for k in r["scores"]))
+        with_cond = [r for r in mine if r["condition"] is not None]
+        if with_cond:
+            for block in dict.fromkeys(r["block"] or r["scenario"] or "" for r in with_cond):
+                rr = [r for r in with_cond if (r["block"] or r["scenario"] or "") == block]
+                levels = list(dict.fromkeys(r["condition"] for r in rr))
+                levels = _in_condition_order(levels)
+                tests = {}
+                for name in names:
+                    long = pd.DataFrame(
+                        {
+                            "subject": [r["participant"] for r in rr],
+                            "level": [r["condition"] for r in rr],
+                            "value": [r["scores"].get(name) for r in rr],
+                        }
+                    ).dropna(subset=["value"])
+                    if not long.empty:
+                        tests[name] = within_tests(long, levels)
+                by_block.setdefault(qid, {})[block] = {
+                    "scenario": rr[0]["scenario"],
+                    "levels": levels,
+                    "scores": tests,
+                }
+        without = [r for r in mine if r["condition"] is None]
+        if without:
+            once[qid] = {
+                name: _describe([r["scores"].get(name) for r in without]) for name in names
+            }
+    return {"scoring": scorers_used, "administrations": rows, "by_block": by_block, "once": once}
+
+
+CONDITION_ORDER = ("decoupled", "pedvr", "pedvr+g")  # the report's column order where these appear
+
+
+def _in_condition_order(levels: list[str]) -> list[str]:
+    return [c for c in CONDITION_ORDER if c in levels] + [c for c in levels if c not in CONDITION_ORDER]
+
+
+def _describe(values: list[float | None]) -> dict[str, Any]:
+    v = np.asarray([x for x in values if x is not None], dtype=float)
+    return {
+        "n": int(v.size),
+        "mean": _f(v.mean()) if v.size else None,
+        "sd": _f(v.std(ddof=1)) if v.size > 1 else None,
+        "min": _f(v.min()) if v.size else None,
+        "max": _f(v.max()) if v.size else None,
+    }
+
+
+def _rho_level(rho: float) -> str:
+    return f"rho={rho:g}"
+
+
+def objective_measures(db: str | Path) -> dict[str, Any]:
+    """Every registered measure (:mod:`pedvr.study.measures`) per block, compared across its levels.
+
+    Trials that ran to their end (the last sphere or the time limit) of
+    ``block`` designs are compared across conditions, and of ``sweep``
+    designs across the swept responsibility (levels ``rho=0.25``, ...), each
+    with :func:`within_tests`. ``trials`` is the per-trial table (as the
+    export's ``trial_measures.tsv``), ``units`` and ``labels`` describe the measures.
+    """
+    from pedvr.study.measures import measure_names, measures, trial_measures
+
+    with open_store(db, read_only=True) as store:
+        tm = trial_measures(store)
+    names = measure_names()
+    done = tm[(tm["complete"] == 1) & tm["design"].isin(["block", "sweep"])].copy()
+    by_block: dict[str, Any] = {}
+    for block, g in done.groupby(done["block"].fillna(done["scenario"]), sort=False):
+        design = str(g["design"].iloc[0])
+        if design == "sweep":
+            g = g.assign(level=[_rho_level(float(r)) for r in g["responsibility"]])
+            levels = [_rho_level(r) for r in sorted(set(g["responsibility"].astype(float)))]
+        else:
+            g = g.assign(level=g["condition"])
+            levels = _in_condition_order(list(dict.fromkeys(g["condition"])))
+        tests = {}
+        for name in names:
+            long = pd.DataFrame(
+                {"subject": g["participant"], "level": g["level"], "value": g[name]}
+            ).dropna(subset=["value"])
+            if not long.empty:
+                tests[name] = within_tests(long, levels)
+        by_block[str(block)] = {
+            "design": design,
+            "scenario": str(g["scenario"].iloc[0]),
+            "levels": levels,
+            "measures": tests,
+        }
+    trials = [
+        {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in r.items()}
+        for r in tm.astype(object).where(tm.notna(), None).to_dict(orient="records")
+    ]
+    return {
+        "units": {n: measures[n].unit for n in names},
+        "labels": {n: measures[n].label for n in names},
+        "by_block": by_block,
+        "trials": trials,
+    }
+
+
+def sample_description(db: str | Path) -> dict[str, Any]:
+    """Who took part: participants by status, sessions by status, aborts, and the demographics.
+
+    ``demographics`` summarises the answers to the questionnaire with id
+    ``demographics`` (the shipped form): per item, numbers as n, mean, SD,
+    minimum and maximum, choices as counts; ``no_answer`` counts the
+    participants who reached the step and left the item unanswered.
+    """
+    with open_store(db, read_only=True) as store:
+        parts = pd.read_sql_query(
+            "SELECT participant, simulated, status FROM participants ORDER BY number", store.db
+        )
+        sess = pd.read_sql_query("SELECT participant, status FROM sessions", store.db)
+        aborts = pd.read_sql_query(
+            "SELECT e.participant, e.step_index, e.utc, e.detail, st.step_key FROM events e "
+            "LEFT JOIN steps st ON st.participant = e.participant AND st.step_index = e.step_index "
+            "WHERE e.kind = 'abort' ORDER BY e.event_id",
+            store.db,
+        )
+        demo = pd.read_sql_query(
+            "SELECT participant, item, raw_value, text FROM answers WHERE questionnaire = 'demographics' "
+            "ORDER BY answer_id",
+            store.db,
+        )
+    by_status = {str(k): int(v) for k, v in parts["status"].value_counts().items()}
+    demographics: dict[str, Any] = {}
+    for item, g in demo.groupby("item", sort=False):
+        nums = g["raw_value"].dropna()
+        texts = g["text"].dropna()
+        entry: dict[str, Any] = {"no_answer": int(len(g) - len(nums) - len(texts))}
+        if len(nums):
+            entry.update(_describe([float(v) for v in nums]))
+        if len(texts):
+            entry["counts"] = {str(k): int(v) for k, v in texts.value_counts().sort_index().items()}
+        demographics[str(item)] = entry
+    return {
+        "participants": int(len(parts)),
+        "simulated": int(parts["simulated"].sum()) if len(parts) else 0,
+        "by_status": by_status,
+        "finished": [str(p) for p in parts.loc[parts["status"] == "finished", "participant"]],
+        "withdrawn": [str(p) for p in parts.loc[parts["status"] == "withdrawn", "participant"]],
+        "not_finished": [str(p) for p in parts.loc[parts["status"] == "in_progress", "participant"]],
+        "sessions": {str(k): int(v) for k, v in sess["status"].value_counts().items()},
+        "aborts": [
+            {
+                "participant": str(r.participant),
+                "step": None if pd.isna(r.step_key) else str(r.step_key),
+                "utc": str(r.utc),
+                "detail": None if pd.isna(r.detail) else str(r.detail),
+            }
+            for r in aborts.itertuples(index=False)
+        ],
+        "demographics": demographics,
+    }
+
+
+def response_times(db: str | Path) -> dict[str, Any]:
+    """Response times per questionnaire (seconds from the item shown to the answer confirmed):
+    n, median and quartiles over all its answers, and the median per item."""
+    with open_store(db, read_only=True) as store:
+        df = pd.read_sql_query(
+            "SELECT questionnaire, item, response_time_s FROM answers WHERE response_time_s IS NOT NULL "
+            "ORDER BY answer_id",
+            store.db,
+        )
+    out: dict[str, Any] = {}
+    for qid, g in df.groupby("questionnaire", sort=False):
+        v = g["response_time_s"].to_numpy(dtype=float)
+        out[str(qid)] = {
+            "n": int(v.size),
+            "median_s": _f(np.median(v)),
+            "q1_s": _f(np.percentile(v, 25)),
+            "q3_s": _f(np.percentile(v, 75)),
+            "items": {
+                str(k): _f(x) for k, x in g.groupby("item", sort=False)["response_time_s"].median().items()
+            },
+        }
+    return out
+
+
 def analyze(*, db: str | Path | None = None, responses: str | Path | None = None) -> dict[str, Any]:
-    """The whole analysis. Exactly one of ``db`` and ``responses`` (a CSV file)."""
+    """The whole analysis. Exactly one of ``db`` and ``responses`` (a CSV file).
+
+    From a database every section is computed from what it holds; a database
+    with only some kinds of data (only the SSQ, only one questionnaire, only
+    trials) gets those sections. Only a database with no answers and no trial
+    that ran to its end is an error (nothing to analyse yet).
+    """
     if (db is None) == (responses is None):
         from pedvr.errors import UsageError
 
@@ -503,12 +885,30 @@ def analyze(*, db: str | Path | None = None, responses: str | Path | None = None
         return out
     assert db is not None
     df, order = responses_from_db(db)
+    sample = sample_description(db)
     if df.empty:
-        raise StudyStoreError(f"{db}: no pairwise answers to analyse yet")
-    out = analyze_responses(df, comparison_order=order)
+        out = {
+            "n_participants": sample["participants"],
+            "n_responses": 0,
+            "scenarios": {},
+            "presence_index": [],
+        }
+    else:
+        out = analyze_responses(df, comparison_order=order)
+        out["n_participants"] = sample["participants"]
     out["source"] = {"database": str(db)}
+    out["sample"] = sample
     out["ssq"] = ssq_scores(db)
+    out["questionnaires"] = questionnaire_scores(db)
+    out["measures"] = objective_measures(db)
     out["corridor"] = corridor_trajectories(db)
+    out["response_times"] = response_times(db)
+    with open_store(db, read_only=True) as store:
+        n_answers = store.query("SELECT COUNT(*) AS n FROM answers")[0]["n"]
+    if not n_answers and not out["measures"]["by_block"] and not any(
+        t["complete"] for t in out["measures"]["trials"]
+    ):
+        raise StudyStoreError(f"{db}: nothing to analyse yet: no answers and no trial that ran to its end")
     return out
 
 
@@ -528,7 +928,8 @@ def apa_rm_anova(a: dict[str, Any]) -> str:
         if a["mauchly_W"] is None
         else f"; Mauchly's W = {_no0(a['mauchly_W'], 3)}, {apa_p(a['mauchly_p'])}"
     )
-    return f"{head}, η²p = {_no0(a['partial_eta_squared'])}{mauchly}"
+    eta = "n/a" if a["partial_eta_squared"] is None else _no0(a["partial_eta_squared"])
+    return f"{head}, η²p = {eta}{mauchly}"
 
 
 def apa_t(t: dict[str, Any], *, p_key: str = "p") -> str:
@@ -537,3 +938,13 @@ def apa_t(t: dict[str, Any], *, p_key: str = "p") -> str:
 
 def apa_friedman(f: dict[str, Any]) -> str:
     return f"χ²({f['dof']}) = {_num(f['Q'])}, {apa_p(f['p'])}, Kendall's W = {_no0(f['kendall_W'])}"
+
+
+def apa_paired_t(t: dict[str, Any]) -> str:
+    """A paired t-test from :func:`paired_change`: ``t(5) = 2.31, p = .069, d_z = 0.94``."""
+    return f"t({t['dof']:g}) = {_num(t['t'])}, {apa_p(t['p'])}, d_z = {_num(t['cohen_dz'])}"
+
+
+def apa_wilcoxon(w: dict[str, Any]) -> str:
+    """A Wilcoxon signed-rank test from :func:`paired_change`: ``W = 3.00, p = .250, r = .60``."""
+    return f"W = {_num(w['W'])}, {apa_p(w['p'])}, r = {_no0(w['rank_biserial'])}"

@@ -2,13 +2,15 @@
 
 ``pedvr study run PROTOCOL --participant P07 [--backend auto|xr|desktop|headless] [--resume]``
 ``pedvr study run PROTOCOL --participant simulated [--max-trial-seconds S]``   (a scripted dry run)
-``pedvr study export DB --out DIR``
+``pedvr study export DB --out DIR [--force]``
 ``pedvr study analyze (DB | --responses FILE.csv) [--json] [--report DIR]``
 
 ``pedvr/cli.py`` wires these in with :func:`add_study_parser` and
 :func:`run_study_command`; ``python -m pedvr.study ...`` runs them on their
 own (:func:`main`). Errors print as ``pedvr: error: ...`` lines with a
-non-zero exit code, never a traceback.
+non-zero exit code, never a traceback. A session ended by SIGTERM or SIGHUP
+is recorded as aborted (:mod:`pedvr.study.signals`), says so in one line and
+exits with 128 + the signal's number.
 """
 
 from __future__ import annotations
@@ -75,6 +77,7 @@ def _add_commands(study: argparse.ArgumentParser) -> None:
     export = sub.add_parser("export", help="export a study database as TSV/CSV files")
     export.add_argument("db", type=Path)
     export.add_argument("--out", type=Path, required=True, help="output folder")
+    export.add_argument("--force", action="store_true", help="overwrite files the export would write")
 
     an = sub.add_parser("analyze", help="analyse the pairwise questionnaire (PedVR §6.5), SSQ and corridor")
     an.add_argument("db", type=Path, nargs="?", default=None, help="study database")
@@ -85,7 +88,9 @@ def _add_commands(study: argparse.ArgumentParser) -> None:
         help="long-format CSV: participant,scenario,comparison,question,response",
     )
     an.add_argument("--json", action="store_true", help="print the results as JSON")
-    an.add_argument("--report", type=Path, default=None, help="write report.md and figures into this folder")
+    an.add_argument(
+        "--report", type=Path, default=None, help="write report.html, report.md and SVG figures into a folder"
+    )
 
 
 def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -125,7 +130,7 @@ def run_study_command(
     if args.study_command == "export":
         from pedvr.study.export import export_study
 
-        paths = export_study(args.db, out=args.out)
+        paths = export_study(args.db, out=args.out, force=args.force)
         print(f"exported {len(paths)} files to {args.out}", file=out)
         return 0
     return _analyze(args, stdout=out)
@@ -138,8 +143,14 @@ def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
     if args.pace is not None and not simulated:
         raise UsageError("--pace applies only to a simulated participant")
     protocol = load_protocol(args.protocol)
-    backend, why = _study_backend(args.backend, simulated=simulated)
     db = args.db or Path(f"{protocol.name}.sqlite")
+    if args.resume and not db.is_file():
+        raise UsageError(
+            f"--resume: {db}: no such study database (nothing was created); give the database the "
+            "participant "
+            "started in with --db, or run from the folder that holds it"
+        )
+    backend, why = _study_backend(args.backend, simulated=simulated)
     print(why, file=stdout)
     frontend = None
     if backend in ("xr", "desktop"):
@@ -168,6 +179,7 @@ def _run_in(
     from pedvr.study.presenter import Participant, SimulatedParticipant, TerminalParticipant
     from pedvr.study.protocol import participant_number
     from pedvr.study.session import Session
+    from pedvr.study.signals import TerminatedBySignal, signals_abort
     from pedvr.study.store import StudyStore
 
     with StudyStore(db) as store:
@@ -192,7 +204,7 @@ def _run_in(
             participant = TerminalParticipant(stdin=stdin, stdout=stdout, eye_height_m=protocol.eye_height_m)
         keys: KeySource = TerminalKeys(stdin, stdout) if _isatty(stdin) else NoKeys()
         console = ExperimenterConsole(out=stdout, keys=keys)
-        result = Session(
+        session = Session(
             protocol=protocol,
             store=store,
             participant_id=pid,
@@ -202,7 +214,16 @@ def _run_in(
             resume=args.resume,
             max_trial_s=args.max_trial_seconds,
             simulated=simulated,
-        ).run()
+        )
+        try:
+            with signals_abort():
+                result = session.run()
+        except TerminatedBySignal as exc:
+            print(
+                f"pedvr: {exc.name}: session of {pid} aborted and saved in {db}; continue with --resume",
+                file=sys.stderr,
+            )
+            return exc.exit_code
         if result.status == "already_finished":
             print(result.message, file=stdout)
         print(f"database: {db}", file=stdout)
@@ -250,14 +271,15 @@ def _analyze(args: argparse.Namespace, *, stdout: TextIO) -> int:
     if args.report is not None:
         from pedvr.study.report import write_report
 
-        md = write_report(result, out=args.report)
+        page = write_report(result, out=args.report)
         if not args.json:
-            print(f"report: {md}", file=stdout)
+            print(f"report: {page} (and {page.with_suffix('.md').name})", file=stdout)
     if args.json:
         json.dump(result, stdout, indent=2, sort_keys=False, default=str)
         stdout.write("\n")
         return 0
     print(f"{result['n_participants']} participants, {result['n_responses']} pairwise responses", file=stdout)
+    _print_other_sections(result, stdout)
     for scen, s in result["scenarios"].items():
         print(f"{scen}:", file=stdout)
         for c, v in s["comparisons"].items():
@@ -280,3 +302,40 @@ def _analyze(args: argparse.Namespace, *, stdout: TextIO) -> int:
         if s.get("friedman"):
             print(f"  Friedman: {apa_friedman(s['friedman'])}", file=stdout)
     return 0
+
+
+def _print_other_sections(result: dict[str, Any], stdout: TextIO) -> None:
+    """One line each for the sections of a database analysis besides the pairwise questionnaire."""
+    from pedvr.study.analysis import apa_rm_anova
+
+    ssq = result.get("ssq") or {}
+    if ssq.get("summary"):
+        s = ssq["summary"]
+        line = "SSQ total: " + ", ".join(
+            f"{phase} M = {s[phase]['total']['mean']:.2f} (n = {s[phase]['total']['n']})"
+            for phase in ("before", "after", "change")
+            if phase in s
+        )
+        w = (ssq.get("tests") or {}).get("total", {}).get("wilcoxon")
+        if w:
+            line += f"; Wilcoxon W = {w['W']:.2f}, p = {w['p']:.3f}"
+        print(line, file=stdout)
+    for qid, blocks in (result.get("questionnaires") or {}).get("by_block", {}).items():
+        for block, b in blocks.items():
+            for name, res in b["scores"].items():
+                means = ", ".join(
+                    f"{lv} {d['mean']:.2f}" for lv, d in res["levels"].items() if d["mean"] is not None
+                )
+                test = apa_rm_anova(res["rm_anova"]) if res.get("rm_anova") else res.get("note", "")
+                print(f"{qid} {name} in {block}: {means}; {test}", file=stdout)
+    for qid, scores in (result.get("questionnaires") or {}).get("once", {}).items():
+        for name, d in scores.items():
+            if d["mean"] is not None:
+                print(f"{qid} {name}: M = {d['mean']:.2f} (n = {d['n']})", file=stdout)
+    for block, b in (result.get("measures") or {}).get("by_block", {}).items():
+        for name, res in b["measures"].items():
+            means = ", ".join(
+                f"{lv} {d['mean']:.3f}" for lv, d in res["levels"].items() if d["mean"] is not None
+            )
+            test = apa_rm_anova(res["rm_anova"]) if res.get("rm_anova") else res.get("note", "")
+            print(f"{block} {name}: {means}; {test}", file=stdout)

@@ -47,3 +47,9 @@ class AnswerError(PedvrError):
     def __init__(self, problems: list[str]) -> None:
         self.problems = list(problems)
         super().__init__("\n".join(self.problems))
+
+
+class OutputError(PedvrError):
+    """An output folder or file (export, report) cannot be written, or would overwrite files."""
+
+    exit_code = 2

@@ -1,21 +1,32 @@
 """Export a study database as tidy tab-separated files that R and pandas read without fixes.
 
-``pedvr study export DB --out DIR`` writes one ``<table>.tsv`` per table
-(``participants``, ``sessions``, ``steps``, ``trials``, ``samples``,
+``pedvr study export DB --out DIR [--force]`` writes one ``<table>.tsv`` per
+table (``participants``, ``sessions``, ``steps``, ``trials``, ``samples``,
 ``answers``, ``events``, ``gaze_events``, ``contacts``), one
 ``trajectories/trial-<id>.tsv`` per trial (every agent and the user, one row
-per agent per frame: the ``agent_samples`` table split by trial), and
-``responses.csv``: the pairwise answers recoded to the fixed orientation in
-the long format ``participant,scenario,comparison,question,response`` that
-``pedvr study analyze --responses`` reads.
+per agent per frame: the ``agent_samples`` table split by trial),
+``trial_measures.tsv`` (the objective measures of every trial,
+:mod:`pedvr.study.measures`), and ``responses.csv``: the pairwise answers
+recoded to the fixed orientation in the long format
+``participant,scenario,comparison,question,response`` that ``pedvr study
+analyze --responses`` reads.
 
-Format: UTF-8, header row, ``\\t`` (or ``,`` for ``responses.csv``)
-separated, ``\\n`` line ends, missing values as ``NA``; a field containing the
-separator, a quote or a line break is quoted with ``"`` and its quotes are
-doubled (RFC 4180), which ``pandas.read_csv(f, sep="\\t")`` and R's
-``read.delim(f)`` both read back unchanged. Floats are written with full
-precision. Caveat: a free-text answer that is exactly one of pandas' NA
-spellings (``NA``, ``null``, ...) reads back as missing.
+``samples.tsv`` and the trajectory files carry an ``interrupted`` column: 1
+for the frames of a trial that was cut off and run again (outcome
+``interrupted`` or ``aborted``, or no outcome yet after a crash not resumed),
+so an analysis of the samples alone does not count such a trial twice; 0
+otherwise (a ``skipped`` trial is not run again: 0, and its outcome is in
+``trials.tsv``). ``answers.tsv`` has each answer's ``response_time_s``.
+
+The database is opened read-only. Existing files are not overwritten unless
+``force``; the refusal names the first one. Format: UTF-8, header row, ``\\t``
+(or ``,`` for ``responses.csv``) separated, ``\\n`` line ends, missing values
+as ``NA``; a field containing the separator, a quote or a line break is
+quoted with ``"`` and its quotes are doubled (RFC 4180), which
+``pandas.read_csv(f, sep="\\t")`` and R's ``read.delim(f)`` both read back
+unchanged. Floats are written with full precision. Caveat: a free-text answer
+that is exactly one of pandas' NA spellings (``NA``, ``null``, ...) reads back
+as missing.
 """
 
 from __future__ import annotations
@@ -25,6 +36,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from pedvr.study.output import make_folder, prepare_folder, refuse_overwrite, write_file
 from pedvr.study.store import StudyStore, open_store
 
 TABLE_FILES = (
@@ -38,22 +50,33 @@ TABLE_FILES = (
     "gaze_events",
     "contacts",
 )
+# Trials whose samples are superseded by a rerun (see the module docstring).
+RERUN_OUTCOMES = ("interrupted", "aborted")
+INTERRUPTED_SQL = (
+    "CASE WHEN t.outcome IS NULL OR t.outcome IN ('interrupted', 'aborted') THEN 1 ELSE 0 END AS interrupted"
+)
 
 
 def _write(df: pd.DataFrame, path: Path, *, sep: str = "\t") -> None:
-    df.to_csv(
+    write_file(
         path,
-        sep=sep,
-        index=False,
-        na_rep="NA",
-        quoting=csv.QUOTE_MINIMAL,
-        lineterminator="\n",
-        encoding="utf-8",
+        lambda p: df.to_csv(
+            p,
+            sep=sep,
+            index=False,
+            na_rep="NA",
+            quoting=csv.QUOTE_MINIMAL,
+            lineterminator="\n",
+            encoding="utf-8",
+        ),
     )
 
 
 def read_table(store: StudyStore, table: str) -> pd.DataFrame:
-    """A whole table, ordered by its key columns (the order the export writes)."""
+    """A whole table, ordered by its key columns (the order the export writes).
+
+    ``samples`` gains the ``interrupted`` column (module docstring).
+    """
     order = {
         "participants": "participant",
         "sessions": "session_id",
@@ -66,6 +89,12 @@ def read_table(store: StudyStore, table: str) -> pd.DataFrame:
         "contacts": "trial_id, frame, agent_a, agent_b",
         "agent_samples": "trial_id, frame, agent_id",
     }[table]
+    if table == "samples":
+        return pd.read_sql_query(
+            f"SELECT s.*, {INTERRUPTED_SQL} FROM samples s JOIN trials t USING (trial_id) "
+            "ORDER BY s.trial_id, s.frame",
+            store.db,
+        )
     return pd.read_sql_query(f"SELECT * FROM {table} ORDER BY {order}", store.db)
 
 
@@ -80,27 +109,50 @@ def responses_frame(store: StudyStore) -> pd.DataFrame:
     return df
 
 
-def export_study(db: str | Path, *, out: str | Path) -> list[Path]:
-    """Write the export files into ``out`` (created); return the paths written."""
+def export_study(db: str | Path, *, out: str | Path, force: bool = False) -> list[Path]:
+    """Write the export files into ``out`` (created); return the paths written.
+
+    Raises :class:`~pedvr.study.errors.OutputError` (one line) when ``out`` is
+    not a folder, cannot be created or written, or holds a file the export
+    would write (without ``force``).
+    """
+    from pedvr.study.measures import trial_measures
+
     out = Path(out)
     written: list[Path] = []
-    with open_store(db, must_exist=True) as store:
-        out.mkdir(parents=True, exist_ok=True)
+    with open_store(db, read_only=True) as store:
+        trial_ids = [
+            int(r[0])
+            for r in store.db.execute("SELECT DISTINCT trial_id FROM agent_samples ORDER BY trial_id")
+        ]
+        traj = out / "trajectories"
+        planned = [
+            *(out / f"{t}.tsv" for t in TABLE_FILES),
+            out / "trial_measures.tsv",
+            out / "responses.csv",
+            *(traj / f"trial-{t:05d}.tsv" for t in trial_ids),
+        ]
+        prepare_folder(out, what="export")
+        refuse_overwrite(planned, force=force)
         for table in TABLE_FILES:
             p = out / f"{table}.tsv"
             _write(read_table(store, table), p)
             written.append(p)
-        traj = out / "trajectories"
-        traj.mkdir(exist_ok=True)
-        for (tid,) in store.db.execute("SELECT DISTINCT trial_id FROM agent_samples ORDER BY trial_id"):
+        p = out / "trial_measures.tsv"
+        _write(trial_measures(store), p)
+        written.append(p)
+        make_folder(traj)
+        for tid in trial_ids:
             df = pd.read_sql_query(
-                "SELECT a.trial_id, a.frame, s.sim_t, a.agent_id, a.is_user, a.x, a.y, a.heading "
+                "SELECT a.trial_id, a.frame, s.sim_t, a.agent_id, a.is_user, a.x, a.y, a.heading, "
+                f"{INTERRUPTED_SQL} "
                 "FROM agent_samples a JOIN samples s ON s.trial_id = a.trial_id AND s.frame = a.frame "
+                "JOIN trials t ON t.trial_id = a.trial_id "
                 "WHERE a.trial_id = ? ORDER BY a.frame, a.agent_id",
                 store.db,
-                params=(int(tid),),
+                params=(tid,),
             )
-            p = traj / f"trial-{int(tid):05d}.tsv"
+            p = traj / f"trial-{tid:05d}.tsv"
             _write(df, p)
             written.append(p)
         p = out / "responses.csv"

@@ -34,8 +34,9 @@ types the highlighted letter, or finishes on ``DONE``, or deletes on ``DEL``,
 and ``back`` deletes too. Finishing with nothing typed gives no answer when
 the item is optional; a *required* item also offers :data:`TOLD_EXPERIMENTER`
 on the wheel for answers too long to spell (the participant says it aloud,
-the experimenter notes it). Number items take typed digits or step by 1 with
-``prev``/``next`` (so they work with a thumbstick).
+the experimenter notes it). Number items take typed digits or step by 1 (or
+by the item's ``step``: NASA-TLX ratings move 5 points) with ``prev``/``next``
+(so they work with a thumbstick).
 """
 
 from __future__ import annotations
@@ -109,7 +110,7 @@ class QuestionPanel:
         if item.kind == "scale" and q.scale is not None:
             self.mode = "options"
             self.options = [
-                (f"{v}  {q.scale.label(v)}", Response(value=v))
+                (f"{v}  {q.label(item, v)}".rstrip(), Response(value=v))
                 for v in range(q.scale.minimum, q.scale.maximum + 1)
             ]
         elif item.kind in ("choice", "consent"):
@@ -183,10 +184,11 @@ class QuestionPanel:
         elif self.mode == "number":
             item = self.question.item
             lo = item.minimum if item.minimum is not None else 0.0
+            delta = step * (item.step or 1.0)
             try:
-                v = float(self.text) + step
+                v = float(self.text) + delta
             except ValueError:
-                v = lo if step > 0 or item.maximum is None else item.maximum
+                v = lo if delta > 0 or item.maximum is None else item.maximum
             if item.minimum is not None:
                 v = max(v, item.minimum)
             if item.maximum is not None:
@@ -256,8 +258,8 @@ class QuestionPanel:
             return r.text
         assert r.value is not None
         out = f"{r.value:g}"
-        if item.kind == "scale" and q.scale is not None:
-            out += f" ({q.scale.label(int(r.value))})"
+        if item.kind == "scale" and q.scale is not None and q.label(item, int(r.value)):
+            out += f" ({q.label(item, int(r.value))})"
         return out
 
     def _wheel_line(self) -> str:

@@ -212,7 +212,10 @@ class SimulatedParticipant:
         if item.kind == "number":
             lo = item.minimum if item.minimum is not None else 0.0
             hi = item.maximum if item.maximum is not None else 100.0
-            return Response(value=float(np.clip(round(rng.normal(25.0, 6.0)), lo, hi)))
+            v = float(np.clip(round(rng.normal(25.0, 6.0)), lo, hi))
+            if item.step is not None and item.minimum is not None:  # on the item's grid (NASA-TLX: 0, 5, ...)
+                v = float(np.clip(item.minimum + round((v - item.minimum) / item.step) * item.step, lo, hi))
+            return Response(value=v)
         if item.kind == "choice":
             return Response(text=str(rng.choice(list(item.choices))))
         if item.kind == "scale" and q.scale is not None:
@@ -282,7 +285,7 @@ class TerminalParticipant:
         options: list[str] = []
         if item.kind == "scale" and q.scale is not None:
             for v in range(q.scale.minimum, q.scale.maximum + 1):
-                self.stdout.write(f"  {v} = {q.scale.label(v)}\n")
+                self.stdout.write(f"  {v} = {q.label(item, v)}\n".replace(" = \n", "\n"))
         elif item.kind in ("choice", "consent"):
             options = list(item.choices) if item.kind == "choice" else ["yes", "no"]
             for k, o in enumerate(options, 1):
@@ -305,7 +308,8 @@ class TerminalParticipant:
                 else (resp.text if resp.text is not None else f"{resp.value:g}")
             )
             if item.kind == "scale" and q.scale is not None and resp.value is not None:
-                shown += f" ({q.scale.label(int(resp.value))})"
+                if q.label(item, int(resp.value)):
+                    shown += f" ({q.label(item, int(resp.value))})"
             if self._line(f"  you chose: {shown}. Confirm? [y/n] ").strip().lower() in ("y", "yes"):
                 return resp
 

@@ -49,13 +49,14 @@ class BlockSpec:
     """One scenario of a ``blocks`` step: every condition, then a questionnaire."""
 
     id: str
-    scene: str
+    scene: str  # as written in the protocol: a shipped scene name or a path relative to the protocol
     scene_name: str
+    scene_hash: str
     time_limit_s: float
     conditions: tuple[str, ...]
     condition_order: str
     after_block: str | None
-    after_each_trial: str | None
+    after_each_trial: tuple[str, ...]  # questionnaires after every trial of the block, in this order
     responsibility: float | None
 
 
@@ -70,6 +71,7 @@ class StepSpec:
     optional: bool = False
     scene: str | None = None
     scene_name: str | None = None
+    scene_hash: str | None = None
     condition: str | None = None
     time_limit_s: float | None = None
     responsibility: float | None = None
@@ -94,6 +96,11 @@ class Protocol:
     questionnaires: dict[str, Questionnaire]
     source: str
     content_hash: str
+    base_dir: Path = Path(".")
+
+    def scene_path(self, scene: str) -> Path:
+        """The file a trial's scene reference names (:func:`scene_path`)."""
+        return scene_path(scene, self.base_dir)
 
 
 @dataclass(frozen=True)
@@ -110,10 +117,18 @@ class ShownPair:
 
 @dataclass(frozen=True)
 class TrialSpec:
-    """Everything needed to run one trial; stored with the trial row."""
+    """Everything needed to run one trial; stored with the participant's plan.
+
+    ``scene`` is the reference as the protocol writes it (a shipped scene
+    name, or a path relative to the protocol file), never an absolute path
+    made from it, so a study folder can be moved between sessions;
+    ``scene_hash`` is the scene file's content hash, so a scene edited
+    between two sessions of one participant is noticed on ``--resume``.
+    """
 
     scene: str
     scene_name: str
+    scene_hash: str
     condition: str
     label: str | None
     order: int | None
@@ -233,7 +248,7 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
             return None
         return qid
 
-    def scene(key: str, d: dict[str, Any]) -> tuple[str, str] | None:
+    def scene(key: str, d: dict[str, Any]) -> tuple[str, str, str] | None:
         v = d.get("scene", MISSING)
         if not isinstance(v, str) or not v:
             c.bad(
@@ -281,6 +296,7 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
                         kind=kind,
                         scene=sc[0],
                         scene_name=sc[1],
+                        scene_hash=sc[2],
                         condition=cond,
                         time_limit_s=limit,
                         responsibility=rho,
@@ -315,6 +331,7 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
                         kind=kind,
                         scene=sc[0],
                         scene_name=sc[1],
+                        scene_hash=sc[2],
                         condition=cond,
                         time_limit_s=limit,
                         values=values,
@@ -364,11 +381,20 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
                 after = None
                 if "after_block" in b:
                     after = questionnaire(f"{bp}.after_block", b["after_block"])
-                each = None
-                if "after_each_trial" in b:
-                    each = questionnaire(
-                        f"{bp}.after_each_trial", b["after_each_trial"], kinds=("likert", "form")
-                    )
+                each: list[str] = []
+                given = b.get("after_each_trial", MISSING)
+                raw_each: list[Any] = [] if given is MISSING else [given] if isinstance(given, str) else given
+                if given is not MISSING and (not isinstance(given, str | list) or not raw_each):
+                    why = "expected a questionnaire id or a non-empty array of them"
+                    c.bad(f"{bp}.after_each_trial", given, why)
+                    raw_each = []
+                if len({str(x) for x in raw_each}) != len(raw_each):
+                    c.bad(f"{bp}.after_each_trial", raw_each, "each questionnaire at most once")
+                for i, qid in enumerate(raw_each):
+                    key = f"{bp}.after_each_trial" + (f"[{i}]" if isinstance(given, list) else "")
+                    got = questionnaire(key, qid, kinds=("likert", "form"))
+                    if got is not None:
+                        each.append(got)
                 if after is not None and questionnaires[after].kind == "pairwise" and conds and comparisons:
                     usable = [cp for cp in comparisons if cp[0] in conds and cp[1] in conds]
                     if not usable:
@@ -385,11 +411,12 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
                         id=bid,
                         scene=sc[0],
                         scene_name=sc[1],
+                        scene_hash=sc[2],
                         time_limit_s=limit,
                         conditions=conds,
                         condition_order=corder,
                         after_block=after,
-                        after_each_trial=each,
+                        after_each_trial=tuple(each),
                         responsibility=rho,
                     )
                 )
@@ -412,6 +439,7 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
         questionnaires=questionnaires,
         source=source,
         content_hash=content_hash,
+        base_dir=base_dir,
     )
 
 
@@ -456,14 +484,21 @@ def _rho(c: Checker, d: dict[str, Any], path: str) -> float | None:
     )
 
 
-def _resolve_scene(c: Checker, key: str, v: str, base_dir: Path) -> tuple[str, str] | None:
-    from pedvr.scene.loader import load_any
+def scene_path(scene: str, base_dir: Path) -> Path:
+    """A protocol's scene reference as a file: ``.toml``/``.xml`` paths relative to ``base_dir``
+    (the protocol's folder; absolute paths stay as they are), other names the shipped scenes."""
     from pedvr.scenes import resolve_scene
 
-    if v.endswith((".toml", ".xml")):
-        path = (base_dir / v).resolve()
-    else:
-        path = resolve_scene(v).resolve()
+    if scene.endswith((".toml", ".xml")):
+        return (base_dir / scene).resolve()
+    return resolve_scene(scene).resolve()
+
+
+def _resolve_scene(c: Checker, key: str, v: str, base_dir: Path) -> tuple[str, str, str] | None:
+    """``(reference as written, scene name, content hash)``, or None after recording the problem."""
+    from pedvr.scene.loader import load_any
+
+    path = scene_path(v, base_dir)
     if not path.is_file():
         c.bad(key, v, "no such scene (neither a shipped scene name nor a file relative to the protocol)")
         return None
@@ -476,7 +511,7 @@ def _resolve_scene(c: Checker, key: str, v: str, base_dir: Path) -> tuple[str, s
     if not cfg.user.enabled or not cfg.user.route:
         c.bad(key, v, "a study scene needs a user with a red-sphere route ([user] route = [...])")
         return None
-    return str(path), cfg.name
+    return v, cfg.name, cfg.content_hash
 
 
 # -- planning --------------------------------------------------------------------------------
@@ -545,7 +580,9 @@ def plan_for(protocol: Protocol, *, number: int) -> list[PlannedStep]:
 
             def spec(order: int | None, rho: float | None, st: StepSpec = st, cond: str = cond) -> TrialSpec:
                 assert st.scene is not None and st.scene_name is not None and st.time_limit_s is not None
-                return TrialSpec(scene=st.scene, scene_name=st.scene_name, condition=cond, label=None,
+                assert st.scene_hash is not None
+                return TrialSpec(scene=st.scene, scene_name=st.scene_name, scene_hash=st.scene_hash,
+                                 condition=cond, label=None,
                                  order=order, responsibility=rho,
                                  seed=stable_seed(protocol.seed, number, st.id),
                                  time_limit_s=st.time_limit_s, record_trajectory=st.record_trajectories)
@@ -626,6 +663,7 @@ def _plan_block(
         spec = TrialSpec(
             scene=b.scene,
             scene_name=b.scene_name,
+            scene_hash=b.scene_hash,
             condition=cond,
             label=label_of[cond],
             order=pos + 1,
@@ -646,12 +684,12 @@ def _plan_block(
             design="block",
             assignment=assignment,
         )
-        if b.after_each_trial is not None:
+        for qid in b.after_each_trial:
             add(
-                key=f"{key0}/trial{pos + 1}/{b.after_each_trial}",
+                key=f"{key0}/trial{pos + 1}/{qid}",
                 kind="questionnaire",
-                title=f"{protocol.questionnaires[b.after_each_trial].title} ({b.id}, {label_of[cond]})",
-                questionnaire=b.after_each_trial,
+                title=f"{protocol.questionnaires[qid].title} ({b.id}, {label_of[cond]})",
+                questionnaire=qid,
                 block=b.id,
                 scenario=b.scene_name,
                 condition=cond,

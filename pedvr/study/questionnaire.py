@@ -16,6 +16,18 @@ A questionnaire is a TOML file in ``user_study/questionnaires/`` (format in
 
 Raw answers are stored as shown; :func:`recode` maps them to the fixed
 orientation the analysis uses (see its docstring).
+
+A questionnaire may name its published scoring (``scoring = "ipq"``): a
+function registered in :mod:`pedvr.study.scoring` that checks the file has
+the items, scale and reversed items the instrument needs (at load, with the
+other problems) and turns one administration's answers into its scores.
+Likert questionnaires without one are scored as the mean of their recoded
+items (``scoring = "mean"``).
+
+Scale points may carry per-item labels (``labels`` on the item, one per point,
+overriding the scale's: the IPQ's and the Slater–Usoh–Steed questionnaire's
+anchors differ from item to item); an empty label leaves a point unlabelled
+(it shows as its number and is stored with no label).
 """
 
 from __future__ import annotations
@@ -23,11 +35,12 @@ from __future__ import annotations
 import hashlib
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from pedvr.study.errors import AnswerError, ProtocolError
+from pedvr.study.scoring import scorers
 from pedvr.validation import MISSING, Checker
 
 KINDS = ("ssq", "pairwise", "likert", "form")
@@ -74,7 +87,7 @@ class Scale:
 
     minimum: int
     maximum: int
-    labels: tuple[str, ...]
+    labels: tuple[str, ...]  # "" = the point has no label of its own
 
     def label(self, value: int) -> str:
         return self.labels[value - self.minimum]
@@ -93,6 +106,8 @@ class Item:
     choices: tuple[str, ...] = ()
     minimum: float | None = None
     maximum: float | None = None
+    labels: tuple[str, ...] = ()  # scale items: one label per point, overriding the scale's
+    step: float | None = None  # number items: answers are minimum + k * step
 
 
 @dataclass(frozen=True)
@@ -108,6 +123,14 @@ class Questionnaire:
     source: str
     content_hash: str
     citation: str = ""
+    scoring: str = ""  # a scorer registered in pedvr.study.scoring; "" = none
+    document: str = ""  # the file's TOML text (stored in the study database, so analysis can re-score)
+
+    def label(self, item: Item, value: int) -> str:
+        """The label of scale point ``value`` for ``item`` (its own labels, else the scale's); may be ""."""
+        assert self.scale is not None
+        labels = item.labels or self.scale.labels
+        return labels[value - self.scale.minimum]
 
     def item(self, item_id: str) -> Item:
         for it in self.items:
@@ -140,7 +163,8 @@ def load_questionnaire(path: str | Path, *, display_path: str | None = None) -> 
         data = tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ProtocolError([f"{shown}: not valid TOML: {exc}"]) from None
-    return parse_questionnaire(data, source=shown, content_hash=hashlib.sha256(raw).hexdigest()[:16])
+    q = parse_questionnaire(data, source=shown, content_hash=hashlib.sha256(raw).hexdigest()[:16])
+    return replace(q, document=raw.decode("utf-8"))
 
 
 def parse_questionnaire(data: dict[str, Any], *, source: str, content_hash: str = "") -> Questionnaire:
@@ -148,12 +172,16 @@ def parse_questionnaire(data: dict[str, Any], *, source: str, content_hash: str 
     c = Checker(source)
     c.known(data, "", ("questionnaire", "scale", "items"))
     q = c.table(data, "questionnaire", "questionnaire", required=True) or {}
-    c.known(q, "questionnaire", ("id", "title", "kind", "instructions", "citation"))
+    c.known(q, "questionnaire", ("id", "title", "kind", "instructions", "citation", "scoring"))
     qid = c.string(q, "id", "questionnaire.id")
     title = c.string(q, "title", "questionnaire.title")
     kind = c.string(q, "kind", "questionnaire.kind", choices=KINDS)
     instructions = c.string(q, "instructions", "questionnaire.instructions", required=False, default="")
     citation = c.string(q, "citation", "questionnaire.citation", required=False, default="")
+    scoring = c.string(q, "scoring", "questionnaire.scoring", required=False, default="")
+    if scoring and scoring not in scorers:
+        c.bad("questionnaire.scoring", scoring, scorers.unknown(scoring))
+        scoring = None
 
     scale = _scale(c, data.get("scale", MISSING), kind)
     items = _items(c, data, kind, scale)
@@ -168,10 +196,12 @@ def parse_questionnaire(data: dict[str, Any], *, source: str, content_hash: str 
             f"{scale.minimum}..{scale.maximum}",
             "a pairwise scale needs a middle point (an odd number of points) meaning no difference",
         )
+    if kind == "likert" and not scoring and scoring is not None:
+        scoring = "mean"
     if c.problems:
         raise ProtocolError(c.problems)
     assert qid is not None and title is not None and kind is not None and items is not None
-    return Questionnaire(
+    out = Questionnaire(
         id=qid,
         title=title,
         kind=kind,
@@ -181,7 +211,30 @@ def parse_questionnaire(data: dict[str, Any], *, source: str, content_hash: str 
         source=source,
         content_hash=content_hash,
         citation=citation or "",
+        scoring=scoring or "",
     )
+    if out.scoring:
+        for key, value, why in scorers[out.scoring].check(out):
+            c.bad(key, value, f"{why} ({out.scoring} scoring)")
+        if c.problems:
+            raise ProtocolError(c.problems)
+    return out
+
+
+def _labels(c: Checker, d: dict[str, Any], key: str, path: str) -> tuple[str, ...] | None:
+    """Point labels: strings, "" allowed (an unlabelled point), no spelling that reads back as missing.
+
+    Labels with a bad spelling are returned anyway (so their count is checked too); the problem is recorded.
+    """
+    v = d.get(key, MISSING)
+    if not isinstance(v, list) or len(v) < 2 or not all(isinstance(x, str) for x in v):
+        c.bad(path, v, "expected an array of at least 2 strings, one per scale point (\"\" for no label)")
+        return None
+    for k, lab in enumerate(v):
+        if lab.strip() in MISSING_SPELLINGS and lab != "":
+            why = "reads back as a missing value in pandas or R; reword it (e.g. lower case)"
+            c.bad(f"{path}[{k}]", lab, why)
+    return tuple(v)
 
 
 def _scale(c: Checker, s: Any, kind: str | None) -> Scale | None:
@@ -196,14 +249,7 @@ def _scale(c: Checker, s: Any, kind: str | None) -> Scale | None:
     c.known(s, "scale", ("min", "max", "labels"))
     lo = c.integer(s, "min", "scale.min")
     hi = c.integer(s, "max", "scale.max")
-    labels = c.strings(s, "labels", "scale.labels", minimum=2)
-    for k, lab in enumerate(labels or ()):
-        if lab.strip() in MISSING_SPELLINGS:
-            c.bad(
-                f"scale.labels[{k}]",
-                lab,
-                "reads back as a missing value in pandas or R; reword it (e.g. lower case)",
-            )
+    labels = _labels(c, s, "labels", "scale.labels")
     if lo is None or hi is None or labels is None:
         return None
     if hi <= lo:
@@ -215,8 +261,6 @@ def _scale(c: Checker, s: Any, kind: str | None) -> Scale | None:
             list(labels),
             f"{len(labels)} labels; expected {hi - lo + 1}, one per point {lo}..{hi}",
         )
-        return None
-    if any(lab.strip() in MISSING_SPELLINGS for lab in labels):
         return None
     return Scale(minimum=lo, maximum=hi, labels=labels)
 
@@ -230,7 +274,9 @@ def _items(
     ok = bool(raw)
     for k, it in enumerate(raw):
         path = f"items[{k}]"
-        c.known(it, path, ("id", "text", "kind", "reverse", "required", "choices", "min", "max"))
+        c.known(
+            it, path, ("id", "text", "kind", "reverse", "required", "choices", "min", "max", "labels", "step")
+        )
         iid = c.string(it, "id", f"{path}.id")
         text = c.string(it, "text", f"{path}.text")
         default_kind = "scale" if kind in ("ssq", "pairwise", "likert") else None
@@ -259,11 +305,36 @@ def _items(
             c.bad(f"{path}.choices", it["choices"], "only choice items have choices")
         lo = c.number(it, "min", f"{path}.min", required=False) if ikind == "number" else None
         hi = c.number(it, "max", f"{path}.max", required=False) if ikind == "number" else None
+        step = None
+        if "step" in it:
+            if ikind != "number":
+                c.bad(f"{path}.step", it["step"], "only number items have a step")
+            else:
+                step = c.number(it, "step", f"{path}.step", check=lambda x: x > 0, expect="> 0")
+                if step is not None and lo is None:
+                    c.bad(f"{path}.step", step, "a step needs the item's min (answers are min + k * step)")
+        if lo is not None and hi is not None and hi <= lo:
+            c.bad(f"{path}.max", hi, f"must be > {path}.min ({lo:g})")
+        item_labels: tuple[str, ...] | None = ()
+        if "labels" in it:
+            if ikind != "scale" or scale is None:
+                c.bad(f"{path}.labels", it["labels"], "only scale items have point labels")
+            else:
+                item_labels = _labels(c, it, "labels", f"{path}.labels")
+                if item_labels is not None and len(item_labels) != scale.maximum - scale.minimum + 1:
+                    c.bad(
+                        f"{path}.labels",
+                        list(item_labels),
+                        f"{len(item_labels)} labels; expected {scale.maximum - scale.minimum + 1}, one per "
+                        "point "
+                        f"{scale.minimum}..{scale.maximum}",
+                    )
+                    item_labels = None
         if iid is not None and iid in seen:
             c.bad(f"{path}.id", iid, "duplicate item id")
         if iid is not None:
             seen.add(iid)
-        if iid is None or text is None or ikind is None or choices is None:
+        if iid is None or text is None or ikind is None or choices is None or item_labels is None:
             ok = False
             continue
         out.append(
@@ -277,6 +348,8 @@ def _items(
                 choices=choices,
                 minimum=lo,
                 maximum=hi,
+                labels=item_labels,
+                step=step,
             )
         )
     return tuple(out) if ok else None
@@ -309,6 +382,12 @@ def check_response(q: Questionnaire, item: Item, r: Response) -> Response:
             hi = "inf" if item.maximum is None else f"{item.maximum:g}"
             rng = f"{lo}..{hi}"
             raise AnswerError([f"{where} = {v!r}: expected a number in {rng}"])
+        if item.step is not None and item.minimum is not None:
+            k = (float(v) - item.minimum) / item.step
+            if abs(k - round(k)) > 1e-9:
+                raise AnswerError(
+                    [f"{where} = {v!r}: expected a multiple of {item.step:g} from {item.minimum:g}"]
+                )
         return Response(value=float(v), text=None)
     if item.kind in ("choice", "consent"):
         options = item.choices if item.kind == "choice" else ("yes", "no")

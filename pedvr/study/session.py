@@ -11,7 +11,19 @@ Trials follow PedVR §6.2: the participant follows the red sphere; a trial
 ends when the last sphere is reached or at the time limit. Each frame the
 runner advances the simulation to the time the participant's backend asks
 for and records one sample (head pose, every agent, contacts, distance to
-the nearest agent).
+the nearest agent, red spheres reached so far).
+
+Every answer is stored with its response time: seconds on the console's
+monotonic clock from the moment the runner hands the item to the
+participant (:meth:`Participant.ask`) to the moment the answer is confirmed.
+The in-app participant draws the item on its next frame, so the time
+includes at most one frame (11 ms at 90 Hz) before the item is visible.
+
+A session ended by Ctrl-C, SIGTERM or SIGHUP (:mod:`pedvr.study.signals`), or
+by the participant closing the view, is ``aborted`` with an ``abort`` event
+saying why; a trial running at that moment is marked ``interrupted`` at once,
+its samples up to then kept (and flagged in the export), and ``--resume``
+runs it again from its start.
 """
 
 from __future__ import annotations
@@ -33,7 +45,7 @@ from pedvr.study.errors import AnswerError, ParticipantExistsError, StudyStoreEr
 from pedvr.study.presenter import Page, Participant, Question
 from pedvr.study.protocol import PlannedStep, Protocol, ShownPair, TrialSpec, participant_number, plan_for
 from pedvr.study.questionnaire import Response, check_response, recode
-from pedvr.study.store import StudyStore
+from pedvr.study.store import StepRow, StudyStore
 
 SAMPLE_CHUNK_FRAMES = 90  # samples are committed about once per simulated second at 90 Hz
 
@@ -123,6 +135,7 @@ class Session:
             participant_kind=self.participant.kind,
             resumed=self.resume,
         )
+        self._store_questionnaires()
         self.console.on_event = self._event
         self.console.session_started(
             participant=self.pid,
@@ -168,8 +181,9 @@ class Session:
                 self.console.step_finished(
                     index=step.index, total=total, title=step.title, status=st, detail=outcome.reason
                 )
-        except KeyboardInterrupt:
-            self._event("abort", "interrupted (Ctrl-C)")
+        except KeyboardInterrupt as exc:
+            self.store.rollback_open()
+            self._event("abort", f"interrupted ({str(exc) or 'Ctrl-C'})")
             self.store.end_session(self.session_id, "aborted")
             raise
         self.store.end_session(self.session_id, status)
@@ -207,23 +221,50 @@ class Session:
                 f"participant {self.pid} already exists in {self.store.path} (status {existing['status']}); "
                 "use --resume to continue their session, or choose another participant id"
             )
-        if existing["protocol_hash"] != self.protocol.content_hash:
-            raise StudyStoreError(
-                f"participant {self.pid} started with protocol {existing['protocol_hash']}, but "
-                f"{self.protocol.source} is now {self.protocol.content_hash}; "
-                "resume with the original protocol file"
-            )
         if existing["status"] == "withdrawn":
             raise StudyStoreError(f"participant {self.pid} declined consent; there is nothing to resume")
         rows = self.store.steps(self.pid)
-        if [(r.index, r.key, r.kind, r.spec) for r in rows] != specs:
+        differences = plan_differences(rows, self.plan, self.protocol)
+        if existing["protocol_hash"] != self.protocol.content_hash:
             raise StudyStoreError(
-                f"participant {self.pid}: the stored plan differs from the protocol's plan for "
-                f"number {self.number}; the database or protocol was changed"
+                "\n".join(
+                    [
+                        f"participant {self.pid} started with protocol {existing['protocol_hash']}, but "
+                        f"{self.protocol.source} is now {self.protocol.content_hash}; "
+                        "resume with the original protocol file",
+                        *(
+                            differences
+                            or [
+                                f"participant {self.pid}: the plan is the same; only the file's text changed "
+                                "(comments or layout)"
+                            ]
+                        ),
+                    ]
+                )
+            )
+        if differences:
+            raise StudyStoreError(
+                "\n".join(
+                    [
+                        f"participant {self.pid}: the stored plan (number {self.number}) differs from what "
+                        f"{self.protocol.source} plans now; resume with the protocol and scenes as they "
+                        "were:",
+                        *differences,
+                    ]
+                )
             )
         self.store.close_dead_sessions(self.pid)
         self.store.mark_interrupted_trials(self.pid)
         return rows
+
+    def _store_questionnaires(self) -> None:
+        """Keep each questionnaire's file text in the database (meta ``questionnaire_files``), so the
+        analysis scores answers by the definitions they were given with, wherever the files are then.
+        A file changed between sessions replaces the stored text (the latest session's wins)."""
+        stored = self.store.meta("questionnaire_files") or {}
+        now = {qid: q.document for qid, q in self.protocol.questionnaires.items() if q.document}
+        if any(stored.get(k) != v for k, v in now.items()):
+            self.store.set_meta("questionnaire_files", {**stored, **now})
 
     def _event(self, kind: str, detail: str | None) -> None:
         assert self.session_id is not None
@@ -284,12 +325,13 @@ class Session:
                 occurrence=occurrence,
                 required=required,
             )
+            shown = self.console.clock()
             raw = self.participant.ask(question)
+            response_time = self.console.clock() - shown
             resp = self._validate(q, item, raw, required=required)
+            self._store_answer(step, q, item, pair, resp, response_time_s=response_time)
             if item.kind == "consent" and resp.text == "no":
-                self._store_answer(step, q, item, pair, resp)
                 return _Outcome("withdrawn")
-            self._store_answer(step, q, item, pair, resp)
         return _Outcome("done")
 
     def _validate(self, q: Any, item: Any, raw: Response, *, required: bool) -> Response:
@@ -301,11 +343,18 @@ class Session:
             raise AnswerError([f"participant {self.pid}: {p}" for p in exc.problems]) from None
 
     def _store_answer(
-        self, step: PlannedStep, q: Any, item: Any, pair: ShownPair | None, r: Response
+        self,
+        step: PlannedStep,
+        q: Any,
+        item: Any,
+        pair: ShownPair | None,
+        r: Response,
+        *,
+        response_time_s: float,
     ) -> None:
         assert self.session_id is not None
         raw_label = (
-            q.scale.label(int(r.value))
+            q.label(item, int(r.value)) or None
             if (item.kind == "scale" and q.scale is not None and r.value is not None)
             else None
         )
@@ -334,6 +383,7 @@ class Session:
             if item.kind in ("scale", "number")
             else None,
             text=r.text,
+            response_time_s=response_time_s,
         )
 
     # -- trials -----------------------------------------------------------------------------
@@ -344,7 +394,8 @@ class Session:
 
         spec = step.trial
         assert spec is not None and self.session_id is not None
-        scene = load_any(spec.scene, seed=spec.seed)
+        scene_file = self.protocol.scene_path(spec.scene)
+        scene = load_any(scene_file, seed=spec.seed)
         user_input = self.participant.trial_input(trial=spec, scene=scene)
         sim = Simulation(
             scene,
@@ -354,7 +405,7 @@ class Session:
             user_input=user_input,
         )
         if sim.user is None:
-            raise StudyStoreError(f"{spec.scene}: the scene has no user; a study trial needs one")
+            raise StudyStoreError(f"{scene_file}: the scene has no user; a study trial needs one")
         limit = spec.time_limit_s if self.max_trial_s is None else min(spec.time_limit_s, self.max_trial_s)
         trial_id = self.store.begin_trial(
             participant=self.pid,
@@ -364,7 +415,7 @@ class Session:
             design=step.design,
             block=step.block,
             scenario=spec.scene_name,
-            scene_source=spec.scene,
+            scene_source=str(scene_file),
             scene_hash=scene.content_hash,
             condition=spec.condition,
             label=spec.label,
@@ -381,26 +432,42 @@ class Session:
         outcome = _Outcome("done")
         result = "time_limit"
         frame = 0
-        with self.console.keys.live():
-            while True:
-                if sim.user.route_done:
-                    result = "reached_last_sphere"
-                    break
-                if sim.t >= limit - 1e-9:
-                    result = "time_limit"
-                    break
-                cmd = self.console.check()
-                if cmd is not None:
-                    outcome = self._command(cmd)
-                    result = "skipped" if cmd.kind == "skip" else "aborted"
-                    break
-                target = self.participant.present(sim)
-                sim.advance_to(min(max(target, sim.t + sim.dt), limit))
-                frame += 1
-                rec.add(sim, frame=frame, head=self.participant.head_pose(sim))
-                self.console.trial_status(
-                    sim_t=sim.t, limit_s=limit, spheres=sim.user.sphere, spheres_total=total
-                )
+        try:
+            with self.console.keys.live():
+                while True:
+                    if sim.user.route_done:
+                        result = "reached_last_sphere"
+                        break
+                    if sim.t >= limit - 1e-9:
+                        result = "time_limit"
+                        break
+                    cmd = self.console.check()
+                    if cmd is not None:
+                        outcome = self._command(cmd)
+                        result = "skipped" if cmd.kind == "skip" else "aborted"
+                        break
+                    target = self.participant.present(sim)
+                    sim.advance_to(min(max(target, sim.t + sim.dt), limit))
+                    frame += 1
+                    rec.add(sim, frame=frame, head=self.participant.head_pose(sim))
+                    self.console.trial_status(
+                        sim_t=sim.t, limit_s=limit, spheres=sim.user.sphere, spheres_total=total
+                    )
+        except KeyboardInterrupt:
+            # Ctrl-C, SIGTERM/SIGHUP or a closed view: keep what was recorded, say the trial was cut off
+            self.store.rollback_open()
+            rec.flush()
+            self.store.finish_trial(
+                trial_id,
+                outcome="interrupted",
+                sim_time_s=round(sim.t, 6),
+                frames=frame + 1,
+                spheres_reached=sim.user.sphere,
+                spheres_total=total,
+                min_user_distance_m=rec.min_distance,
+                contacts=rec.contact_count,
+            )
+            raise
         rec.flush()
         self.store.finish_trial(
             trial_id,
@@ -469,7 +536,10 @@ class _SampleRecorder:
             self.min_distance = nearest if self.min_distance is None else min(self.min_distance, nearest)
         t = float(sim.t)
         (hx, hy, hz), (qw, qx, qy, qz) = head.position, head.orientation
-        self.samples.append((self.trial_id, frame, self.clock(), t, hx, hy, hz, qw, qx, qy, qz, nearest))
+        spheres = int(sim.user.sphere) if sim.user is not None else None
+        self.samples.append(
+            (self.trial_id, frame, self.clock(), t, hx, hy, hz, qw, qx, qy, qz, nearest, spheres)
+        )
         if self.keep_agents:
             self.agents.extend(
                 (self.trial_id, frame, int(i), int(u), float(p[0]), float(p[1]), float(h))
@@ -498,11 +568,62 @@ class _SampleRecorder:
             self.flush()
 
     def flush(self) -> None:
-        if self.samples or self.agents or self.contacts or self.gaze:
-            self.store.write_samples(
-                samples=self.samples, agents=self.agents, contacts=self.contacts, gaze=self.gaze
-            )
+        """Commit the buffered rows. The buffers are emptied first, so a flush cut short by a signal
+        loses at most this chunk and a second flush never writes a row twice."""
+        samples, agents, contacts, gaze = self.samples, self.agents, self.contacts, self.gaze
         self.samples, self.agents, self.contacts, self.gaze = [], [], [], []
+        if samples or agents or contacts or gaze:
+            self.store.write_samples(samples=samples, agents=agents, contacts=contacts, gaze=gaze)
+
+
+MAX_DIFFERENCES = 12  # lines of a plan mismatch message before "... and N more"
+
+
+def plan_differences(stored: list[StepRow], plan: list[PlannedStep], protocol: Protocol) -> list[str]:
+    """What differs between a participant's stored plan and the protocol's plan now, one line each.
+
+    Each line names the step (number and key) and the field with both values,
+    e.g. ``step 5 (training): trial.time_limit_s was 120.0, the protocol now
+    gives 60.0``; an edited scene file reads ``scene scenes/training.toml
+    changed (content hash a1b2 -> c3d4)``. A scene reference that an older
+    database stored as an absolute path counts as the same when it names the
+    same file as the protocol's reference does now, and a missing stored
+    hash (older databases) is not a difference.
+    """
+    out: list[str] = []
+    if len(stored) != len(plan):
+        out.append(f"the stored plan has {len(stored)} steps; the protocol now plans {len(plan)}")
+    for row, step in zip(stored, plan, strict=False):
+        where = f"step {row.index + 1} ({row.key})"
+        if (row.key, row.kind) != (step.key, step.kind):
+            out.append(f"{where}: the protocol now plans {step.key} ({step.kind}) here")
+            continue
+        old, new = json.loads(row.spec), json.loads(step.to_json())
+        for path, a, b in _json_differences(old, new):
+            if path == "trial.scene" and isinstance(a, str) and Path(a).is_absolute():
+                if Path(a).resolve() == protocol.scene_path(str(b)):
+                    continue
+            if path == "trial.scene_hash":
+                if a is None:
+                    continue
+                ref = new["trial"]["scene"]
+                out.append(
+                    f"{where}: scene {ref} changed since the participant started (content hash {a} -> {b})"
+                )
+                continue
+            out.append(f"{where}: {path} was {json.dumps(a)}, the protocol now gives {json.dumps(b)}")
+    if len(out) > MAX_DIFFERENCES:
+        out = [*out[: MAX_DIFFERENCES - 1], f"... and {len(out) - MAX_DIFFERENCES + 1} more differences"]
+    return out
+
+
+def _json_differences(a: Any, b: Any, path: str = "") -> list[tuple[str, Any, Any]]:
+    if isinstance(a, dict) and isinstance(b, dict):
+        out: list[tuple[str, Any, Any]] = []
+        for k in list(a) + [k for k in b if k not in a]:
+            out += _json_differences(a.get(k), b.get(k), f"{path}.{k}" if path else k)
+        return out
+    return [] if a == b else [(path, a, b)]
 
 
 def plan_json(step: PlannedStep) -> dict[str, Any]:

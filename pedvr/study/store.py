@@ -7,7 +7,8 @@ order, seed, outcome), ``samples`` (one row per frame: monotonic time, frame
 index, head position and orientation quaternion, distance to the nearest
 agent), ``agent_samples`` (every agent's position and heading per frame),
 ``gaze_events``, ``contacts``, ``answers`` (raw as shown and recoded to the
-fixed orientation) and ``events`` (the experimenter's pauses, skips, aborts).
+fixed orientation, with the response time from the item shown to the answer
+confirmed) and ``events`` (the experimenter's pauses, skips, aborts, signals).
 
 Durability: the database runs in WAL mode with ``synchronous = FULL``. Every
 answer, every step status and every trial start and end is its own
@@ -16,12 +17,18 @@ A process killed mid-trial therefore loses at most that trial's last
 uncommitted chunk of samples, never an answer; on ``--resume`` the
 unfinished trial is marked ``interrupted`` (its committed samples are kept)
 and run again as a new trial row.
+
+Analysis and export open the database read-only (``read_only=True``): a
+database on a read-only medium or without write permission can be read, and
+nothing is written, not even a migration; an older schema is read through
+temporary views that add the newer columns as missing values.
 """
 
 from __future__ import annotations
 
 import json
 import sqlite3
+import urllib.parse
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -30,7 +37,9 @@ from typing import Any
 
 from pedvr.study.errors import ParticipantExistsError, StudyStoreError
 
-SCHEMA_VERSION = "2"  # 2: gaze_events.target (1 is migrated on open: its gaze table was always empty)
+# 2: gaze_events.target (1 is migrated on open: its gaze table was always empty);
+# 3: answers.response_time_s, samples.spheres (the red spheres reached so far)
+SCHEMA_VERSION = "3"
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -58,7 +67,7 @@ CREATE TABLE IF NOT EXISTS samples (
     trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, t_mono REAL NOT NULL, sim_t REAL NOT NULL,
     head_x REAL NOT NULL, head_y REAL NOT NULL, head_z REAL NOT NULL,
     head_qw REAL NOT NULL, head_qx REAL NOT NULL, head_qy REAL NOT NULL, head_qz REAL NOT NULL,
-    nearest_agent_m REAL, PRIMARY KEY (trial_id, frame)) WITHOUT ROWID;
+    nearest_agent_m REAL, spheres INTEGER, PRIMARY KEY (trial_id, frame)) WITHOUT ROWID;
 CREATE TABLE IF NOT EXISTS agent_samples (
     trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, agent_id INTEGER NOT NULL, is_user INTEGER NOT NULL,
     x REAL NOT NULL, y REAL NOT NULL, heading REAL NOT NULL,
@@ -75,13 +84,23 @@ CREATE TABLE IF NOT EXISTS answers (
     questionnaire_kind TEXT NOT NULL, item TEXT NOT NULL,
     item_number INTEGER NOT NULL, block TEXT, scenario TEXT, condition TEXT, label TEXT, comparison TEXT,
     left_condition TEXT, right_condition TEXT, left_label TEXT, right_label TEXT, flipped INTEGER,
-    raw_value REAL, raw_label TEXT, recoded_value REAL, text TEXT, answered_utc TEXT NOT NULL);
+    raw_value REAL, raw_label TEXT, recoded_value REAL, text TEXT, answered_utc TEXT NOT NULL,
+    response_time_s REAL);
 CREATE UNIQUE INDEX IF NOT EXISTS answers_once
     ON answers (participant, step_index, item, IFNULL(comparison, ''));
 CREATE TABLE IF NOT EXISTS events (
     event_id INTEGER PRIMARY KEY, session_id INTEGER NOT NULL, participant TEXT NOT NULL,
     step_index INTEGER, utc TEXT NOT NULL, kind TEXT NOT NULL, detail TEXT);
 """
+
+# Columns added by each schema version: (table, column, SQL type and default, value read from older files).
+ADDED_COLUMNS = {
+    "2": (("gaze_events", "target", "TEXT NOT NULL DEFAULT 'user'", "'user'"),),
+    "3": (
+        ("answers", "response_time_s", "REAL", "NULL"),
+        ("samples", "spheres", "INTEGER", "NULL"),
+    ),
+}
 
 TABLES = (
     "participants",
@@ -115,52 +134,116 @@ class StudyStore:
     """An open study database. Use as a context manager or call :meth:`close`.
 
     ``path`` is created with the schema when missing; an existing file must
-    be a pedvr study database of this schema version.
+    be a pedvr study database of this schema version or an older one (older
+    ones are migrated on open). With ``read_only`` the file must exist, is
+    opened read-only (``mode=ro``; where SQLite cannot even create the WAL
+    index next to a read-only file, ``immutable=1``: the file is then assumed
+    not to change while it is open) and is never written; an older schema is
+    read through temporary views (module docstring).
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, read_only: bool = False) -> None:
         self.path = Path(path)
+        self.read_only = read_only
         if self.path.exists() and not self.path.is_file():
             raise StudyStoreError(f"{self.path}: not a file")
-        if self.path.parent and not self.path.parent.exists():
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+        if read_only:
+            self.db = self._connect_read_only()
+        else:
+            if self.path.parent and not self.path.parent.exists():
+                try:
+                    self.path.parent.mkdir(parents=True, exist_ok=True)
+                except OSError as exc:
+                    raise StudyStoreError(
+                        f"{self.path}: cannot create its folder: {exc.strerror or exc}"
+                    ) from None
+            try:
+                self.db = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
+                self.db.execute("PRAGMA journal_mode = WAL")
+                self.db.execute("PRAGMA synchronous = FULL")
+                self.db.execute("PRAGMA foreign_keys = ON")
+            except sqlite3.OperationalError as exc:
+                raise StudyStoreError(
+                    f"{self.path}: cannot open the study database for writing ({exc})"
+                ) from None
+            except sqlite3.DatabaseError as exc:
+                raise StudyStoreError(f"{self.path}: not a SQLite database ({exc})") from None
         try:
-            self.db = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
-            self.db.execute("PRAGMA journal_mode = WAL")
-            self.db.execute("PRAGMA synchronous = FULL")
-            self.db.execute("PRAGMA foreign_keys = ON")
             have = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
         except sqlite3.DatabaseError as exc:
+            self.db.close()
             raise StudyStoreError(f"{self.path}: not a SQLite database ({exc})") from None
-        if have and "meta" not in have:
+        if (have or read_only) and "meta" not in have:
             self.db.close()
             raise StudyStoreError(
                 f"{self.path}: a SQLite database, but not a pedvr study database "
-                f"(tables: {', '.join(sorted(have))})"
+                f"(tables: {', '.join(sorted(have)) or 'none'})"
             )
         if have:
             row = self.db.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
-            if row is not None and row[0] == "1":
-                self._migrate_1_to_2()
-                row = (SCHEMA_VERSION,)
-            if row is None or row[0] != SCHEMA_VERSION:
+            version = None if row is None else str(row[0])
+            if version not in ("1", *ADDED_COLUMNS):
                 self.db.close()
                 raise StudyStoreError(
-                    f"{self.path}: study database schema version "
-                    f"{None if row is None else row[0]!r}; this pedvr reads {SCHEMA_VERSION!r}"
+                    f"{self.path}: study database schema version {version!r}; this pedvr reads "
+                    f"{', '.join(repr(v) for v in ('1', *ADDED_COLUMNS))}"
                 )
-        if not have:
+            assert version is not None
+            if version != SCHEMA_VERSION:
+                if read_only:
+                    self._view_as_current(version)
+                else:
+                    self._migrate(version)
+        else:
             self.db.executescript(
                 "BEGIN IMMEDIATE;"
                 + SCHEMA
                 + f"INSERT INTO meta VALUES ('schema_version', '{SCHEMA_VERSION}'); COMMIT;"
             )
 
-    def _migrate_1_to_2(self) -> None:
-        """Version 1 had no ``gaze_events.target`` (and never wrote gaze events): add the column."""
+    def _connect_read_only(self) -> sqlite3.Connection:
+        if not self.path.is_file():
+            raise StudyStoreError(f"{self.path}: no such study database")
+        uri = "file:" + urllib.parse.quote(str(self.path.resolve()))
+        last: sqlite3.DatabaseError | None = None
+        for mode in ("mode=ro", "immutable=1"):
+            try:
+                db = sqlite3.connect(f"{uri}?{mode}", uri=True, isolation_level=None, timeout=10.0)
+            except sqlite3.DatabaseError as exc:
+                last = exc
+                continue
+            try:
+                db.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()
+                return db
+            except sqlite3.DatabaseError as exc:
+                db.close()
+                last = exc
+                # Only a file SQLite cannot open read-only in place (no WAL index can be made beside it)
+                # is read as immutable; anything else (not a database, locked) is reported as it is.
+                if not any(w in str(exc) for w in ("readonly", "read-only", "unable to open")):
+                    break
+        if isinstance(last, sqlite3.OperationalError):
+            raise StudyStoreError(f"{self.path}: cannot open the study database to read it ({last})")
+        raise StudyStoreError(f"{self.path}: not a SQLite database ({last})")
+
+    def _added_since(self, version: str) -> list[tuple[str, str, str, str]]:
+        later = [v for v in ADDED_COLUMNS if int(v) > int(version)]
+        return [c for v in later for c in ADDED_COLUMNS[v]]
+
+    def _migrate(self, version: str) -> None:
+        """Add the columns of every later schema version, in one transaction."""
         with self.transaction():
-            self.db.execute("ALTER TABLE gaze_events ADD COLUMN target TEXT NOT NULL DEFAULT 'user'")
+            for table, column, decl, _ in self._added_since(version):
+                self.db.execute(f"ALTER TABLE {table} ADD COLUMN {column} {decl}")
             self.db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (SCHEMA_VERSION,))
+
+    def _view_as_current(self, version: str) -> None:
+        """Read-only: temporary views named like the tables add the newer columns (temp is searched first)."""
+        by_table: dict[str, list[str]] = {}
+        for table, column, _, value in self._added_since(version):
+            by_table.setdefault(table, []).append(f"{value} AS {column}")
+        for table, extra in by_table.items():
+            self.db.execute(f"CREATE TEMP VIEW {table} AS SELECT *, {', '.join(extra)} FROM main.{table}")
 
     # -- plumbing --------------------------------------------------------------------------
 
@@ -169,6 +252,11 @@ class StudyStore:
 
     def close(self) -> None:
         self.db.close()
+
+    def rollback_open(self) -> None:
+        """Roll back a transaction left open by an interrupted write (a signal between BEGIN and COMMIT)."""
+        if self.db.in_transaction:
+            self.db.execute("ROLLBACK")
 
     def __enter__(self) -> StudyStore:
         return self
@@ -358,7 +446,7 @@ class StudyStore:
     ) -> None:
         """Commit one chunk of per-frame rows."""
         with self.transaction():
-            self.db.executemany("INSERT INTO samples VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", samples)
+            self.db.executemany("INSERT INTO samples VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", samples)
             self.db.executemany("INSERT INTO agent_samples VALUES (?, ?, ?, ?, ?, ?, ?)", agents)
             self.db.executemany("INSERT INTO contacts VALUES (?, ?, ?, ?, ?, ?, ?)", contacts)
             self.db.executemany("INSERT INTO gaze_events VALUES (?, ?, ?, ?, ?, ?)", gaze)
@@ -412,9 +500,9 @@ class _Tx:
             self.db.execute("ROLLBACK")
 
 
-def open_store(path: str | Path, *, must_exist: bool = False) -> StudyStore:
-    """Open a study database; with ``must_exist`` a missing file is a clear error."""
+def open_store(path: str | Path, *, must_exist: bool = False, read_only: bool = False) -> StudyStore:
+    """Open a study database; with ``must_exist`` (implied by ``read_only``) a missing file is an error."""
     p = Path(path)
-    if must_exist and not p.is_file():
+    if (must_exist or read_only) and not p.is_file():
         raise StudyStoreError(f"{p}: no such study database")
-    return StudyStore(p)
+    return StudyStore(p, read_only=read_only)

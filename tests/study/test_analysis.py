@@ -128,7 +128,10 @@ def test_presence_index_and_json_cli(tmp_path: Path, capsys: pytest.CaptureFixtu
                                                           "friedman", "n", "excluded"}
     md = (tmp_path / "rep" / "report.md").read_text()
     assert "| PedVR+G | Decoupled |" in md and "repeated-measures ANOVA" in md and "Friedman test: χ²(2)" in md
-    assert (tmp_path / "rep" / "histograms_antipodal_circle.png").stat().st_size > 1000
+    svg = (tmp_path / "rep" / "histograms_antipodal_circle.svg").read_text()
+    assert svg.count("<path") > 7 and "PedVR+G / Decoupled" in svg  # vector bars, text kept as text
+    page = (tmp_path / "rep" / "report.html").read_text()
+    assert page.count("<svg") == 1 and "<td class=\"num\">" in page and "Friedman test: χ²(2)" in page
 
 
 def test_incomplete_participant_is_left_out_of_the_anova(tmp_path: Path) -> None:

@@ -216,3 +216,20 @@ def test_form_without_scale_text() -> None:
 def test_unknown_event_kind() -> None:
     with pytest.raises(ValueError, match="panel event 'jump'"):
         PanelEvent("jump")
+
+
+def test_items_with_their_own_anchors_and_ratings_on_a_step() -> None:
+    ipq = q("ipq")
+    p = QuestionPanel(question(ipq, 10))  # REAL1: "completely real" .. "not real at all"
+    lines = p.view().lines
+    assert "0  completely real" in [line.strip("> ").strip() for line in lines]
+    assert "6  not real at all" in [line.strip("> ").strip() for line in lines]
+    assert "3" in [line.strip("> ").strip() for line in lines]  # an unlabelled point shows its number
+    assert run(p, "c:6", "select") is None and "You chose: 6 (not real at all)" in p.view().lines
+    drive(p, ev("confirm"))
+    assert p.response == Response(value=6)
+    tlx = q("nasa_tlx_raw")
+    p = QuestionPanel(question(tlx, 0), keyboard=False)  # a thumbstick moves the rating 5 points at a time
+    assert run(p, "next", "next", "next", "prev", "select", "select") == Response(value=5.0)
+    p = QuestionPanel(question(tlx, 0))
+    assert run(p, "c:4", "c:2", "select") is None and "multiple of 5" in " ".join(p.view().lines)

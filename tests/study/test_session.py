@@ -122,7 +122,7 @@ def test_analysis_reads_the_study_database(study: Path, tmp_path: Path) -> None:
     assert "RM-ANOVA: F(" in out.getvalue()
     md = (tmp_path / "rep" / "report.md").read_text()
     assert "## Head-on corridor by responsibility" in md and "## Simulator sickness" in md
-    assert (tmp_path / "rep" / "corridor_trajectories.png").is_file()
+    assert (tmp_path / "rep" / "corridor_trajectories.svg").is_file()
 
 
 def test_corridor_trajectories_by_responsibility(tmp_path: Path) -> None:
@@ -156,6 +156,8 @@ def test_export_round_trips_through_pandas(study: Path, tmp_path: Path) -> None:
             got = pd.read_csv(tmp_path / "x" / f"{table}.tsv", sep="\t")
             # SQL NULL reads as None from sqlite and as NaN from the file: the same missing value
             want = want.astype(object).where(want.notna(), np.nan).infer_objects()
+            if table == "samples":  # the export adds whether the trial was cut off and run again
+                assert (got.pop("interrupted") == 0).all()
             pd.testing.assert_frame_equal(got, want, check_dtype=False, obj=table)
         store.db.execute("UPDATE answers SET text = NULL WHERE questionnaire = 'feedback' AND participant = 'P01'")
     answers = pd.read_csv(tmp_path / "x" / "answers.tsv", sep="\t")
@@ -163,7 +165,7 @@ def test_export_round_trips_through_pandas(study: Path, tmp_path: Path) -> None:
     traj = sorted((tmp_path / "x" / "trajectories").glob("trial-*.tsv"))
     assert len(traj) == 66 and tmp_path / "x" / "responses.csv" in written
     t = pd.read_csv(traj[0], sep="\t")
-    assert list(t.columns) == ["trial_id", "frame", "sim_t", "agent_id", "is_user", "x", "y", "heading"]
+    assert list(t.columns) == ["trial_id", "frame", "sim_t", "agent_id", "is_user", "x", "y", "heading", "interrupted"]
     # the long-format responses file feeds the CSV form of analyze, with the same numbers
     from_csv = analyze(responses=tmp_path / "x" / "responses.csv")
     from_db = analyze(db=study)
@@ -323,3 +325,10 @@ def test_not_a_study_database(tmp_path: Path) -> None:
     g.write_bytes(b"this is not sqlite at all, just some bytes" * 100)
     with pytest.raises(StudyStoreError, match=r"junk\.sqlite: not a SQLite database"):
         StudyStore(g)
+    # the same answers when opened read-only, as analysis and export do
+    with pytest.raises(StudyStoreError, match=r"junk\.sqlite: not a SQLite database"):
+        StudyStore(g, read_only=True)
+    with pytest.raises(StudyStoreError, match=r"other\.sqlite: a SQLite database, but not a pedvr study database"):
+        StudyStore(f, read_only=True)
+    with pytest.raises(StudyStoreError, match=r"missing\.sqlite: no such study database"):
+        StudyStore(tmp_path / "missing.sqlite", read_only=True)

@@ -1,0 +1,63 @@
+"""SIGTERM and SIGHUP end a study session like Ctrl-C: ``aborted``, with a logged event.
+
+A session killed politely (``kill PID``, a closed terminal, a desktop logging
+out) should leave the database as an abort by the experimenter would: the
+session ``aborted``, an ``abort`` event naming the signal, a running trial
+marked ``interrupted`` with its samples kept, and ``--resume`` continuing at
+the first unfinished step. Inside :func:`signals_abort` the two signals raise
+:class:`TerminatedBySignal` (a :class:`KeyboardInterrupt`, so every place that
+already winds down on Ctrl-C does the same for them); later signals are
+ignored while the session winds down, so the clean-up itself is not cut short.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from types import FrameType
+
+SIGNALS = ("SIGTERM", "SIGHUP")
+
+
+class TerminatedBySignal(KeyboardInterrupt):
+    """The process received ``signum`` (SIGTERM or SIGHUP) while a session ran."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = signum
+        self.name = signal.Signals(signum).name
+        super().__init__(f"{self.name} received")
+
+    @property
+    def exit_code(self) -> int:
+        """The shell's convention for a process ended by a signal: 128 + its number."""
+        return 128 + self.signum
+
+
+@contextmanager
+def signals_abort() -> Iterator[None]:
+    """Turn SIGTERM and SIGHUP into :class:`TerminatedBySignal` inside the block (main thread only).
+
+    Outside the main thread Python cannot install handlers; the block then
+    runs with the handlers it had. The previous handlers are restored on exit.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    fired = False
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        nonlocal fired
+        if fired:  # already winding down: let the clean-up finish
+            return
+        fired = True
+        raise TerminatedBySignal(signum)
+
+    numbers = [getattr(signal, n) for n in SIGNALS if hasattr(signal, n)]
+    previous = {s: signal.signal(s, handler) for s in numbers}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
