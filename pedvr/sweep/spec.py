@@ -388,7 +388,7 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
         raise SweepSpecError(c.problems)
     parameters = sorted({k for combo in combos for k in combo})
     swept = [k for k in parameters
-             if len({json.dumps(cb[k].value, sort_keys=True) for cb in combos if k in cb}) > 1]
+             if len({json.dumps(cb[k].value if k in cb else None, sort_keys=True) for cb in combos}) > 1]
     return SweepSpec(name=name, source=source, text=text, tasks=tuple(tasks), parameters=tuple(parameters),
                      swept=tuple(swept), scenes=tuple(s for s, _ in scenes))
 
