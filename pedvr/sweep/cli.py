@@ -141,6 +141,8 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
         raise UsageError("pedvr bench sweep: --runs and --workers must be >= 1")
     from distributed import Client, LocalCluster
 
+    import pyarrow.parquet  # noqa: F401 - imported before the clock starts, as in a long sweep
+
     from pedvr.sweep.runner import run_sweep
     from pedvr.sweep.spec import parse_spec
     from pedvr.sweep.task import execute

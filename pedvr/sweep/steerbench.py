@@ -73,7 +73,8 @@ def resample(t: np.ndarray, pos: np.ndarray, fps: float = STEERSUITE_FPS) -> np.
     j = np.minimum(i + 1, len(t) - 1)
     span = t[j] - t[i]
     frac = np.divide(frames - t[i], span, out=np.zeros_like(frames), where=span > 0)
-    return pos[i] + frac[:, None, None] * (pos[j] - pos[i])
+    f = frac[:, None, None]
+    return np.where(f > 0, pos[i] + f * (pos[j] - pos[i]), pos[i])  # on a step: that step, absent or not
 
 
 def steerbench_scores(arrays: dict[str, np.ndarray], *, scene: SceneConfig, radius: np.ndarray | None = None,

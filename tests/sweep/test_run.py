@@ -150,3 +150,14 @@ keep = "recordings"
             meta = json.loads(str(rec["meta"]))
             assert meta["seed"] == row["seed"] and rec["pos"].shape[1] == 2  # the user and one agent
     assert len(outcome.errors) == 2 and "only" in outcome.errors[0]
+
+
+def test_bench_sweep_reports_both_rates(capsys: pytest.CaptureFixture[str]) -> None:
+    from pedvr.cli import main
+
+    assert main(["bench", "sweep", "--runs", "4", "--workers", "2", "--duration", "0.2", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert (r["runs"], r["workers"], r["scene"]) == (4, 2, "headon_corridor")
+    assert r["serial_runs_per_min"] > 0 and r["dask_runs_per_min"] > 0
+    assert r["serial_runs_per_min"] == pytest.approx(60 * 4 / r["serial_wall_s"], rel=0.01)
+    assert r["overhead_per_task_s"] == pytest.approx((r["dask_wall_s"] * 2 - r["serial_wall_s"]) / 4, abs=1e-3)
