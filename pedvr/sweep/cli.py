@@ -44,17 +44,30 @@ def _positive(text: str) -> float:
 
 def add_sweep_parser(subparsers: Any) -> argparse.ArgumentParser:
     """``sweep``: run a spec, or ``sweep report DIR``."""
-    sw = subparsers.add_parser("sweep", help="many headless runs from one spec, on Dask; or `sweep report DIR`",
-                               description="Run a sweep spec (pedvr sweep SPEC.toml) or write the report of one "
-                                           "(pedvr sweep report DIR).")
+    sw = subparsers.add_parser(
+        "sweep",
+        help="many headless runs from one spec, on Dask; or `sweep report DIR`",
+        description="Run a sweep spec (pedvr sweep SPEC.toml) or write the report of one "
+        "(pedvr sweep report DIR).",
+    )
     sw.add_argument("spec", help="sweep spec (.toml), or 'report'")
     sw.add_argument("dir", nargs="?", default=None, help="with 'report': the sweep's output folder")
-    sw.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                    help="an existing Dask scheduler, e.g. tcp://host:8786 (default: a local cluster)")
-    sw.add_argument("--workers", type=_count, default=None, metavar="N",
-                    help="local cluster size (default: one per core); 0 runs serially in this process")
-    sw.add_argument("--out", type=Path, default=None, metavar="DIR",
-                    help="output folder (default: pedvr-out/sweep-NAME)")
+    sw.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="an existing Dask scheduler, e.g. tcp://host:8786 (default: a local cluster)",
+    )
+    sw.add_argument(
+        "--workers",
+        type=_count,
+        default=None,
+        metavar="N",
+        help="local cluster size (default: one per core); 0 runs serially in this process",
+    )
+    sw.add_argument(
+        "--out", type=Path, default=None, metavar="DIR", help="output folder (default: pedvr-out/sweep-NAME)"
+    )
     sw.add_argument("--resume", action="store_true", help="run only what DIR does not hold yet")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     return sw
@@ -76,8 +89,9 @@ def _need_extra() -> None:
         import distributed  # noqa: F401
         import pyarrow  # noqa: F401
     except ImportError as exc:
-        raise SweepError(f"pedvr sweep needs the sweep extra ({exc.name} is missing): "
-                         "pip install -e '.[sweep]'") from None
+        raise SweepError(
+            f"pedvr sweep needs the sweep extra ({exc.name} is missing): pip install -e '.[sweep]'"
+        ) from None
 
 
 def run_sweep_command(args: argparse.Namespace, *, stdout: TextIO | None = None) -> int:
@@ -87,8 +101,16 @@ def run_sweep_command(args: argparse.Namespace, *, stdout: TextIO | None = None)
     if args.spec == "report":
         if args.dir is None:
             raise UsageError("pedvr sweep report: give the sweep's output folder: pedvr sweep report DIR")
-        given = [f for f, v in (("--scheduler", args.scheduler), ("--workers", args.workers),
-                                ("--out", args.out), ("--resume", args.resume or None)) if v is not None]
+        given = [
+            f
+            for f, v in (
+                ("--scheduler", args.scheduler),
+                ("--workers", args.workers),
+                ("--out", args.out),
+                ("--resume", args.resume or None),
+            )
+            if v is not None
+        ]
         if given:
             raise UsageError(f"pedvr sweep report: {given[0]} applies to running a sweep, not to its report")
         from pedvr.sweep.report import write_sweep_report
@@ -104,8 +126,14 @@ def run_sweep_command(args: argparse.Namespace, *, stdout: TextIO | None = None)
     spec = load_spec(args.spec)
     folder = args.out or Path("pedvr-out") / f"sweep-{spec.name}"
     print(f"sweep {spec.name}: {len(spec.tasks)} runs into {folder}", file=out)
-    outcome = run_sweep(spec, out=folder, resume=args.resume, workers=args.workers, scheduler=args.scheduler,
-                        progress=not args.quiet)
+    outcome = run_sweep(
+        spec,
+        out=folder,
+        resume=args.resume,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        progress=not args.quiet,
+    )
     print(outcome.summary(), file=out)
     if spec.study:
         store = folder / f"{spec.study}.sqlite"
@@ -139,19 +167,27 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
     """
     if runs < 1 or workers < 1:
         raise UsageError("pedvr bench sweep: --runs and --workers must be >= 1")
-    from distributed import Client, LocalCluster
-
     import pyarrow.parquet  # noqa: F401 - imported before the clock starts, as in a long sweep
+    from distributed import Client, LocalCluster
 
     from pedvr.sweep.runner import run_sweep
     from pedvr.sweep.spec import parse_spec
     from pedvr.sweep.task import execute
 
-    data = {"sweep": {"name": "bench", "scenes": [scene], "duration": duration,
-                      "seeds": {"from": 1, "count": runs}}}
+    data = {
+        "sweep": {
+            "name": "bench",
+            "scenes": [scene],
+            "duration": duration,
+            "seeds": {"from": 1, "count": runs},
+        }
+    }
     spec = parse_spec(data, source="bench", base_dir=Path.cwd())
-    warm = parse_spec({"sweep": {**data["sweep"], "seeds": [10_000 + k for k in range(workers + 1)]}},
-                      source="bench", base_dir=Path.cwd())
+    warm = parse_spec(
+        {"sweep": {**data["sweep"], "seeds": [10_000 + k for k in range(workers + 1)]}},
+        source="bench",
+        base_dir=Path.cwd(),
+    )
     load0 = os.getloadavg()[0]
     execute(warm.tasks[0])
     t0 = time.perf_counter()
@@ -162,11 +198,23 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
     serial_s = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                      env={"NUMBA_NUM_THREADS": "1"}) as cluster, Client(cluster) as client:
+    with (
+        LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            env={"NUMBA_NUM_THREADS": "1"},
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         start_s = time.perf_counter() - t0
-        client.gather([client.submit(execute, t, pure=False, workers=[w])
-                       for t, w in zip(warm.tasks[1:], client.nthreads(), strict=False)])
+        client.gather(
+            [
+                client.submit(execute, t, pure=False, workers=[w])
+                for t, w in zip(warm.tasks[1:], client.nthreads(), strict=False)
+            ]
+        )
         with tempfile.TemporaryDirectory(prefix="pedvr-bench-sweep-") as tmp:
             t0 = time.perf_counter()
             outcome = run_sweep(spec, out=Path(tmp) / "out", client=client, progress=False)
@@ -174,12 +222,18 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
     if outcome.ok != runs:
         raise SweepError(f"pedvr bench sweep: {runs - outcome.ok} runs did not finish ok")
     return {
-        "runs": runs, "workers": workers, "scene": scene, "duration_s": duration,
-        "serial_wall_s": round(serial_s, 3), "serial_runs_per_min": round(60 * runs / serial_s, 1),
+        "runs": runs,
+        "workers": workers,
+        "scene": scene,
+        "duration_s": duration,
+        "serial_wall_s": round(serial_s, 3),
+        "serial_runs_per_min": round(60 * runs / serial_s, 1),
         "serial_s_per_run": round(serial_s / runs, 4),
-        "dask_wall_s": round(dask_s, 3), "dask_runs_per_min": round(60 * runs / dask_s, 1),
+        "dask_wall_s": round(dask_s, 3),
+        "dask_runs_per_min": round(60 * runs / dask_s, 1),
         "speedup": round(serial_s / dask_s, 3),
         "overhead_per_task_s": round((dask_s * workers - serial_s) / runs, 4),
         "cluster_start_s": round(start_s, 3),
-        "load_average_1min_before": round(load0, 2), "load_average_1min_after": round(os.getloadavg()[0], 2),
+        "load_average_1min_before": round(load0, 2),
+        "load_average_1min_after": round(os.getloadavg()[0], 2),
     }

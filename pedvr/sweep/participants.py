@@ -36,11 +36,15 @@ def participant_summary(db: Path, participant: str) -> dict[str, Any]:
     """
     with closing(sqlite3.connect(db)) as con:
         con.execute("PRAGMA wal_checkpoint(TRUNCATE)")  # the bytes returned must hold every commit
-        status = con.execute("SELECT status FROM participants WHERE participant = ?", (participant,)).fetchone()
-        steps = con.execute("SELECT COUNT(*), SUM(status != 'pending') FROM steps WHERE participant = ?",
-                            (participant,)).fetchone()
-        trials = con.execute("SELECT scenario, condition FROM trials WHERE participant = ? ORDER BY trial_id",
-                             (participant,)).fetchall()
+        status = con.execute(
+            "SELECT status FROM participants WHERE participant = ?", (participant,)
+        ).fetchone()
+        steps = con.execute(
+            "SELECT COUNT(*), SUM(status != 'pending') FROM steps WHERE participant = ?", (participant,)
+        ).fetchone()
+        trials = con.execute(
+            "SELECT scenario, condition FROM trials WHERE participant = ? ORDER BY trial_id", (participant,)
+        ).fetchall()
         answers = con.execute("SELECT COUNT(*) FROM answers WHERE participant = ?", (participant,)).fetchone()
     return {
         "participant_status": None if status is None else status[0],
@@ -54,7 +58,9 @@ def participant_summary(db: Path, participant: str) -> dict[str, Any]:
 
 def _columns(con: sqlite3.Connection, schema: str, table: str) -> list[tuple[str, str, int]]:
     """(name, declared type, pk position) of each column."""
-    return [(r[1], str(r[2]).upper(), int(r[5])) for r in con.execute(f'PRAGMA {schema}.table_info("{table}")')]
+    return [
+        (r[1], str(r[2]).upper(), int(r[5])) for r in con.execute(f'PRAGMA {schema}.table_info("{table}")')
+    ]
 
 
 def _row_id(cols: list[tuple[str, str, int]]) -> str | None:
@@ -74,15 +80,23 @@ def merge_participant(store: Path, blob: bytes, participant: str) -> None:
     try:
         with closing(sqlite3.connect(store)) as con:
             con.execute("ATTACH DATABASE ? AS src", (str(src),))
-            tables = [r[0] for r in con.execute(
-                "SELECT name FROM src.sqlite_master WHERE type = 'table' AND name NOT LIKE 'sqlite_%'")]
-            main_tables = {r[0] for r in con.execute("SELECT name FROM main.sqlite_master WHERE type = 'table'")}
+            tables = [
+                r[0]
+                for r in con.execute(
+                    "SELECT name FROM src.sqlite_master WHERE type = 'table' AND name NOT LIKE 'sqlite_%'"
+                )
+            ]
+            main_tables = {
+                r[0] for r in con.execute("SELECT name FROM main.sqlite_master WHERE type = 'table'")
+            }
             cols = {t: _columns(con, "main", t) for t in tables if t in main_tables}
             owners = {rid: t for t, c in cols.items() if (rid := _row_id(c)) is not None}
             with con:  # one transaction: the participant is merged whole or not at all
                 _remove(con, participant, cols, owners)
-                shift = {rid: int(con.execute(f'SELECT COALESCE(MAX("{rid}"), 0) FROM main."{t}"').fetchone()[0])
-                         for rid, t in owners.items()}
+                shift = {
+                    rid: int(con.execute(f'SELECT COALESCE(MAX("{rid}"), 0) FROM main."{t}"').fetchone()[0])
+                    for rid, t in owners.items()
+                }
                 for t, tcols in cols.items():
                     src_names = {c[0] for c in _columns(con, "src", t)}
                     names = [c[0] for c in tcols if c[0] in src_names]
@@ -95,8 +109,12 @@ def merge_participant(store: Path, blob: bytes, participant: str) -> None:
         src.unlink(missing_ok=True)
 
 
-def _remove(con: sqlite3.Connection, participant: str, cols: dict[str, list[tuple[str, str, int]]],
-            owners: dict[str, str]) -> None:
+def _remove(
+    con: sqlite3.Connection,
+    participant: str,
+    cols: dict[str, list[tuple[str, str, int]]],
+    owners: dict[str, str],
+) -> None:
     """Delete an earlier copy of ``participant``: rows naming it, and rows pointing at its ids."""
     by_participant = [t for t, c in cols.items() if any(n == "participant" for n, _, _ in c)]
     for t, tcols in cols.items():
@@ -105,8 +123,11 @@ def _remove(con: sqlite3.Connection, participant: str, cols: dict[str, list[tupl
         for n, _, _ in tcols:
             owner = owners.get(n)
             if owner is not None and owner != t and owner in by_participant:
-                con.execute(f'DELETE FROM main."{t}" WHERE "{n}" IN '
-                            f'(SELECT "{n}" FROM main."{owner}" WHERE participant = ?)', (participant,))
+                con.execute(
+                    f'DELETE FROM main."{t}" WHERE "{n}" IN '
+                    f'(SELECT "{n}" FROM main."{owner}" WHERE participant = ?)',
+                    (participant,),
+                )
                 break
     for t in by_participant:
         con.execute(f'DELETE FROM main."{t}" WHERE participant = ?', (participant,))

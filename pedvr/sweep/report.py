@@ -32,8 +32,23 @@ from pedvr.sweep.runner import MANIFEST
 from pedvr.sweep.table import TABLE_NAME, read_table
 
 # Run columns that are not metrics (identity, bookkeeping).
-IDENTITY = ("run_key", "scene", "scene_source", "seed", "duration", "pedvr_version", "status", "error",
-            "recording", "scene_hash", "participant", "number", "protocol", "max_trial_seconds", "order")
+IDENTITY = (
+    "run_key",
+    "scene",
+    "scene_source",
+    "seed",
+    "duration",
+    "pedvr_version",
+    "status",
+    "error",
+    "recording",
+    "scene_hash",
+    "participant",
+    "number",
+    "protocol",
+    "max_trial_seconds",
+    "order",
+)
 
 
 def confidence_interval(values: np.ndarray, level: float = 0.95) -> tuple[float, float, int]:
@@ -71,15 +86,24 @@ def write_sweep_report(folder: str | Path, *, out: str | Path | None = None) -> 
     out = Path(out) if out is not None else folder / "report"
     (out / "plots").mkdir(parents=True, exist_ok=True)
     ok = df[df["status"] == "ok"]
-    lines = [f"# Sweep {manifest.get('name', folder.name)}", "",
-             f"Spec: `{manifest.get('spec', '?')}`; pedvr {', '.join(sorted(df['pedvr_version'].dropna().unique()))}. "
-             f"Rows: {len(df)} of {manifest.get('tasks', '?')} planned; {len(ok)} ok, "
-             f"{int((df['status'] == 'error').sum())} failed, {int((df['status'] == 'lost').sum())} lost.", ""]
+    versions = ", ".join(sorted(df["pedvr_version"].dropna().unique()))
+    lines = [
+        f"# Sweep {manifest.get('name', folder.name)}",
+        "",
+        f"Spec: `{manifest.get('spec', '?')}`; pedvr {versions}. "
+        f"Rows: {len(df)} of {manifest.get('tasks', '?')} planned; {len(ok)} ok, "
+        f"{int((df['status'] == 'error').sum())} failed, {int((df['status'] == 'lost').sum())} lost.",
+        "",
+    ]
     bad = df[df["status"] != "ok"]
     if len(bad):
         lines += ["## Failed runs", "", "| run | status | error |", "|---|---|---|"]
         for _, r in bad.head(50).iterrows():
-            who = r.get("participant") if "participant" in df.columns else f"{r.get('scene')} seed {r.get('seed')}"
+            who = (
+                r.get("participant")
+                if "participant" in df.columns
+                else f"{r.get('scene')} seed {r.get('seed')}"
+            )
             lines.append(f"| {who} | {r['status']} | {str(r['error']).replace('|', '/')} |")
         lines.append("")
     if manifest.get("kind") == "participants":
@@ -95,7 +119,12 @@ def _metrics(ok: pd.DataFrame, parameters: list[str]) -> tuple[list[str], dict[s
     """Numeric, non-bool metric columns that vary; and those that are the same in every row."""
     varying, constant = [], {}
     for c in ok.columns:
-        if c in IDENTITY or c in parameters or ok[c].dtype == bool or not pd.api.types.is_numeric_dtype(ok[c]):
+        if (
+            c in IDENTITY
+            or c in parameters
+            or ok[c].dtype == bool
+            or not pd.api.types.is_numeric_dtype(ok[c])
+        ):
             continue
         v = ok[c].to_numpy(dtype=float)
         fin = v[np.isfinite(v)]
@@ -116,18 +145,29 @@ def _runs_section(manifest: dict[str, Any], ok: pd.DataFrame, out: Path) -> list
     scenes = sorted(ok["scene"].unique()) if len(ok) else []
     axes = swept + (["scene"] if len(scenes) > 1 else [])
     metrics, constant = _metrics(ok, parameters)
-    lines = [f"Swept: {', '.join(swept) or 'nothing (seeds only)'}; scenes: {', '.join(scenes)}; "
-             f"seeds per combination: {ok.groupby(['scene', *swept]).size().min() if len(ok) else 0}.", ""]
+    lines = [
+        f"Swept: {', '.join(swept) or 'nothing (seeds only)'}; scenes: {', '.join(scenes)}; "
+        f"seeds per combination: {ok.groupby(['scene', *swept]).size().min() if len(ok) else 0}.",
+        "",
+    ]
     if constant:
-        lines += ["Metrics with one value in every run: " +
-                  ", ".join(f"`{k}` = {_fmt(float(v))}" for k, v in sorted(constant.items())) + ".", ""]
+        lines += [
+            "Metrics with one value in every run: "
+            + ", ".join(f"`{k}` = {_fmt(float(v))}" for k, v in sorted(constant.items()))
+            + ".",
+            "",
+        ]
     bench = [m for m in metrics + list(constant) if m.startswith("steerbench.")]
     if bench and len(ok):
-        lines += ["## SteerBench scores per scene", "",
-                  "Means over seeds and parameters, ± 95 % CI (lower is better; `pedvr.sweep.steerbench` has "
-                  "the definitions).", "",
-                  "| scene | " + " | ".join(b.removeprefix("steerbench.") for b in sorted(bench)) + " |",
-                  "|---|" + "---:|" * len(bench)]
+        lines += [
+            "## SteerBench scores per scene",
+            "",
+            "Means over seeds and parameters, ± 95 % CI (lower is better; `pedvr.sweep.steerbench` has "
+            "the definitions).",
+            "",
+            "| scene | " + " | ".join(b.removeprefix("steerbench.") for b in sorted(bench)) + " |",
+            "|---|" + "---:|" * len(bench),
+        ]
         for s in scenes:
             sub = ok[ok["scene"] == s]
             cells = []
@@ -145,15 +185,19 @@ def _axis_section(ok: pd.DataFrame, axis: str, metrics: list[str], scenes: list[
     values = sorted(ok[axis].dropna().unique(), key=lambda v: (isinstance(v, str), v))
     numeric = all(isinstance(v, int | float | np.integer | np.floating) for v in values)
     groups = [(s, ok[ok["scene"] == s]) for s in scenes] if len(scenes) > 1 else [("", ok)]
-    lines = [f"## Against `{axis}`", "",
-             "| metric | " + " | ".join(f"{axis} = {v}" for v in values) + " |",
-             "|---|" + "---:|" * len(values)]
+    lines = [
+        f"## Against `{axis}`",
+        "",
+        "| metric | " + " | ".join(f"{axis} = {v}" for v in values) + " |",
+        "|---|" + "---:|" * len(values),
+    ]
     figures = []
     for metric in metrics:
         stats = {}
         for label, sub in groups:
-            stats[label] = [confidence_interval(sub.loc[sub[axis] == v, metric].to_numpy(dtype=float))
-                            for v in values]
+            stats[label] = [
+                confidence_interval(sub.loc[sub[axis] == v, metric].to_numpy(dtype=float)) for v in values
+            ]
             cells = [_fmt(m) + ("" if not math.isfinite(h) else f" ± {_fmt(h)}") for m, h, _ in stats[label]]
             lines.append(f"| `{metric}`{f' ({label})' if label else ''} | " + " | ".join(cells) + " |")
         path = out / "plots" / f"{_safe(metric)}__{_safe(axis)}.png"
@@ -162,8 +206,15 @@ def _axis_section(ok: pd.DataFrame, axis: str, metrics: list[str], scenes: list[
     return lines + [""] + figures + [""]
 
 
-def _plot(path: Path, *, metric: str, axis: str, values: list[Any], numeric: bool,
-          stats: dict[str, list[tuple[float, float, int]]]) -> None:
+def _plot(
+    path: Path,
+    *,
+    metric: str,
+    axis: str,
+    values: list[Any],
+    numeric: bool,
+    stats: dict[str, list[tuple[float, float, int]]],
+) -> None:
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(5.0, 3.4), dpi=100, layout="constrained")
@@ -173,8 +224,15 @@ def _plot(path: Path, *, metric: str, axis: str, values: list[Any], numeric: boo
         mean = np.asarray([m for m, _, _ in st])
         half = np.nan_to_num(np.asarray([h for _, h, _ in st]), nan=0.0)
         shift = 0.0 if numeric else (k - (len(stats) - 1) / 2) * 0.08
-        ax.errorbar(x + shift, mean, yerr=half, marker="o", capsize=3, label=label or None,
-                    linestyle="-" if numeric else "none")
+        ax.errorbar(
+            x + shift,
+            mean,
+            yerr=half,
+            marker="o",
+            capsize=3,
+            label=label or None,
+            linestyle="-" if numeric else "none",
+        )
     if not numeric:
         ax.set_xticks(x, [str(v) for v in values])
     ax.set_xlabel(axis)
@@ -186,18 +244,29 @@ def _plot(path: Path, *, metric: str, axis: str, values: list[Any], numeric: boo
 
 
 def _participants_section(folder: Path, manifest: dict[str, Any], df: pd.DataFrame, out: Path) -> list[str]:
-    lines = ["## Simulated participants", "",
-             "| participant | status | steps | trials | answers |", "|---|---|---:|---:|---:|"]
+    lines = [
+        "## Simulated participants",
+        "",
+        "| participant | status | steps | trials | answers |",
+        "|---|---|---:|---:|---:|",
+    ]
     for _, r in df.sort_values("number").iterrows():
-        lines.append(f"| {r['participant']} | {r.get('participant_status') or r['status']} | "
-                     f"{_int(r.get('steps_done'))}/{_int(r.get('steps_total'))} | {_int(r.get('trials'))} | "
-                     f"{_int(r.get('answers'))} |")
+        lines.append(
+            f"| {r['participant']} | {r.get('participant_status') or r['status']} | "
+            f"{_int(r.get('steps_done'))}/{_int(r.get('steps_total'))} | {_int(r.get('trials'))} | "
+            f"{_int(r.get('answers'))} |"
+        )
     lines.append("")
     if "order" in df.columns:
         counts = df.loc[df["status"] == "ok", "order"].value_counts()
-        lines += ["## Trial orders (counterbalancing)", "",
-                  f"{len(counts)} distinct orders over {int(counts.sum())} participants.", "",
-                  "| participants | order |", "|---:|---|"]
+        lines += [
+            "## Trial orders (counterbalancing)",
+            "",
+            f"{len(counts)} distinct orders over {int(counts.sum())} participants.",
+            "",
+            "| participants | order |",
+            "|---:|---|",
+        ]
         lines += [f"| {n} | {o.replace('>', ' → ')} |" for o, n in counts.items()]
         lines.append("")
     store = folder / f"{manifest.get('study')}.sqlite"
@@ -208,8 +277,13 @@ def _participants_section(folder: Path, manifest: dict[str, Any], df: pd.DataFra
 
         try:
             md = write_report(analyze(db=store), out=out / "study")
-            lines += ["## Study analysis", "", f"The study's analysis of the merged store `{store.name}`: "
-                      f"[{md.relative_to(out)}]({md.relative_to(out)}).", ""]
+            lines += [
+                "## Study analysis",
+                "",
+                f"The study's analysis of the merged store `{store.name}`: "
+                f"[{md.relative_to(out)}]({md.relative_to(out)}).",
+                "",
+            ]
         except PedvrError as exc:
             lines += ["## Study analysis", "", f"The study's analysis did not run: {exc}", ""]
     return lines

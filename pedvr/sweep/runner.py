@@ -59,9 +59,11 @@ class SweepOutcome:
 
     def summary(self) -> str:
         rate = f", {60.0 * self.ran / self.wall_s:.1f} runs/min" if self.wall_s > 0 and self.ran else ""
-        head = (f"sweep {'interrupted' if self.interrupted else 'finished'} in {self.wall_s:.1f} s on "
-                f"{self.where}: {self.ran} of {self.planned} runs ran now ({self.ok} ok, {self.failed} failed, "
-                f"{self.lost} lost){rate}")
+        head = (
+            f"sweep {'interrupted' if self.interrupted else 'finished'} in {self.wall_s:.1f} s on "
+            f"{self.where}: {self.ran} of {self.planned} runs ran now ({self.ok} ok, {self.failed} failed, "
+            f"{self.lost} lost){rate}"
+        )
         if self.skipped:
             head += f"; {self.skipped} were done before (resumed)"
         lines = [head, f"results: {self.folder / TABLE_NAME}"]
@@ -78,18 +80,29 @@ def prepare_folder(spec: SweepSpec, out: Path, *, resume: bool) -> dict[str, Any
     manifest_path = out / MANIFEST
     if out.exists() and not out.is_dir():
         raise SweepError(f"--out {out}: exists and is not a folder")
-    if manifest_path.is_file() or (out / TABLE_NAME).is_file():
+    if (out / TABLE_NAME).is_file():  # a manifest alone: a sweep that never finished a run
         if not resume:
-            raise SweepError(f"{out} already holds a sweep; continue it with --resume, or choose another --out")
+            raise SweepError(
+                f"{out} already holds a sweep; continue it with --resume, or choose another --out"
+            )
         old = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
         if old.get("name", spec.name) != spec.name:
-            raise SweepError(f"{out} holds sweep {old.get('name')!r}, not {spec.name!r}; resume it with its own "
-                             "spec, or choose another --out")
+            raise SweepError(
+                f"{out} holds sweep {old.get('name')!r}, not {spec.name!r}; resume it with its own "
+                "spec, or choose another --out"
+            )
     out.mkdir(parents=True, exist_ok=True)
-    manifest = {"name": spec.name, "spec": spec.source, "kind": "participants" if spec.study else "runs",
-                "parameters": list(spec.parameters), "swept": list(spec.swept), "scenes": list(spec.scenes),
-                "study": spec.study, "tasks": len(spec.tasks),
-                "pedvr_version": spec.tasks[0].version if spec.tasks else None}
+    manifest = {
+        "name": spec.name,
+        "spec": spec.source,
+        "kind": "participants" if spec.study else "runs",
+        "parameters": list(spec.parameters),
+        "swept": list(spec.swept),
+        "scenes": list(spec.scenes),
+        "study": spec.study,
+        "tasks": len(spec.tasks),
+        "pedvr_version": spec.tasks[0].version if spec.tasks else None,
+    }
     (out / "sweep.toml").write_text(spec.text)
     tmp = manifest_path.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(manifest, indent=2) + "\n")
@@ -117,13 +130,20 @@ def run_sweep(
     KeyboardInterrupt from ``on_result``) stops the sweep cleanly: rows so far
     are written, the cluster is closed, and the outcome says ``interrupted``.
     """
+    if scheduler is not None and workers is not None:
+        raise SweepError(
+            "--workers starts a local cluster; with --scheduler the cluster's own workers run "
+            "the sweep (start them with `dask worker ADDRESS`)"
+        )
     manifest = prepare_folder(spec, out, resume=resume)
     table = ResultTable(out, flush_s=flush_s, metadata={"pedvr.sweep": json.dumps(manifest)})
     planned = {t.key for t in spec.tasks}
     stray = table.keys() - planned
     if stray:
-        raise SweepError(f"{out}: {len(stray)} of its rows are runs this spec does not plan (another spec or pedvr "
-                         "version); resume with the spec that started it, or choose another --out")
+        raise SweepError(
+            f"{out}: {len(stray)} of its rows are runs this spec does not plan (another spec or pedvr "
+            "version); resume with the spec that started it, or choose another --out"
+        )
     done = table.finished_keys()
     todo = [t for t in spec.tasks if t.key not in done]
     outcome = SweepOutcome(folder=out, planned=len(spec.tasks), skipped=len(spec.tasks) - len(todo))
@@ -132,8 +152,14 @@ def run_sweep(
 
     from tqdm import tqdm
 
-    bar = tqdm(total=len(todo), desc=spec.name, unit="run", file=stream, disable=not progress or None,
-               dynamic_ncols=True)
+    bar = tqdm(
+        total=len(todo),
+        desc=spec.name,
+        unit="run",
+        file=stream,
+        disable=not progress or None,
+        dynamic_ncols=True,
+    )
 
     def take(task: Task, result: dict[str, Any]) -> None:
         recording = None
@@ -201,25 +227,32 @@ def _connect(*, scheduler: str | None, workers: int | None) -> tuple[Any, list[A
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        if workers is not None:
-            raise SweepError("--workers starts a local cluster; with --scheduler the cluster's own workers run "
-                             "the sweep (start them with `dask worker ADDRESS`)")
         try:
-            client = Client(scheduler, timeout="10s")
+            # Dask's own connect timeout (distributed.comm.timeouts.connect, 30 s by default).
+            client = Client(scheduler)
         except (OSError, TimeoutError, ValueError) as exc:
-            raise SweepError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})") from None
+            raise SweepError(
+                f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc})"
+            ) from None
         try:
             client.wait_for_workers(1, timeout=30)
         except TimeoutError:
             client.close()
-            raise SweepError(f"--scheduler {scheduler}: no worker joined within 30 s; start some with "
-                             f"`dask worker {scheduler}`") from None
+            raise SweepError(
+                f"--scheduler {scheduler}: no worker joined within 30 s; start some with "
+                f"`dask worker {scheduler}`"
+            ) from None
         return client, [client]
     n = workers if workers is not None else (os.cpu_count() or 1)
     # One thread per worker, and numba's kernels single-threaded inside it: the
     # parallelism is across runs, one per core.
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                           env={"NUMBA_NUM_THREADS": "1"})
+    cluster = LocalCluster(
+        n_workers=n,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        env={"NUMBA_NUM_THREADS": "1"},
+    )
     client = Client(cluster)
     return client, [cluster, client]
 
@@ -241,17 +274,27 @@ def _check_workers(client: Any) -> None:
     try:
         versions = client.run(_worker_version)
     except ImportError as exc:
-        raise SweepError(f"a Dask worker cannot import pedvr ({exc}); install pedvr with the sweep extra on every "
-                         "worker: pip install 'pedvr[sweep]'") from None
+        raise SweepError(
+            f"a Dask worker cannot import pedvr ({exc}); install pedvr with the sweep extra on every "
+            "worker: pip install 'pedvr[sweep]'"
+        ) from None
     odd = {w: v for w, v in versions.items() if v != mine}
     if odd:
         w, v = next(iter(odd.items()))
-        raise SweepError(f"Dask worker {w} runs pedvr {v}, this client {mine}; install the same version on "
-                         f"every worker ({len(odd)} differ)")
+        raise SweepError(
+            f"Dask worker {w} runs pedvr {v}, this client {mine}; install the same version on "
+            f"every worker ({len(odd)} differ)"
+        )
 
 
-def _run_on_dask(client: Any, todo: list[Task], take: Callable[[Task, dict[str, Any]], None], *,
-                 idle: Callable[[], None], every_s: float) -> None:
+def _run_on_dask(
+    client: Any,
+    todo: list[Task],
+    take: Callable[[Task, dict[str, Any]], None],
+    *,
+    idle: Callable[[], None],
+    every_s: float,
+) -> None:
     """Submit every task under its stable key; hand each result to ``take`` as it arrives, and call
     ``idle`` (write buffered rows) when none has arrived for ``every_s`` seconds."""
     from distributed import KilledWorker
@@ -281,8 +324,11 @@ def _run_on_dask(client: Any, todo: list[Task], take: Callable[[Task, dict[str, 
             else:
                 exc = fut.exception()
                 status = "lost" if isinstance(exc, KilledWorker) else "error"
-                why = ("its worker died each time it ran it (Dask's allowed-failures)"
-                       if status == "lost" else f"{type(exc).__name__}: {exc}")
+                why = (
+                    "its worker died each time it ran it (Dask's allowed-failures)"
+                    if status == "lost"
+                    else f"{type(exc).__name__}: {exc}"
+                )
                 result = {"key": task.key, "status": status, "error": why, "metrics": {}, "blob": None}
             fut.release()
             take(task, result)

@@ -68,8 +68,18 @@ from pedvr.validation import MISSING, Checker, fmt, is_num
 
 RUN_OPTIONS = ("condition", "duration", "responsibility")
 KEEP = ("metrics", "recordings")
-_SWEEP_KEYS = ("name", "scenes", "duration", "seeds", "keep", "steerbench", "set", "grid", "cases",
-               "participants")
+_SWEEP_KEYS = (
+    "name",
+    "scenes",
+    "duration",
+    "seeds",
+    "keep",
+    "steerbench",
+    "set",
+    "grid",
+    "cases",
+    "participants",
+)
 _INDEX = re.compile(r"^(?P<name>[^\[\]]+)(?P<idx>(\[\d+\])*)$")
 
 
@@ -144,8 +154,13 @@ class RunTask:
 
     def columns(self) -> dict[str, Any]:
         """The row's leading columns: identity, scene, seed and one column per parameter."""
-        out: dict[str, Any] = {"run_key": self.key, "scene": self.scene_name, "scene_source": self.scene.source,
-                               "seed": self.seed, "duration": self.duration}
+        out: dict[str, Any] = {
+            "run_key": self.key,
+            "scene": self.scene_name,
+            "scene_source": self.scene.source,
+            "seed": self.seed,
+            "duration": self.duration,
+        }
         for k, v in self.params:
             out[k] = v if v is None or isinstance(v, bool | int | float | str) else json.dumps(v)
         out["pedvr_version"] = self.version
@@ -168,9 +183,14 @@ class ParticipantTask:
     version: str
 
     def columns(self) -> dict[str, Any]:
-        return {"run_key": self.key, "participant": self.participant, "number": self.number,
-                "protocol": self.protocol, "max_trial_seconds": self.max_trial_s,
-                "pedvr_version": self.version}
+        return {
+            "run_key": self.key,
+            "participant": self.participant,
+            "number": self.number,
+            "protocol": self.protocol,
+            "max_trial_seconds": self.max_trial_s,
+            "pedvr_version": self.version,
+        }
 
     def describe(self) -> str:
         return f"participant {self.participant}"
@@ -258,8 +278,12 @@ def _check_option(c: Checker, key: str, value: Any, where: str) -> bool:
             c.bad(where, value, "expected a number > 0 (simulated seconds)")
             return False
     elif "." not in key:
-        c.bad(where, value, f"unknown parameter; run options are {', '.join(RUN_OPTIONS)}, and scene keys "
-              "are dotted (steering.time_horizon, agents.spawns[0].count)")
+        c.bad(
+            where,
+            value,
+            f"unknown parameter; run options are {', '.join(RUN_OPTIONS)}, and scene keys "
+            "are dotted (steering.time_horizon, agents.spawns[0].count)",
+        )
         return False
     return True
 
@@ -327,8 +351,9 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
     elif "duration" in fixed:
         pass
     elif not swept_duration:
-        duration = c.number(sw, "duration", "sweep.duration", check=lambda x: x > 0,
-                            expect="> 0 (simulated seconds per run)")
+        duration = c.number(
+            sw, "duration", "sweep.duration", check=lambda x: x > 0, expect="> 0 (simulated seconds per run)"
+        )
     if c.problems or not ok:
         raise SweepSpecError(c.problems)
 
@@ -343,11 +368,17 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
             if duration is not None:
                 combo.setdefault("duration", _Value(duration, "sweep.duration"))
             combos.append(combo)
-    missing_duration = [i for i, cb in enumerate(cases) if "duration" not in cb] if swept_duration and \
-        "duration" not in grid else []
+    missing_duration = (
+        [i for i, cb in enumerate(cases) if "duration" not in cb]
+        if swept_duration and "duration" not in grid
+        else []
+    )
     for i in missing_duration:
-        c.bad(f"sweep.cases[{i}]", "{...}", "has no duration, and other cases do: give every case one, "
-              "or set sweep.duration")
+        c.bad(
+            f"sweep.cases[{i}]",
+            "{...}",
+            "has no duration, and other cases do: give every case one, or set sweep.duration",
+        )
     if c.problems:
         raise SweepSpecError(c.problems)
 
@@ -363,9 +394,16 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
             overrides = {k: v for k, v in combo.items() if "." in k}
             okey = _digest({k: v.value for k, v in overrides.items()})
             if okey not in inputs:
-                inputs[okey] = _scene_input(c, kind=kind, shown=shown, raw=raw, file_hash=file_hash,
-                                            overrides=overrides, where_scene=where_scene,
-                                            first_seed=seeds[0] if seeds else 0)
+                inputs[okey] = _scene_input(
+                    c,
+                    kind=kind,
+                    shown=shown,
+                    raw=raw,
+                    file_hash=file_hash,
+                    overrides=overrides,
+                    where_scene=where_scene,
+                    first_seed=seeds[0] if seeds else 0,
+                )
             got = inputs[okey]
             if got is None or not seeds:
                 continue
@@ -377,20 +415,51 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
             rho = None if "responsibility" not in opts else float(opts["responsibility"])
             bench = kind == "xml" if steerbench is MISSING else bool(steerbench)
             for seed in seeds:
-                key = _digest({"scene": scene_input.content_hash, "seed": seed, "duration": dur,
-                               "condition": cond, "responsibility": rho, "keep": keep,
-                               "steerbench": bench, "version": version}, 32)
-                tasks.append(RunTask(key=key, scene=scene_input, scene_name=scene_name, seed=seed,
-                                     duration=dur, condition=cond, responsibility=rho, params=params,
-                                     keep_recording=keep == "recordings", steerbench=bench,
-                                     version=version))
+                key = _digest(
+                    {
+                        "scene": scene_input.content_hash,
+                        "seed": seed,
+                        "duration": dur,
+                        "condition": cond,
+                        "responsibility": rho,
+                        "keep": keep,
+                        "steerbench": bench,
+                        "version": version,
+                    },
+                    32,
+                )
+                tasks.append(
+                    RunTask(
+                        key=key,
+                        scene=scene_input,
+                        scene_name=scene_name,
+                        seed=seed,
+                        duration=dur,
+                        condition=cond,
+                        responsibility=rho,
+                        params=params,
+                        keep_recording=keep == "recordings",
+                        steerbench=bench,
+                        version=version,
+                    )
+                )
     if c.problems:
         raise SweepSpecError(c.problems)
     parameters = sorted({k for combo in combos for k in combo})
-    swept = [k for k in parameters
-             if len({json.dumps(cb[k].value if k in cb else None, sort_keys=True) for cb in combos}) > 1]
-    return SweepSpec(name=name, source=source, text=text, tasks=tuple(tasks), parameters=tuple(parameters),
-                     swept=tuple(swept), scenes=tuple(s for s, _ in scenes))
+    swept = [
+        k
+        for k in parameters
+        if len({json.dumps(cb[k].value if k in cb else None, sort_keys=True) for cb in combos}) > 1
+    ]
+    return SweepSpec(
+        name=name,
+        source=source,
+        text=text,
+        tasks=tuple(tasks),
+        parameters=tuple(parameters),
+        swept=tuple(swept),
+        scenes=tuple(s for s, _ in scenes),
+    )
 
 
 def _scenes(c: Checker, sw: dict[str, Any], base_dir: Path) -> list[tuple[str, Path]]:
@@ -447,8 +516,11 @@ def _seeds(c: Checker, sw: dict[str, Any]) -> list[int]:
         first = c.integer(v, "from", "sweep.seeds.from", check=lambda x: x >= 0, expect=">= 0")
         count = c.integer(v, "count", "sweep.seeds.count", check=lambda x: x >= 1, expect=">= 1")
         return [] if first is None or count is None else list(range(first, first + count))
-    if not isinstance(v, list) or not v or not all(isinstance(x, int) and not isinstance(x, bool) and x >= 0
-                                                  for x in v):
+    if (
+        not isinstance(v, list)
+        or not v
+        or not all(isinstance(x, int) and not isinstance(x, bool) and x >= 0 for x in v)
+    ):
         c.bad("sweep.seeds", v, "expected a non-empty list of integers >= 0, or {from = 1, count = 200}")
         return []
     dupes = sorted({x for x in v if v.count(x) > 1})
@@ -480,8 +552,10 @@ def set_dotted(data: dict[str, Any], key: str, value: Any) -> str | None:
             for j, i in enumerate(idx):
                 if not isinstance(node, list) or i >= len(node):
                     size = len(node) if isinstance(node, list) else 0
-                    return f"{'.'.join(parts[:n] + [name])}{''.join(f'[{x}]' for x in idx[:j + 1])} is " \
-                           f"out of range (the scene has {size})"
+                    return (
+                        f"{'.'.join(parts[:n] + [name])}{''.join(f'[{x}]' for x in idx[: j + 1])} is "
+                        f"out of range (the scene has {size})"
+                    )
                 if last and j == len(idx) - 1:
                     node[i] = value
                     return None
@@ -491,16 +565,24 @@ def set_dotted(data: dict[str, Any], key: str, value: Any) -> str | None:
     return None
 
 
-def _scene_input(c: Checker, *, kind: Literal["toml", "xml"], shown: str, raw: bytes, file_hash: str,
-                 overrides: dict[str, _Value], where_scene: str,
-                 first_seed: int) -> tuple[SceneInput, str] | None:
+def _scene_input(
+    c: Checker,
+    *,
+    kind: Literal["toml", "xml"],
+    shown: str,
+    raw: bytes,
+    file_hash: str,
+    overrides: dict[str, _Value],
+    where_scene: str,
+    first_seed: int,
+) -> tuple[SceneInput, str] | None:
     """Validate one scene with one combination of overrides; its input for workers and its name."""
     import copy
 
     from pedvr.scene.loader import parse_scene
 
     if kind == "xml":
-        for k, v in overrides.items():
+        for v in overrides.values():
             c.bad(v.where, v.value, f"scene keys apply to TOML scenes; {shown} is a SteerSuite case")
         if overrides:
             return None
@@ -522,8 +604,11 @@ def _scene_input(c: Checker, *, kind: Literal["toml", "xml"], shown: str, raw: b
         if why is not None:
             c.bad(v.where, v.value, f"cannot apply to {shown}: {why}")
             return None
-    content_hash = file_hash if not overrides else _digest(
-        {"file": file_hash, "overrides": {k: v.value for k, v in overrides.items()}})
+    content_hash = (
+        file_hash
+        if not overrides
+        else _digest({"file": file_hash, "overrides": {k: v.value for k, v in overrides.items()}})
+    )
     try:
         cfg = parse_scene(data, source=shown, content_hash=content_hash)
     except SceneError as exc:
@@ -532,9 +617,12 @@ def _scene_input(c: Checker, *, kind: Literal["toml", "xml"], shown: str, raw: b
                 c.bad(where_scene, shown, f"scene problem: {line}")
             return None
         for line in exc.problems:
-            key = line[len(shown) + 2:].split(" = ", 1)[0]
-            blame = [v for k, v in overrides.items() if key == k or key.startswith(k + ".")
-                     or key.startswith(k + "[")]
+            key = line[len(shown) + 2 :].split(" = ", 1)[0]
+            blame = [
+                v
+                for k, v in overrides.items()
+                if key == k or key.startswith(k + ".") or key.startswith(k + "[")
+            ]
             if blame:
                 c.bad(blame[0].where, blame[0].value, line)
             else:
@@ -547,16 +635,31 @@ def _scene_input(c: Checker, *, kind: Literal["toml", "xml"], shown: str, raw: b
     return SceneInput(kind="toml", source=shown, content_hash=content_hash, data=data), cfg.name
 
 
-def _participants(c: Checker, sw: dict[str, Any], base_dir: Path,
-                  version: str) -> tuple[list[ParticipantTask], str | None]:
+def _participants(
+    c: Checker, sw: dict[str, Any], base_dir: Path, version: str
+) -> tuple[list[ParticipantTask], str | None]:
     p = c.table(sw, "participants", "sweep.participants", required=True) or {}
     c.known(p, "sweep.participants", ("protocol", "count", "first", "max_trial_seconds"))
     proto = c.string(p, "protocol", "sweep.participants.protocol")
     count = c.integer(p, "count", "sweep.participants.count", check=lambda x: x >= 1, expect=">= 1")
-    first = c.integer(p, "first", "sweep.participants.first", required=False, default=1,
-                      check=lambda x: x >= 1, expect=">= 1")
-    cap = c.number(p, "max_trial_seconds", "sweep.participants.max_trial_seconds", required=False,
-                   default=None, check=lambda x: x > 0, expect="> 0 s")
+    first = c.integer(
+        p,
+        "first",
+        "sweep.participants.first",
+        required=False,
+        default=1,
+        check=lambda x: x >= 1,
+        expect=">= 1",
+    )
+    cap = c.number(
+        p,
+        "max_trial_seconds",
+        "sweep.participants.max_trial_seconds",
+        required=False,
+        default=None,
+        check=lambda x: x > 0,
+        expect="> 0 s",
+    )
     if proto is None:
         return [], None
     path = Path(proto) if Path(proto).is_absolute() else base_dir / proto
@@ -574,7 +677,17 @@ def _participants(c: Checker, sw: dict[str, Any], base_dir: Path,
     tasks = []
     for n in range(first, first + count):
         pid = f"SIM{n:0{width}d}"
-        key = _digest({"protocol": protocol.content_hash, "participant": pid, "cap": cap, "version": version}, 32)
-        tasks.append(ParticipantTask(key=key, protocol=str(path.resolve()), participant=pid, number=n,
-                                     max_trial_s=cap, version=version))
+        key = _digest(
+            {"protocol": protocol.content_hash, "participant": pid, "cap": cap, "version": version}, 32
+        )
+        tasks.append(
+            ParticipantTask(
+                key=key,
+                protocol=str(path.resolve()),
+                participant=pid,
+                number=n,
+                max_trial_s=cap,
+                version=version,
+            )
+        )
     return tasks, protocol.name

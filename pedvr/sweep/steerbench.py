@@ -61,8 +61,10 @@ def radii_by_id(scene: SceneConfig, n_ids: int) -> np.ndarray:
     for sp in scene.spawns:
         radii += [scene.profiles[sp.profile].radius] * (sp.count or len(sp.positions))
     if n_ids > len(radii):
-        raise ValueError(f"steerbench: the run has {n_ids} agents but the scene spawns {len(radii)}; "
-                         "agents added during a run cannot be scored")
+        raise ValueError(
+            f"steerbench: the run has {n_ids} agents but the scene spawns {len(radii)}; "
+            "agents added during a run cannot be scored"
+        )
     return np.asarray(radii[:n_ids], np.float64)
 
 
@@ -77,8 +79,13 @@ def resample(t: np.ndarray, pos: np.ndarray, fps: float = STEERSUITE_FPS) -> np.
     return np.where(f > 0, pos[i] + f * (pos[j] - pos[i]), pos[i])  # on a step: that step, absent or not
 
 
-def steerbench_scores(arrays: dict[str, np.ndarray], *, scene: SceneConfig, radius: np.ndarray | None = None,
-                      fps: float = STEERSUITE_FPS) -> dict[str, float | int]:
+def steerbench_scores(
+    arrays: dict[str, np.ndarray],
+    *,
+    scene: SceneConfig,
+    radius: np.ndarray | None = None,
+    fps: float = STEERSUITE_FPS,
+) -> dict[str, float | int]:
     """SteerBench per-agent averages and composite scores of a recorded run (see the module docstring).
 
     ``arrays`` is :meth:`pedvr.record.Recording.arrays`; ``radius`` each id's

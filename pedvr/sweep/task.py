@@ -26,8 +26,15 @@ from pedvr.sweep.spec import ParticipantTask, RunTask, Task
 
 # Columns that measure the machine rather than the simulation: they differ
 # between two runs of the same task, and the determinism checks leave them out.
-TIMING_COLUMNS = ("wall_s", "setup_s", "first_step_s", "realtime_factor", "step_ms_p50", "step_ms_p95",
-                  "worker_wall_s")
+TIMING_COLUMNS = (
+    "wall_s",
+    "setup_s",
+    "first_step_s",
+    "realtime_factor",
+    "step_ms_p50",
+    "step_ms_p95",
+    "worker_wall_s",
+)
 TIMING_PREFIXES = ("phase_ms_mean.",)
 
 
@@ -64,8 +71,14 @@ def _run(task: RunTask) -> tuple[dict[str, Any], bytes | None]:
     from pedvr.headless import save_recording, simulate
 
     scene = task.scene.load(task.seed)
-    sim, extra = simulate(scene, duration=task.duration, seed=task.seed, condition=task.condition,
-                          responsibility=task.responsibility, record=task.keep_recording or task.steerbench)
+    sim, extra = simulate(
+        scene,
+        duration=task.duration,
+        seed=task.seed,
+        condition=task.condition,
+        responsibility=task.responsibility,
+        record=task.keep_recording or task.steerbench,
+    )
     summary = sim.summary()
     summary.update(extra)
     if task.steerbench:
@@ -101,8 +114,17 @@ def _participant(task: ParticipantTask) -> tuple[dict[str, Any], bytes]:
 
     with tempfile.TemporaryDirectory(prefix="pedvr-sweep-") as tmp:
         db = Path(tmp) / f"{task.participant}.sqlite"
-        argv = ["run", task.protocol, "--participant", task.participant, "--simulated", "--backend", "headless",
-                "--db", str(db)]
+        argv = [
+            "run",
+            task.protocol,
+            "--participant",
+            task.participant,
+            "--simulated",
+            "--backend",
+            "headless",
+            "--db",
+            str(db),
+        ]
         if task.max_trial_s is not None:
             argv += ["--max-trial-seconds", repr(task.max_trial_s)]
         out, err = io.StringIO(), io.StringIO()

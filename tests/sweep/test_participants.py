@@ -21,13 +21,18 @@ def _count(db: Path, sql: str) -> int:
 
 
 def test_participants_sweep_merges_one_store(cluster_client: Any, tmp_path: Path) -> None:
-    spec = load_spec(write_spec(tmp_path, f"""
+    spec = load_spec(
+        write_spec(
+            tmp_path,
+            f"""
 [sweep]
 name = "dryrun"
 [sweep.participants]
-protocol = "{DATA / 'protocol.toml'}"
+protocol = "{DATA / "protocol.toml"}"
 count = 6
-"""))
+""",
+        )
+    )
     assert [t.participant for t in spec.tasks] == [f"SIM0{k}" for k in range(1, 7)]  # type: ignore[union-attr]
     out = tmp_path / "out"
     outcome = run_sweep(spec, out=out, client=cluster_client, progress=False)
@@ -37,10 +42,21 @@ count = 6
     assert _count(store, "SELECT COUNT(DISTINCT session_id) FROM sessions") == 6
     assert _count(store, "SELECT COUNT(*) FROM trials") == 18
     # Every row points at its own participant's trial and session after the ids were shifted.
-    assert _count(store, "SELECT COUNT(*) FROM samples s LEFT JOIN trials t USING (trial_id) "
-                         "WHERE t.trial_id IS NULL") == 0
-    assert _count(store, "SELECT COUNT(*) FROM answers a JOIN sessions s USING (session_id) "
-                         "WHERE a.participant != s.participant") == 0
+    assert (
+        _count(
+            store,
+            "SELECT COUNT(*) FROM samples s LEFT JOIN trials t USING (trial_id) WHERE t.trial_id IS NULL",
+        )
+        == 0
+    )
+    assert (
+        _count(
+            store,
+            "SELECT COUNT(*) FROM answers a JOIN sessions s USING (session_id) "
+            "WHERE a.participant != s.participant",
+        )
+        == 0
+    )
     assert _count(store, "SELECT COUNT(*) FROM answers") == 6 * 24  # 8 items x 3 comparisons each
     df = read_table(out).to_pandas().sort_values("number")
     assert df["trials"].tolist() == [3] * 6 and (df["participant_status"] == "finished").all()
@@ -52,8 +68,22 @@ count = 6
     private = tmp_path / "again.sqlite"
     from pedvr.study.cli import main as study_main
 
-    assert study_main(["run", str(DATA / "protocol.toml"), "--participant", "SIM02", "--simulated",
-                       "--backend", "headless", "--db", str(private)]) == 0
+    assert (
+        study_main(
+            [
+                "run",
+                str(DATA / "protocol.toml"),
+                "--participant",
+                "SIM02",
+                "--simulated",
+                "--backend",
+                "headless",
+                "--db",
+                str(private),
+            ]
+        )
+        == 0
+    )
     merge_participant(store, private.read_bytes(), "SIM02")
     assert _count(store, "SELECT COUNT(*) FROM participants") == 6
     assert _count(store, "SELECT COUNT(*) FROM trials") == 18

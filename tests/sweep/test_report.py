@@ -24,7 +24,9 @@ def test_confidence_interval_is_students_t() -> None:
 
 
 def test_report_writes_plots_and_markdown(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    spec = write_spec(tmp_path, """
+    spec = write_spec(
+        tmp_path,
+        """
 [sweep]
 name = "rep"
 scenes = ["headon_corridor"]
@@ -33,7 +35,8 @@ seeds = [1, 2, 3]
 [sweep.grid]
 condition = ["decoupled", "pedvr"]
 "steering.time_horizon" = [1.0, 3.0]
-""")
+""",
+    )
     out = tmp_path / "out"
     assert main(["sweep", str(spec), "--workers", "0", "--out", str(out), "--quiet"]) == 0
     printed = capsys.readouterr().out

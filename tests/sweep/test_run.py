@@ -38,15 +38,23 @@ def small(tmp_path_factory: pytest.TempPathFactory) -> tuple[SweepSpec, pd.DataF
     return spec, _frame(folder / "serial")
 
 
-def test_two_workers_equal_serial(small: tuple[SweepSpec, pd.DataFrame], cluster_client: Any,
-                                  tmp_path: Path) -> None:
+def test_two_workers_equal_serial(
+    small: tuple[SweepSpec, pd.DataFrame], cluster_client: Any, tmp_path: Path
+) -> None:
     spec, serial = small
     outcome = run_sweep(spec, out=tmp_path / "dask", client=cluster_client, progress=False)
     assert (outcome.ran, outcome.ok, outcome.failed, outcome.lost) == (12, 12, 0, 0)
     assert outcome.where == "2 local Dask workers"
     got = _frame(tmp_path / "dask")
     assert len(got) == 12 and set(got["status"]) == {"ok"}
-    for col in ("responsibility", "scene", "seed", "min_user_distance_m", "overlaps_over_1cm", "mean_speed_mps"):
+    for col in (
+        "responsibility",
+        "scene",
+        "seed",
+        "min_user_distance_m",
+        "overlaps_over_1cm",
+        "mean_speed_mps",
+    ):
         assert col in got.columns
     assert sorted(got["responsibility"].unique()) == [0.0, 0.5, 1.0]
     assert (got["sim_time_s"] == 0.6).all() and (got["overlaps_over_1cm"] == 0).all()
@@ -55,8 +63,9 @@ def test_two_workers_equal_serial(small: tuple[SweepSpec, pd.DataFrame], cluster
     assert meta["swept"] == ["responsibility"] and meta["tasks"] == 12
 
 
-def test_killed_worker_still_completes(small: tuple[SweepSpec, pd.DataFrame], cluster_client: Any,
-                                       tmp_path: Path) -> None:
+def test_killed_worker_still_completes(
+    small: tuple[SweepSpec, pd.DataFrame], cluster_client: Any, tmp_path: Path
+) -> None:
     spec, serial = small
     killed: list[int] = []
 
@@ -69,16 +78,18 @@ def test_killed_worker_still_completes(small: tuple[SweepSpec, pd.DataFrame], cl
         os.kill(victim, signal.SIGKILL)
         killed.append(victim)
 
-    outcome = run_sweep(spec, out=tmp_path / "kill", client=cluster_client, progress=False,
-                        on_result=kill_a_busy_worker)
+    outcome = run_sweep(
+        spec, out=tmp_path / "kill", client=cluster_client, progress=False, on_result=kill_a_busy_worker
+    )
     assert killed and outcome.ok == 12 and outcome.lost == 0
     pd.testing.assert_frame_equal(_frame(tmp_path / "kill"), serial)
     cluster_client.wait_for_workers(2, timeout=60)  # the nanny restarts it for the next tests
     assert killed[0] not in cluster_client.run(os.getpid).values()
 
 
-def test_interrupted_sweep_resumes_only_the_missing_runs(small: tuple[SweepSpec, pd.DataFrame],
-                                                         cluster_client: Any, tmp_path: Path) -> None:
+def test_interrupted_sweep_resumes_only_the_missing_runs(
+    small: tuple[SweepSpec, pd.DataFrame], cluster_client: Any, tmp_path: Path
+) -> None:
     spec, serial = small
     seen: list[str] = []
 
@@ -95,8 +106,14 @@ def test_interrupted_sweep_resumes_only_the_missing_runs(small: tuple[SweepSpec,
     with pytest.raises(SweepError, match="already holds a sweep; continue it with --resume"):
         run_sweep(spec, out=out, client=cluster_client, progress=False)
     ran: list[str] = []
-    second = run_sweep(spec, out=out, resume=True, client=cluster_client, progress=False,
-                       on_result=lambda row: ran.append(row["run_key"]))
+    second = run_sweep(
+        spec,
+        out=out,
+        resume=True,
+        client=cluster_client,
+        progress=False,
+        on_result=lambda row: ran.append(row["run_key"]),
+    )
     assert (second.skipped, second.ran, second.ok) == (5, 7, 7) and not second.interrupted
     assert not set(ran) & kept and len(set(ran)) == 7
     pd.testing.assert_frame_equal(_frame(out), serial)
@@ -127,7 +144,10 @@ def _corridor_with_region(folder: Path) -> Path:
 def test_a_run_that_raises_is_a_row_and_the_sweep_goes_on(cluster_client: Any, tmp_path: Path) -> None:
     # 400 agents do not fit in the spawn region: the scene validates, the run raises in Simulation.
     _corridor_with_region(tmp_path)
-    spec = load_spec(write_spec(tmp_path, """
+    spec = load_spec(
+        write_spec(
+            tmp_path,
+            """
 [sweep]
 name = "crowded"
 scenes = ["corridor_region.toml"]
@@ -136,7 +156,9 @@ seeds = [1, 2]
 keep = "recordings"
 [sweep.grid]
 "agents.spawns[0].count" = [1, 400]
-"""))
+""",
+        )
+    )
     outcome = run_sweep(spec, out=tmp_path / "out", client=cluster_client, progress=False)
     assert (outcome.ok, outcome.failed) == (2, 2)
     df = read_table(tmp_path / "out").to_pandas()
@@ -160,4 +182,27 @@ def test_bench_sweep_reports_both_rates(capsys: pytest.CaptureFixture[str]) -> N
     assert (r["runs"], r["workers"], r["scene"]) == (4, 2, "headon_corridor")
     assert r["serial_runs_per_min"] > 0 and r["dask_runs_per_min"] > 0
     assert r["serial_runs_per_min"] == pytest.approx(60 * 4 / r["serial_wall_s"], rel=0.01)
-    assert r["overhead_per_task_s"] == pytest.approx((r["dask_wall_s"] * 2 - r["serial_wall_s"]) / 4, abs=1e-3)
+    assert r["overhead_per_task_s"] == pytest.approx(
+        (r["dask_wall_s"] * 2 - r["serial_wall_s"]) / 4, abs=1e-3
+    )
+
+
+def test_cli_on_an_existing_scheduler(cluster_client: Any, tmp_path: Path,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    import dask
+
+    from pedvr.cli import main
+
+    spec = write_spec(tmp_path, SMALL.format(duration=0.3).replace("[1, 2, 3, 4]", "[1]"))
+    address = cluster_client.scheduler.address
+    assert main(["sweep", str(spec), "--scheduler", address, "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert f"on 2 Dask workers at {address}: 3 of 3 runs ran now (3 ok" in out
+    assert read_table(tmp_path / "o").num_rows == 3
+    assert main(["sweep", str(spec), "--scheduler", address, "--workers", "2", "--out", str(tmp_path / "p")]) == 2
+    assert "--workers starts a local cluster" in capsys.readouterr().err
+    with dask.config.set({"distributed.comm.timeouts.connect": "0.5s"}):
+        assert main(["sweep", str(spec), "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path / "q")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        "pedvr: error: --scheduler tcp://127.0.0.1:9: cannot reach a Dask scheduler there")

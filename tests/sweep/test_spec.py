@@ -32,7 +32,10 @@ def test_smallest_spec_expands_to_the_product(tmp_path: Path) -> None:
 
 
 def test_seed_range_cases_and_set(tmp_path: Path) -> None:
-    spec = load_spec(write_spec(tmp_path, """
+    spec = load_spec(
+        write_spec(
+            tmp_path,
+            """
 [sweep]
 name = "mix"
 scenes = ["headon_corridor"]
@@ -47,7 +50,9 @@ condition = "decoupled"
 [[sweep.cases]]
 condition = "pedvr+g"
 responsibility = 0.25
-"""))
+""",
+        )
+    )
     assert len(spec.tasks) == 2 * 2 * 3
     assert sorted({t.seed for t in spec.tasks}) == [5, 6, 7]  # type: ignore[union-attr]
     t = spec.tasks[-1]
@@ -64,12 +69,16 @@ def test_dotted_keys_with_indices() -> None:
     data = {"agents": {"spawns": [{"count": 3}, {"count": 4}]}}
     assert set_dotted(data, "agents.spawns[1].count", 9) is None
     assert data["agents"]["spawns"][1]["count"] == 9
-    assert set_dotted(data, "agents.spawns[5].count", 1) == "agents.spawns[5] is out of range (the scene has 2)"
+    assert (
+        set_dotted(data, "agents.spawns[5].count", 1) == "agents.spawns[5] is out of range (the scene has 2)"
+    )
     assert set_dotted(data, "agents.spawns.count", 1) == "agents.spawns is not a table in the scene"
 
 
 def test_malformed_spec_gives_one_line_per_problem(tmp_path: Path) -> None:
-    path = write_spec(tmp_path, """
+    path = write_spec(
+        tmp_path,
+        """
 [sweep]
 name = "bad name"
 scenes = ["headon_corridor", "no_such_scene"]
@@ -80,7 +89,8 @@ colour = "red"
 responsibility = [0.0, 1.5]
 speed = [1, 2]
 condition = "pedvr"
-""")
+""",
+    )
     with pytest.raises(SweepSpecError) as err:
         load_spec(path)
     lines = err.value.problems
@@ -101,7 +111,9 @@ condition = "pedvr"
 
 
 def test_bad_override_gets_the_loaders_message_and_the_spec_key(tmp_path: Path) -> None:
-    path = write_spec(tmp_path, """
+    path = write_spec(
+        tmp_path,
+        """
 [sweep]
 name = "over"
 scenes = ["headon_corridor"]
@@ -110,11 +122,17 @@ seeds = [1]
 [sweep.grid]
 "steering.time_horizon" = [1.0, -2.0]
 "agents.spawns[7].count" = [1]
-""")
-    with pytest.raises(SweepSpecError, match=r"sweep\.grid\.agents\.spawns\[7\]\.count\[0\] = 1: cannot apply to "
-                       r".*headon_corridor\.toml: agents\.spawns\[7\] is out of range"):
+""",
+    )
+    with pytest.raises(
+        SweepSpecError,
+        match=r"sweep\.grid\.agents\.spawns\[7\]\.count\[0\] = 1: cannot apply to "
+        r".*headon_corridor\.toml: agents\.spawns\[7\] is out of range",
+    ):
         load_spec(path)
-    path = write_spec(tmp_path, """
+    path = write_spec(
+        tmp_path,
+        """
 [sweep]
 name = "over"
 scenes = ["headon_corridor"]
@@ -122,18 +140,24 @@ duration = 1.0
 seeds = [1]
 [sweep.grid]
 "steering.time_horizon" = [1.0, -2.0]
-""")
+""",
+    )
     with pytest.raises(SweepSpecError) as err:
         load_spec(path)
     assert len(err.value.problems) == 1
     assert err.value.problems[0] == (
         f"{path}: sweep.grid.steering.time_horizon[1] = -2.0: scenes/headon_corridor.toml: "
-        "steering.time_horizon = -2.0: must be > 0 s")
+        "steering.time_horizon = -2.0: must be > 0 s"
+    )
 
 
-@pytest.mark.skipif(not (STEERSUITE / "crossing-1.xml").is_file(), reason="../shared/benchmarks/steersuite absent")
+@pytest.mark.skipif(
+    not (STEERSUITE / "crossing-1.xml").is_file(), reason="../shared/benchmarks/steersuite absent"
+)
 def test_scene_keys_do_not_apply_to_steersuite_cases(tmp_path: Path) -> None:
-    path = write_spec(tmp_path, f"""
+    path = write_spec(
+        tmp_path,
+        f"""
 [sweep]
 name = "ss"
 scenes = ["{STEERSUITE}/crossing-*.xml"]
@@ -141,17 +165,26 @@ duration = 1.0
 seeds = [1]
 [sweep.set]
 "steering.time_horizon" = 1.0
-""")
-    with pytest.raises(SweepSpecError, match=r"sweep\.set\.steering\.time_horizon = 1\.0: scene keys apply to TOML "
-                       r"scenes; .*crossing-1\.xml is a SteerSuite case"):
+""",
+    )
+    with pytest.raises(
+        SweepSpecError,
+        match=r"sweep\.set\.steering\.time_horizon = 1\.0: scene keys apply to TOML "
+        r"scenes; .*crossing-1\.xml is a SteerSuite case",
+    ):
         load_spec(path)
-    spec = load_spec(write_spec(tmp_path, f"""
+    spec = load_spec(
+        write_spec(
+            tmp_path,
+            f"""
 [sweep]
 name = "ss"
 scenes = ["{STEERSUITE}/crossing-[12].xml"]
 duration = 1.0
 seeds = [1, 2]
-"""))
+""",
+        )
+    )
     assert [t.scene_name for t in spec.tasks] == ["crossing-1"] * 2 + ["crossing-2"] * 2  # type: ignore[union-attr]
     assert all(t.steerbench for t in spec.tasks)  # type: ignore[union-attr]
 

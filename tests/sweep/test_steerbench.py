@@ -15,14 +15,21 @@ STEERSUITE = Path(__file__).resolve().parents[3] / "shared" / "benchmarks" / "st
 
 
 def _scene(*, obstacles: list[dict[str, object]] | None = None, agents: int = 1) -> SceneConfig:
-    return parse_scene({
-        "scene": {"name": "bench", "seed": 0, "duration": 5.0},
-        "world": {"bounds": [[-10.0, -10.0], [10.0, 10.0]], "obstacles": obstacles or []},
-        "agents": {"profiles": {"a": {"radius": 0.5, "pref_speed": 1.3, "max_speed": 1.6}},
-                   "spawns": [{"profile": "a", "state": "s", "positions": [[float(k), 5.0] for k in range(agents)]}]},
-        "behavior": {"states": {"s": {"goal": {"selector": "stay"}}}},
-        "user": {"start": [0.0, -5.0], "enabled": False},
-    }, source="bench.toml")
+    return parse_scene(
+        {
+            "scene": {"name": "bench", "seed": 0, "duration": 5.0},
+            "world": {"bounds": [[-10.0, -10.0], [10.0, 10.0]], "obstacles": obstacles or []},
+            "agents": {
+                "profiles": {"a": {"radius": 0.5, "pref_speed": 1.3, "max_speed": 1.6}},
+                "spawns": [
+                    {"profile": "a", "state": "s", "positions": [[float(k), 5.0] for k in range(agents)]}
+                ],
+            },
+            "behavior": {"states": {"s": {"goal": {"selector": "stay"}}}},
+            "user": {"start": [0.0, -5.0], "enabled": False},
+        },
+        source="bench.toml",
+    )
 
 
 def _arrays(t: np.ndarray, pos: np.ndarray) -> dict[str, np.ndarray]:
@@ -97,20 +104,24 @@ def test_radii_follow_the_spawn_order() -> None:
         radii_by_id(scene, 4)
 
 
-@pytest.mark.skipif(not (STEERSUITE / "crossing-1.xml").is_file(), reason="../shared/benchmarks/steersuite absent")
+@pytest.mark.skipif(
+    not (STEERSUITE / "crossing-1.xml").is_file(), reason="../shared/benchmarks/steersuite absent"
+)
 def test_a_steersuite_case_is_scored(tmp_path: Path) -> None:
     from pedvr.sweep.spec import load_spec
     from pedvr.sweep.task import execute
 
     spec_path = tmp_path / "ss.toml"
-    spec_path.write_text(f'[sweep]\nname = "ss"\nscenes = ["{STEERSUITE}/crossing-1.xml"]\nduration = 2.0\n'
-                         "seeds = [3]\n")
+    spec_path.write_text(
+        f'[sweep]\nname = "ss"\nscenes = ["{STEERSUITE}/crossing-1.xml"]\nduration = 2.0\nseeds = [3]\n'
+    )
     task = load_spec(spec_path).tasks[0]
     result = execute(task)
     assert result["status"] == "ok", result["error"]
     sb = result["metrics"]["steerbench"]
     assert sb["agents"] == result["metrics"]["agents"] == 2
     assert sb["collisions_per_agent"] == 0 and sb["time_per_agent_s"] == pytest.approx(2.0)
-    assert sb["composite01"] == pytest.approx(50 * sb["collisions_per_agent"] + sb["time_per_agent_s"]
-                                              + sb["kinetic_energy_per_agent"], abs=1e-5)
+    assert sb["composite01"] == pytest.approx(
+        50 * sb["collisions_per_agent"] + sb["time_per_agent_s"] + sb["kinetic_energy_per_agent"], abs=1e-5
+    )
     assert 1.0 < sb["path_length_per_agent_m"] / 2.0 < 1.7  # walking speed, about 1.3 m/s
