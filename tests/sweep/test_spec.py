@@ -205,3 +205,12 @@ def test_cli_prints_each_problem_on_its_own_line(tmp_path: Path, capsys: pytest.
     assert "--resume applies to running a sweep" in capsys.readouterr().err
     assert main(["sweep", "report", str(tmp_path)]) == 2
     assert f"{tmp_path}: no runs.parquet here" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["responsibility", "conditions", "steerbench", "dryrun"])
+def test_shipped_specs_load(name: str) -> None:
+    if name == "steerbench" and not (STEERSUITE / "crossing-1.xml").is_file():
+        pytest.skip("../shared/benchmarks/steersuite absent")
+    spec = load_spec(Path(__file__).resolve().parents[2] / "sweeps" / f"{name}.toml")
+    expected = {"responsibility": 800, "conditions": 7 * 3 * 20, "steerbench": 34 * 5, "dryrun": 24}[name]
+    assert len(spec.tasks) == expected
