@@ -24,8 +24,10 @@ and ``<study>.sqlite`` for simulated participants.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import queue
+import signal
 import sys
 import time
 from collections.abc import Callable
@@ -245,14 +247,22 @@ def _connect(*, scheduler: str | None, workers: int | None) -> tuple[Any, list[A
         return client, [client]
     n = workers if workers is not None else (os.cpu_count() or 1)
     # One thread per worker, and numba's kernels single-threaded inside it: the
-    # parallelism is across runs, one per core.
-    cluster = LocalCluster(
-        n_workers=n,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",
-        env={"NUMBA_NUM_THREADS": "1"},
-    )
+    # parallelism is across runs, one per core. The worker processes start with
+    # Ctrl-C ignored (inherited through exec): a terminal's Ctrl-C reaches the
+    # whole process group, and only this process should handle it, by writing
+    # the table and closing the cluster, not every worker with a traceback.
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            env={"NUMBA_NUM_THREADS": "1"},
+            silence_logs=logging.ERROR,  # a rerun task is in the table's story, not a warning on the screen
+        )
+    finally:
+        signal.signal(signal.SIGINT, previous)
     client = Client(cluster)
     return client, [cluster, client]
 
