@@ -444,7 +444,7 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
                     )
                 )
     if c.problems:
-        raise SweepSpecError(c.problems)
+        raise SweepSpecError(list(dict.fromkeys(c.problems)))  # a bad value crossed with other axes: once
     parameters = sorted({k for combo in combos for k in combo})
     swept = [
         k
@@ -494,11 +494,11 @@ def _scenes(c: Checker, sw: dict[str, Any], base_dir: Path) -> list[tuple[str, P
                 c.bad(where, v, f"{p.name} is already listed ({seen[rp]})")
                 continue
             seen[rp] = where
-            out.append((_shown(p, base_dir), rp))
+            out.append((_shown(p), rp))
     return out
 
 
-def _shown(p: Path, base_dir: Path) -> str:
+def _shown(p: Path) -> str:
     """A scene's path as rows and messages show it: relative to the current folder when it can be."""
     try:
         return str(p.resolve().relative_to(Path.cwd()))
@@ -666,7 +666,7 @@ def _participants(
     from pedvr.study.protocol import load_protocol
 
     try:
-        protocol = load_protocol(path, display_path=_shown(path, base_dir))
+        protocol = load_protocol(path, display_path=_shown(path))
     except PedvrError as exc:
         for line in str(exc).splitlines():
             c.bad("sweep.participants.protocol", proto, f"protocol problem: {line}")

@@ -27,6 +27,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 TABLE_NAME = "runs.parquet"
+# Text columns that are often all null in a batch: typed, so every file has one schema for them.
+TEXT = {"error": pa.string(), "recording": pa.string()}
 
 
 class ResultTable:
@@ -80,7 +82,7 @@ class ResultTable:
 def rows_to_table(rows: list[dict[str, Any]]) -> pa.Table:
     """Rows with possibly different keys → one table with every key as a column (nulls where absent)."""
     keys = list(dict.fromkeys(k for r in rows for k in r))
-    return pa.Table.from_pydict({k: pa.array([r.get(k) for r in rows]) for k in keys})
+    return pa.Table.from_pydict({k: pa.array([r.get(k) for r in rows], type=TEXT.get(k)) for k in keys})
 
 
 def _replace_keys(old: pa.Table, new: pa.Table) -> pa.Table:

@@ -206,3 +206,34 @@ def test_cli_on_an_existing_scheduler(cluster_client: Any, tmp_path: Path,
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith(
         "pedvr: error: --scheduler tcp://127.0.0.1:9: cannot reach a Dask scheduler there")
+
+
+def test_a_task_whose_workers_keep_dying_is_lost_then_resumed(
+    small: tuple[SweepSpec, pd.DataFrame], cluster_client: Any, tmp_path: Path
+) -> None:
+    spec, serial = small
+    scheduler = cluster_client.cluster.scheduler
+    allowed, scheduler.allowed_failures = scheduler.allowed_failures, 0  # one death and the task is given up
+    killed: list[int] = []
+
+    def kill_a_busy_worker(row: dict[str, Any]) -> None:
+        busy = [w for w, keys in cluster_client.processing().items() if keys]
+        if not killed and busy:
+            pid = cluster_client.run(os.getpid)[busy[0]]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+
+    try:
+        first = run_sweep(
+            spec, out=tmp_path / "lost", client=cluster_client, progress=False, on_result=kill_a_busy_worker
+        )
+    finally:
+        scheduler.allowed_failures = allowed
+        cluster_client.wait_for_workers(2, timeout=60)
+    assert killed and first.lost >= 1 and first.ok + first.lost == 12
+    df = read_table(tmp_path / "lost").to_pandas()
+    lost = df[df["status"] == "lost"]
+    assert len(lost) == first.lost and lost["error"].str.contains("its worker died").all()
+    second = run_sweep(spec, out=tmp_path / "lost", resume=True, client=cluster_client, progress=False)
+    assert (second.skipped, second.ran, second.ok) == (first.ok, first.lost, first.lost)
+    pd.testing.assert_frame_equal(_frame(tmp_path / "lost"), serial)

@@ -214,3 +214,25 @@ def test_shipped_specs_load(name: str) -> None:
     spec = load_spec(Path(__file__).resolve().parents[2] / "sweeps" / f"{name}.toml")
     expected = {"responsibility": 800, "conditions": 7 * 3 * 20, "steerbench": 34 * 5, "dryrun": 24}[name]
     assert len(spec.tasks) == expected
+
+
+def test_a_bad_override_crossed_with_other_axes_is_reported_once(tmp_path: Path) -> None:
+    path = write_spec(
+        tmp_path,
+        """
+[sweep]
+name = "once"
+scenes = ["headon_corridor"]
+duration = 1.0
+seeds = [1]
+[sweep.grid]
+"gaze.distance" = [0.0]
+responsibility = [0.0, 0.5, 1.0]
+""",
+    )
+    with pytest.raises(SweepSpecError) as err:
+        load_spec(path)
+    assert err.value.problems == [
+        f"{path}: sweep.grid.gaze.distance[0] = 0.0: scenes/headon_corridor.toml: "
+        "gaze.distance = 0.0: must be > 0 m"
+    ]
