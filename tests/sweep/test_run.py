@@ -187,8 +187,9 @@ def test_bench_sweep_reports_both_rates(capsys: pytest.CaptureFixture[str]) -> N
     )
 
 
-def test_cli_on_an_existing_scheduler(cluster_client: Any, tmp_path: Path,
-                                      capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_on_an_existing_scheduler(
+    cluster_client: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     import dask
 
     from pedvr.cli import main
@@ -199,13 +200,19 @@ def test_cli_on_an_existing_scheduler(cluster_client: Any, tmp_path: Path,
     out = capsys.readouterr().out
     assert f"on 2 Dask workers at {address}: 3 of 3 runs ran now (3 ok" in out
     assert read_table(tmp_path / "o").num_rows == 3
-    assert main(["sweep", str(spec), "--scheduler", address, "--workers", "2", "--out", str(tmp_path / "p")]) == 2
+    assert (
+        main(["sweep", str(spec), "--scheduler", address, "--workers", "2", "--out", str(tmp_path / "p")])
+        == 2
+    )
     assert "--workers starts a local cluster" in capsys.readouterr().err
     with dask.config.set({"distributed.comm.timeouts.connect": "0.5s"}):
-        assert main(["sweep", str(spec), "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path / "q")]) == 2
+        assert (
+            main(["sweep", str(spec), "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path / "q")]) == 2
+        )
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith(
-        "pedvr: error: --scheduler tcp://127.0.0.1:9: cannot reach a Dask scheduler there")
+        "pedvr: error: --scheduler tcp://127.0.0.1:9: cannot reach a Dask scheduler there"
+    )
 
 
 def test_a_task_whose_workers_keep_dying_is_lost_then_resumed(

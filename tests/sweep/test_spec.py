@@ -236,3 +236,15 @@ responsibility = [0.0, 0.5, 1.0]
         f"{path}: sweep.grid.gaze.distance[0] = 0.0: scenes/headon_corridor.toml: "
         "gaze.distance = 0.0: must be > 0 m"
     ]
+
+
+def test_without_the_extra_one_line_says_how_to_install_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import sys
+
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if dask.distributed were not installed
+    assert main(["sweep", str(write_spec(tmp_path, SMALL.format(duration=1.0)))]) == 2
+    assert capsys.readouterr().err == (
+        "pedvr: error: pedvr sweep needs the sweep extra (distributed is missing): pip install -e '.[sweep]'\n"
+    )
