@@ -38,7 +38,7 @@ class ResultTable:
         self.path = folder / TABLE_NAME
         self.flush_s = flush_s
         self.metadata = metadata or {}
-        self._table: pa.Table | None = pq.read_table(self.path) if self.path.is_file() else None
+        self._table: pa.Table | None = _read(self.path) if self.path.is_file() else None
         self._pending: list[dict[str, Any]] = []
         self._last = time.monotonic()
 
@@ -94,4 +94,16 @@ def _replace_keys(old: pa.Table, new: pa.Table) -> pa.Table:
 
 def read_table(folder: Path) -> pa.Table:
     """The table of a sweep folder (``DIR/runs.parquet``)."""
-    return pq.read_table(folder / TABLE_NAME)
+    return _read(folder / TABLE_NAME)
+
+
+def _read(path: Path) -> pa.Table:
+    from pedvr.sweep.errors import SweepError
+
+    try:
+        table = pq.read_table(path)
+    except (OSError, pa.ArrowException) as exc:
+        raise SweepError(f"{path}: not a readable Parquet table ({exc})") from None
+    if "run_key" not in table.column_names or "status" not in table.column_names:
+        raise SweepError(f"{path}: not a sweep's table (it has no run_key and status columns)")
+    return table

@@ -58,3 +58,12 @@ condition = ["decoupled", "pedvr"]
     # Metrics equal in every run are listed, not plotted.
     assert "`overlaps_over_1cm` = 0" in text
     assert not (out / "report" / "plots" / "overlaps_over_1cm__condition.png").exists()
+
+
+def test_a_broken_table_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "runs.parquet").write_bytes(b"not parquet")
+    assert main(["sweep", "report", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        f"pedvr: error: {tmp_path}/runs.parquet: not a readable Parquet table"
+    )
