@@ -22,6 +22,8 @@ import time
 import traceback
 from typing import Any
 
+import numpy as np
+
 from pedvr.sweep.spec import ParticipantTask, RunTask, Task
 
 # Columns that measure the machine rather than the simulation: they differ
@@ -149,9 +151,10 @@ def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
             out[key] = None
         elif v is None or isinstance(v, bool | int | float | str):
             out[key] = v
-        else:  # numpy scalars and the like
-            item = getattr(v, "item", None)
-            out[key] = item() if callable(item) else str(v)
+        elif isinstance(v, np.generic):
+            out.update(flatten({k: v.item()}, prefix))
+        else:
+            out[key] = str(v)
     return out
 
 

@@ -248,3 +248,22 @@ def test_without_the_extra_one_line_says_how_to_install_it(
     assert capsys.readouterr().err == (
         "pedvr: error: pedvr sweep needs the sweep extra (distributed is missing): pip install -e '.[sweep]'\n"
     )
+
+
+def test_flatten_metrics() -> None:
+    import numpy as np
+
+    from pedvr.sweep.task import flatten
+
+    got = flatten(
+        {
+            "a": 1,
+            "b": {"c": np.float64(2.5), "d": {"e": None}},
+            "f": [1, {"g": 2}],
+            "h": float("nan"),
+            "i": np.int64(3),
+            "j": np.float64("inf"),
+        }
+    )
+    assert got == {"a": 1, "b.c": 2.5, "b.d.e": None, "f": '[1, {"g": 2}]', "h": None, "i": 3, "j": None}
+    assert type(got["i"]) is int
