@@ -163,7 +163,12 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
     numba's cache loading and scene set-up caches count in neither; the
     cluster's start is reported on its own. ``overhead_per_task_s`` is the core
     time a task costs beyond the run itself: ``(dask wall × workers − serial
-    wall) / runs`` (negative values are noise).
+    wall) / runs`` (negative values are noise). On a busy machine the workers
+    do not get a core each and the runs themselves slow down, so
+    ``slot_idle_per_task_s`` separates Dask's own cost: the worker time not spent
+    inside the run, ``(dask wall × workers − Σ worker_wall_s) / runs``, where
+    ``worker_wall_s`` is each run's time measured on its worker
+    (``worker_s_per_run`` is their mean).
     """
     if runs < 1 or workers < 1:
         raise UsageError("pedvr bench sweep: --runs and --workers must be >= 1")
@@ -219,6 +224,9 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
             t0 = time.perf_counter()
             outcome = run_sweep(spec, out=Path(tmp) / "out", client=client, progress=False)
             dask_s = time.perf_counter() - t0
+            from pedvr.sweep.table import read_table
+
+            in_runs_s = sum(read_table(Path(tmp) / "out").column("worker_wall_s").to_pylist())
     if outcome.ok != runs:
         raise SweepError(f"pedvr bench sweep: {runs - outcome.ok} runs did not finish ok")
     return {
@@ -233,6 +241,8 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
         "dask_runs_per_min": round(60 * runs / dask_s, 1),
         "speedup": round(serial_s / dask_s, 3),
         "overhead_per_task_s": round((dask_s * workers - serial_s) / runs, 4),
+        "worker_s_per_run": round(in_runs_s / runs, 4),
+        "slot_idle_per_task_s": round((dask_s * workers - in_runs_s) / runs, 4),
         "cluster_start_s": round(start_s, 3),
         "load_average_1min_before": round(load0, 2),
         "load_average_1min_after": round(os.getloadavg()[0], 2),
