@@ -185,6 +185,10 @@ def test_bench_sweep_reports_both_rates(capsys: pytest.CaptureFixture[str]) -> N
     assert r["overhead_per_task_s"] == pytest.approx(
         (r["dask_wall_s"] * 2 - r["serial_wall_s"]) / 4, abs=1e-3
     )
+    assert r["worker_s_per_run"] > 0
+    assert r["slot_idle_per_task_s"] == pytest.approx(
+        r["dask_wall_s"] * 2 / 4 - r["worker_s_per_run"], abs=2e-3
+    )
 
 
 def test_cli_on_an_existing_scheduler(
