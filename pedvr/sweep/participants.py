@@ -31,8 +31,9 @@ def participant_summary(db: Path, participant: str) -> dict[str, Any]:
     """The table row's metrics for one simulated participant's private store.
 
     ``status`` (finished, aborted, withdrawn), steps done of total, trials,
-    answers, and ``order``: the trials' ``scenario:condition`` in the order run
-    (what counterbalancing decided for this participant's number).
+    answers, and ``order``: the trials' ``scenario:condition`` (and ``ρ=`` where the
+    trial set one) in the order run: what counterbalancing decided for this
+    participant's number.
     """
     with closing(sqlite3.connect(db)) as con:
         con.execute("PRAGMA wal_checkpoint(TRUNCATE)")  # the bytes returned must hold every commit
@@ -43,7 +44,8 @@ def participant_summary(db: Path, participant: str) -> dict[str, Any]:
             "SELECT COUNT(*), SUM(status != 'pending') FROM steps WHERE participant = ?", (participant,)
         ).fetchone()
         trials = con.execute(
-            "SELECT scenario, condition FROM trials WHERE participant = ? ORDER BY trial_id", (participant,)
+            "SELECT scenario, condition, responsibility FROM trials WHERE participant = ? ORDER BY trial_id",
+            (participant,),
         ).fetchall()
         answers = con.execute("SELECT COUNT(*) FROM answers WHERE participant = ?", (participant,)).fetchone()
     return {
@@ -52,7 +54,7 @@ def participant_summary(db: Path, participant: str) -> dict[str, Any]:
         "steps_done": int(steps[1] or 0),
         "trials": len(trials),
         "answers": int(answers[0] or 0),
-        "order": ">".join(f"{s}:{c}" for s, c in trials),
+        "order": ">".join(f"{s}:{c}" + ("" if r is None else f" ρ={r:g}") for s, c, r in trials),
     }
 
 
