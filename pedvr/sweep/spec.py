@@ -57,7 +57,7 @@ import itertools
 import json
 import re
 import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -135,7 +135,7 @@ class SceneInput:
 class RunTask:
     """One headless run: a scene with its parameters, a seed, a duration.
 
-    ``key`` is stable: a hash of the scene's content (overrides included), the
+    ``key`` is stable: a hash of the scene's name and content (overrides included), the
     run options, the seed, what is kept, and the pedvr version. ``params``
     holds every parameter the spec gave (set, grid or case) as it was given.
     """
@@ -216,7 +216,7 @@ class SweepSpec:
     parameters: tuple[str, ...] = ()
     swept: tuple[str, ...] = ()
     study: str | None = None
-    scenes: tuple[str, ...] = field(default_factory=tuple)
+    scenes: tuple[str, ...] = ()
 
 
 # -- loading ---------------------------------------------------------------------------------
@@ -418,6 +418,7 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
                 key = _digest(
                     {
                         "scene": scene_input.content_hash,
+                        "name": scene_name,  # two identical files under two names are two scenes
                         "seed": seed,
                         "duration": dur,
                         "condition": cond,
