@@ -312,8 +312,8 @@ def _run_on_dask(
     done: queue.Queue[Any] = queue.Queue()
     futures = {}
     tasks = {}
-    for task in todo:
-        fut = client.submit(execute, task, key=f"pedvr-{task.key}", pure=False)
+    submitted = client.map(execute, todo, key=[f"pedvr-{t.key}" for t in todo], pure=False)
+    for task, fut in zip(todo, submitted, strict=True):
         futures[fut.key] = fut
         tasks[fut.key] = task
         fut.add_done_callback(done.put)

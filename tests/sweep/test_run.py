@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 from pathlib import Path
 from typing import Any
@@ -83,7 +84,7 @@ def test_killed_worker_still_completes(
     )
     assert killed and outcome.ok == 12 and outcome.lost == 0
     pd.testing.assert_frame_equal(_frame(tmp_path / "kill"), serial)
-    cluster_client.wait_for_workers(2, timeout=60)  # the nanny restarts it for the next tests
+    cluster_client.wait_for_workers(2, timeout=180)  # the nanny restarts it for the next tests
     assert killed[0] not in cluster_client.run(os.getpid).values()
 
 
@@ -202,7 +203,7 @@ def test_cli_on_an_existing_scheduler(
     address = cluster_client.scheduler.address
     assert main(["sweep", str(spec), "--scheduler", address, "--out", str(tmp_path / "o"), "--quiet"]) == 0
     out = capsys.readouterr().out
-    assert f"on 2 Dask workers at {address}: 3 of 3 runs ran now (3 ok" in out
+    assert re.search(rf"on \d Dask workers at {re.escape(address)}: 3 of 3 runs ran now \(3 ok", out), out
     assert read_table(tmp_path / "o").num_rows == 3
     assert (
         main(["sweep", str(spec), "--scheduler", address, "--workers", "2", "--out", str(tmp_path / "p")])
@@ -240,7 +241,7 @@ def test_a_task_whose_workers_keep_dying_is_lost_then_resumed(
         )
     finally:
         scheduler.allowed_failures = allowed
-        cluster_client.wait_for_workers(2, timeout=60)
+        cluster_client.wait_for_workers(2, timeout=180)
     assert killed and first.lost >= 1 and first.ok + first.lost == 12
     df = read_table(tmp_path / "lost").to_pandas()
     lost = df[df["status"] == "lost"]
