@@ -307,8 +307,6 @@ def _run_on_dask(
 ) -> None:
     """Submit every task under its stable key; hand each result to ``take`` as it arrives, and call
     ``idle`` (write buffered rows) when none has arrived for ``every_s`` seconds."""
-    from distributed import KilledWorker
-
     done: queue.Queue[Any] = queue.Queue()
     futures = {}
     tasks = {}
@@ -332,16 +330,22 @@ def _run_on_dask(
             if fut.status == "finished":
                 result = fut.result()
             else:
-                exc = fut.exception()
-                status = "lost" if isinstance(exc, KilledWorker) else "error"
-                why = (
-                    "its worker died each time it ran it (Dask's allowed-failures)"
-                    if status == "lost"
-                    else f"{type(exc).__name__}: {exc}"
-                )
-                result = {"key": task.key, "status": status, "error": why, "metrics": {}, "blob": None}
+                result = {"key": task.key, "metrics": {}, "blob": None, **_failure(fut)}
             fut.release()
             take(task, result)
     finally:
         for fut in futures.values():
             fut.cancel()
+
+
+def _failure(fut: Any) -> dict[str, str]:
+    """Status and error of a future that did not finish: ``lost`` (to be run again on resume) when
+    its workers died or the scheduler dropped it, ``error`` when Dask itself raised."""
+    from distributed import KilledWorker
+
+    if fut.status == "cancelled":  # not by us: a scheduler restart, or a key dropped while resubmitted
+        return {"status": "lost", "error": "the Dask scheduler cancelled it"}
+    exc = fut.exception()
+    if isinstance(exc, KilledWorker):
+        return {"status": "lost", "error": "its worker died each time it ran it (Dask's allowed-failures)"}
+    return {"status": "error", "error": f"{type(exc).__name__}: {exc}"}

@@ -249,3 +249,24 @@ def test_a_task_whose_workers_keep_dying_is_lost_then_resumed(
     second = run_sweep(spec, out=tmp_path / "lost", resume=True, client=cluster_client, progress=False)
     assert (second.skipped, second.ran, second.ok) == (first.ok, first.lost, first.lost)
     pd.testing.assert_frame_equal(_frame(tmp_path / "lost"), serial)
+
+
+def test_a_task_the_scheduler_cancels_is_lost_not_a_crash(
+    small: tuple[SweepSpec, pd.DataFrame], cluster_client: Any, tmp_path: Path
+) -> None:
+    from distributed import Future
+
+    spec, serial = small
+    victim = spec.tasks[-1].key
+
+    def cancel_the_last(row: dict[str, Any]) -> None:
+        if row["run_key"] != victim:
+            cluster_client.cancel([Future(f"pedvr-{victim}", cluster_client)], force=True)
+
+    first = run_sweep(
+        spec, out=tmp_path / "c", client=cluster_client, progress=False, on_result=cancel_the_last
+    )
+    assert (first.ok, first.lost) == (11, 1) and "cancelled" in first.errors[0]
+    second = run_sweep(spec, out=tmp_path / "c", resume=True, client=cluster_client, progress=False)
+    assert (second.ran, second.ok) == (1, 1)
+    pd.testing.assert_frame_equal(_frame(tmp_path / "c"), serial)
