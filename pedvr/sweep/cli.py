@@ -173,10 +173,10 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
     if runs < 1 or workers < 1:
         raise UsageError("pedvr bench sweep: --runs and --workers must be >= 1")
     import pyarrow.parquet  # noqa: F401 - imported before the clock starts, as in a long sweep
-    from distributed import Client, LocalCluster
 
-    from pedvr.sweep.runner import run_sweep
+    from pedvr.sweep.runner import run_sweep, start_local_cluster
     from pedvr.sweep.spec import parse_spec
+    from pedvr.sweep.table import read_table
     from pedvr.sweep.task import execute
 
     data = {
@@ -203,16 +203,8 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
     serial_s = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    with (
-        LocalCluster(
-            n_workers=workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            env={"NUMBA_NUM_THREADS": "1"},
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    client, own = start_local_cluster(workers)  # as `pedvr sweep --workers N` starts it
+    try:
         start_s = time.perf_counter() - t0
         client.gather(
             [
@@ -224,9 +216,10 @@ def bench_sweep(*, runs: int, workers: int, scene: str, duration: float) -> dict
             t0 = time.perf_counter()
             outcome = run_sweep(spec, out=Path(tmp) / "out", client=client, progress=False)
             dask_s = time.perf_counter() - t0
-            from pedvr.sweep.table import read_table
-
             in_runs_s = sum(read_table(Path(tmp) / "out").column("worker_wall_s").to_pylist())
+    finally:
+        for thing in reversed(own):
+            thing.close()
     if outcome.ok != runs:
         raise SweepError(f"pedvr bench sweep: {runs - outcome.ok} runs did not finish ok")
     return {

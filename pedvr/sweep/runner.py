@@ -29,6 +29,7 @@ import os
 import queue
 import signal
 import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -226,7 +227,7 @@ def _write_atomic(path: Path, data: bytes) -> None:
 
 def _connect(*, scheduler: str | None, workers: int | None) -> tuple[Any, list[Any]]:
     """A client to the scheduler at ``scheduler``, or to a new LocalCluster of ``workers`` processes."""
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     if scheduler is not None:
         try:
@@ -245,13 +246,22 @@ def _connect(*, scheduler: str | None, workers: int | None) -> tuple[Any, list[A
                 f"`dask worker {scheduler}`"
             ) from None
         return client, [client]
+    return start_local_cluster(workers)
+
+
+def start_local_cluster(workers: int | None) -> tuple[Any, list[Any]]:
+    """A client on a new LocalCluster of ``workers`` processes (default: one per core), and the
+    things to close (in reverse order) when done."""
+    from distributed import Client, LocalCluster
+
     n = workers if workers is not None else (os.cpu_count() or 1)
     # One thread per worker, and numba's kernels single-threaded inside it: the
     # parallelism is across runs, one per core. The worker processes start with
     # Ctrl-C ignored (inherited through exec): a terminal's Ctrl-C reaches the
     # whole process group, and only this process should handle it, by writing
     # the table and closing the cluster, not every worker with a traceback.
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    main = threading.current_thread() is threading.main_thread()  # signals are the main thread's
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:
         cluster = LocalCluster(
             n_workers=n,
@@ -262,7 +272,8 @@ def _connect(*, scheduler: str | None, workers: int | None) -> tuple[Any, list[A
             silence_logs=logging.ERROR,  # a rerun task is in the table's story, not a warning on the screen
         )
     finally:
-        signal.signal(signal.SIGINT, previous)
+        if main:
+            signal.signal(signal.SIGINT, previous)
     client = Client(cluster)
     return client, [cluster, client]
 

@@ -37,16 +37,12 @@ def write_spec(folder: Path, text: str, name: str = "spec.toml") -> Path:
 
 @pytest.fixture(scope="session")
 def cluster_client() -> Iterator[Any]:
-    from distributed import Client, LocalCluster
+    """A 2-worker LocalCluster started as ``pedvr sweep --workers 2`` starts it."""
+    from pedvr.sweep.runner import start_local_cluster
 
-    with (
-        LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            env={"NUMBA_NUM_THREADS": "1"},
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    client, own = start_local_cluster(2)
+    try:
         yield client
+    finally:
+        for thing in reversed(own):
+            thing.close()
