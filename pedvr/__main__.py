@@ -1,3 +1,6 @@
 from pedvr.cli import main
 
-raise SystemExit(main())
+# Guarded: `pedvr sweep` starts Dask worker processes with the spawn method,
+# which imports the main module again in each; unguarded, each would run the CLI.
+if __name__ == "__main__":
+    raise SystemExit(main())

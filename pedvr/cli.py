@@ -5,6 +5,7 @@
 ``pedvr scene list``           the shipped scenes
 ``pedvr bench steering``       ORCA step time against RVO2
 ``pedvr bench behavior``       behavior scheduler tick time (trees, events)
+``pedvr sweep SPEC.toml``      many headless runs on Dask (:mod:`pedvr.sweep`)
 
 Errors a user can cause print as ``pedvr: error: ...`` lines and a non-zero
 exit code, never a traceback.
@@ -170,6 +171,10 @@ def build_parser() -> argparse.ArgumentParser:
     from pedvr.study.cli import add_study_parser
 
     add_study_parser(sub)
+    from pedvr.sweep.cli import add_bench_parser, add_sweep_parser
+
+    add_sweep_parser(sub)
+    add_bench_parser(bsub)
     return p
 
 
@@ -184,6 +189,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             from pedvr.study.cli import run_study_command
 
             return run_study_command(args)
+        if args.command == "sweep":
+            from pedvr.sweep.cli import run_sweep_command
+
+            return run_sweep_command(args)
         return _bench(args)
     except PedvrError as exc:
         for line in str(exc).splitlines() or [type(exc).__name__]:
@@ -318,6 +327,10 @@ def _print_results(results: list[dict[str, object]], as_json: bool) -> None:
 
 
 def _bench(args: argparse.Namespace) -> int:
+    if args.bench_command == "sweep":
+        from pedvr.sweep.cli import run_bench_command
+
+        return run_bench_command(args)
     if args.bench_command == "render":
         from pedvr.render.bench import run_render_bench
 

@@ -28,6 +28,15 @@ def run_tag(scene: SceneConfig, *, seed: int | None, condition: str) -> str:
     return f"{scene.name}-seed{scene.seed if seed is None else seed}-{condition.replace('+', '-')}"
 
 
+def save_recording(sim: Simulation, scene: SceneConfig, summary: dict[str, object], path: Path) -> None:
+    """Save the run's trajectory (``.npz``) with its ``meta``: scene, content hash, seed, condition."""
+    meta = {k: summary[k] for k in ("scene", "scene_hash", "seed", "condition", "responsibility",
+                                    "personal_space_m", "user_walk", "dt")}
+    meta["source"] = scene.source
+    assert sim.recording is not None
+    sim.recording.save(path, meta)
+
+
 def write_outputs(
     sim: Simulation,
     scene: SceneConfig,
@@ -46,11 +55,7 @@ def write_outputs(
         p.parent.mkdir(parents=True, exist_ok=True)
     summary = sim.summary()
     summary.update(extra)
-    meta = {k: summary[k] for k in ("scene", "scene_hash", "seed", "condition", "responsibility",
-                                    "personal_space_m", "user_walk", "dt")}
-    meta["source"] = scene.source
-    assert sim.recording is not None
-    sim.recording.save(record, meta)
+    save_recording(sim, scene, summary, record)
     metrics_json.write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n")
 
     print(
@@ -117,9 +122,37 @@ def run_headless(
             metrics_json=metrics_json,
             out=out,
         )
+    sim, extra = simulate(scene, duration=duration, seed=seed, condition=condition,
+                          responsibility=responsibility, record=True, progress=progress,
+                          personal_space=personal_space, user_walk=user_walk)
+    return write_outputs(
+        sim, scene, condition=condition, record=record, metrics_json=metrics_json, out=out, extra=extra
+    )
+
+
+def simulate(
+    scene: SceneConfig,
+    *,
+    duration: float | None,
+    seed: int | None,
+    condition: str,
+    responsibility: float | None,
+    record: bool,
+    progress: bool = False,
+    personal_space: float | None = None,
+    user_walk: str | None = None,
+) -> tuple[Simulation, dict[str, object]]:
+    """Step a new :class:`Simulation` for ``duration`` simulated seconds (the scene's by default).
+
+    Returns the simulation and the run's timing keys (``wall_s``, ``setup_s``,
+    ``first_step_s``, ``interrupted``, ``realtime_factor``) that go beside its
+    summary in the metrics JSON. Ctrl-C ends the run early with
+    ``interrupted`` true. Used by ``pedvr run --backend headless`` and by each
+    run of ``pedvr sweep``.
+    """
     duration = scene.duration if duration is None else duration
     t0 = time.perf_counter()
-    sim = Simulation(scene, seed=seed, condition=condition, responsibility=responsibility, record=True,
+    sim = Simulation(scene, seed=seed, condition=condition, responsibility=responsibility, record=record,
                      personal_space=personal_space, user_walk=user_walk)
     first = time.perf_counter()
     sim.step()
@@ -151,6 +184,4 @@ def run_headless(
         "interrupted": interrupted,
         "realtime_factor": round(sim.t / wall, 2) if wall > 0 else None,
     }
-    return write_outputs(
-        sim, scene, condition=condition, record=record, metrics_json=metrics_json, out=out, extra=extra
-    )
+    return sim, extra
