@@ -35,6 +35,7 @@ out vec4 f_color;
 
 uniform int u_pattern;
 uniform vec3 u_emissive;
+uniform float u_alpha;
 
 void main() {
     vec3 albedo = v_color;
@@ -48,7 +49,8 @@ void main() {
         albedo *= 0.92 + 0.08 * checker;
         albedo = mix(albedo, albedo * 0.55, grid * 0.8);
     }
+    if (u_shadow_pass) { f_color = vec4(1.0); return; }
     vec3 c = shade(albedo, v_normal, v_world, u_eye_pos[v_eye]) + u_emissive;
-    f_color = encode_output(c, 1.0);
+    f_color = encode_output(c, u_alpha);
 }
 #endif

@@ -11,6 +11,7 @@ booths and shops with a darker glazed band at eye level. Vertices are
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -259,9 +260,27 @@ def environment_mesh(world: WorldConfig) -> EnvironmentMesh:
 
 def sphere_vertices(*, colour: tuple[float, float, float] = (0.9, 0.05, 0.04)) -> np.ndarray:
     """A unit-diameter sphere (scaled by the model matrix): the red target sphere."""
-    from pedvr.render.figures import unit_sphere
-
     p, n = unit_sphere(rings=12, sectors=20)
     v = np.zeros(len(p), dtype=ENV_DTYPE)
     v["pos"], v["normal"], v["color"] = p, n, linear(colour)
     return v
+
+
+def unit_sphere(*, rings: int = 8, sectors: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles of a sphere of radius 0.5 (positions, normals), counter-clockwise outside."""
+    pos = []
+    for r in range(rings):
+        t0, t1 = math.pi * r / rings, math.pi * (r + 1) / rings
+        for s in range(sectors):
+            p0, p1 = 2 * math.pi * s / sectors, 2 * math.pi * (s + 1) / sectors
+
+            def pt(t: float, p: float) -> np.ndarray:
+                return np.array([math.sin(t) * math.cos(p), math.cos(t), -math.sin(t) * math.sin(p)])
+
+            a, b, c, d = pt(t0, p0), pt(t1, p0), pt(t1, p1), pt(t0, p1)
+            if r > 0:
+                pos += [a, b, d]
+            if r < rings - 1:
+                pos += [d, b, c]
+    n = np.asarray(pos)
+    return n * 0.5, n
