@@ -49,6 +49,8 @@ from pedvr.render.crowd import (
 )
 from pedvr.render.environment import (
     ENV_DTYPE,
+    ENV_FORMAT,
+    FLOOR_PATTERNS,
     door_leaf_vertices,
     environment_mesh,
     place_leaves,
@@ -194,9 +196,13 @@ class Renderer:
         env = environment_mesh(world)
         self._floor_vbo = ctx.buffer(env.floor.tobytes())
         self._solid_vbo = ctx.buffer(env.solids.tobytes())
-        fmt = ("3f 3f 3f", "in_pos", "in_normal", "in_color")
+        fmt = ENV_FORMAT
         self._floor_vao = ctx.vertex_array(p["environment"], [(self._floor_vbo, *fmt)])
         self._solid_vao = ctx.vertex_array(p["environment"], [(self._solid_vbo, *fmt)])
+        self._ceiling_count = len(env.ceiling)
+        self._ceiling_vbo = ctx.buffer(env.ceiling.tobytes() if len(env.ceiling)
+                                       else b"\0" * ENV_DTYPE.itemsize)
+        self._ceiling_vao = ctx.vertex_array(p["environment"], [(self._ceiling_vbo, *fmt)])
         leaves = DoorLeaves.of_world(world)
         self._closed_doors = leaves.pose()
         self._leaf_local = [door_leaf_vertices(float(w), float(h))
@@ -440,10 +446,13 @@ class Renderer:
         _write(env, "u_model", np.eye(4, dtype=np.float32).tobytes())
         _set(env, "u_emissive", (0.0, 0.0, 0.0))
         _set(env, "u_alpha", 1.0)
+        _set(env, "u_floor", FLOOR_PATTERNS.get(self.world.floor, 0))
         _set(env, "u_pattern", 1)
         self._render(self._floor_vao, instances=k)
         _set(env, "u_pattern", 0)
         self._render(self._solid_vao, instances=k)
+        if self._ceiling_count:
+            self._render(self._ceiling_vao, instances=k)
         if self._leaf_count:
             self._render(self._leaf_vao, instances=k)
         sphere_model = None

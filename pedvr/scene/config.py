@@ -60,16 +60,40 @@ class Door:
         return math.dist(self.span[0], self.span[1])
 
 
+MARKING_KINDS = ("crosswalk",)
+FLOORS = ("grid", "tiles", "wood", "carpet", "asphalt", "paving")
+
+
+@dataclass(frozen=True)
+class Marking:
+    """Paint on the floor, for drawing only: a ``crosswalk`` (zebra stripes) of ``width`` metres
+    across the line from ``start`` to ``end`` (the way people cross)."""
+
+    kind: str
+    start: Vec2
+    end: Vec2
+    width: float = 3.0
+
+
 @dataclass(frozen=True)
 class WorldConfig:
     """The static world: a rectangular walkable area, obstacles inside it, and doors.
 
     ``bounds`` is ``((xmin, ymin), (xmax, ymax))``; its border acts as a wall.
+    The rest is for drawing only (issue 16): ``indoor`` worlds have walls of
+    ``wall_height`` along the bounds (default 2.6 m; outdoors a 1.1 m barrier)
+    and, with ``ceiling``, a ceiling on top; ``floor`` names the floor's
+    material; ``markings`` are painted on the floor.
     """
 
     bounds: tuple[Vec2, Vec2]
     obstacles: tuple[Obstacle, ...] = ()
     doors: tuple[Door, ...] = ()
+    indoor: bool = False
+    wall_height: float = 2.6
+    ceiling: bool = False
+    floor: str = "grid"
+    markings: tuple[Marking, ...] = ()
 
 
 @dataclass(frozen=True)

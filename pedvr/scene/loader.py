@@ -20,12 +20,15 @@ from pedvr.behavior.goals import selectors, validate_params
 from pedvr.errors import SceneError
 from pedvr.scene.config import (
     DOOR_KINDS,
+    FLOORS,
     GESTURE_CLIPS,
+    MARKING_KINDS,
     AgentProfile,
     BehaviorConfig,
     Door,
     GoalSelector,
     GoalSet,
+    Marking,
     MotionLimits,
     Obstacle,
     SceneConfig,
@@ -40,7 +43,7 @@ from pedvr.scene.config import (
 )
 from pedvr.validation import MISSING, Checker, is_num
 
-OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter")
+OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter", "building")
 TRANSITION_EVENTS = ("arrival", "timer", "probability")
 
 
@@ -180,7 +183,8 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
 
 
 def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
-    c.known(w, "world", ("bounds", "obstacles", "doors"))
+    c.known(w, "world", ("bounds", "obstacles", "doors", "indoor", "wall_height", "ceiling", "floor",
+                         "markings"))
     bounds = None
     b = w.get("bounds", MISSING)
     if b is MISSING:
@@ -208,7 +212,49 @@ def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
                 c.bad(path, "{...}", "lies outside world.bounds")
             obstacles.append(ob)
     doors = _doors(c, w.get("doors", []), bounds, obstacles)
-    return WorldConfig(bounds=bounds, obstacles=tuple(obstacles), doors=doors) if bounds else None
+    indoor = c.boolean(w, "indoor", "world.indoor", default=False)
+    wall_height = c.number(w, "wall_height", "world.wall_height", required=False, default=2.6,
+                           check=lambda x: 2.0 <= x <= 30.0, expect="between 2 and 30 m")
+    ceiling = c.boolean(w, "ceiling", "world.ceiling", default=False)
+    if ceiling and not indoor:
+        c.bad("world.ceiling", True, "needs world.indoor = true")
+    floor = c.string(w, "floor", "world.floor", required=False, default="grid", choices=FLOORS)
+    markings = _markings(c, w.get("markings", []))
+    if not bounds:
+        return None
+    return WorldConfig(bounds=bounds, obstacles=tuple(obstacles), doors=doors, indoor=indoor,
+                       wall_height=wall_height or 2.6, ceiling=ceiling, floor=floor or "grid",
+                       markings=markings)
+
+
+def _markings(c: _Checker, raw: object) -> tuple[Marking, ...]:
+    """``[[world.markings]]``: paint on the floor (drawing only)."""
+    if not isinstance(raw, list):
+        c.bad("world.markings", raw, "expected an array of tables [[world.markings]]")
+        return ()
+    out = []
+    for i, m in enumerate(raw):
+        path = f"world.markings[{i}]"
+        if not isinstance(m, dict):
+            c.bad(path, m, "expected a table")
+            continue
+        c.known(m, path, ("kind", "from", "to", "width"))
+        kind = c.string(m, "kind", f"{path}.kind", choices=MARKING_KINDS)
+        a = b = None
+        for key in ("from", "to"):
+            if key not in m:
+                c.bad(f"{path}.{key}", MISSING, "required [x, y]")
+        if "from" in m:
+            a = c.point(m["from"], f"{path}.from")
+        if "to" in m:
+            b = c.point(m["to"], f"{path}.to")
+        width = c.number(m, "width", f"{path}.width", required=False, default=3.0,
+                         check=lambda x: 0.5 <= x <= 10.0, expect="between 0.5 and 10 m")
+        if a is not None and b is not None and math.dist(a, b) < 1.0:
+            c.bad(f"{path}.to", m["to"], "must be at least 1 m from world.markings.from")
+        elif kind and a is not None and b is not None and width is not None:
+            out.append(Marking(kind=kind, start=a, end=b, width=width))
+    return tuple(out)
 
 
 DOOR_WIDTH = {"single": (0.7, 1.6), "double": (1.2, 3.2)}  # m, jamb to jamb

@@ -318,3 +318,65 @@ def test_hud_panel_is_drawn_top_left(ctx: moderngl.Context, renderer: Renderer) 
     img = t.read().astype(int)
     assert img[4, 4].max() < 200 and img[H - 2, W - 2].min() > 250
     assert hud.lines() == [" 90.0 fps   11.1 ms", "condition B"]
+
+
+def test_a_standing_character_casts_a_shadow_on_the_floor(ctx: moderngl.Context, renderer: Renderer) -> None:
+    """The key light's shadow (issue 16): floor pixels beside the feet, on the side away from the
+    light, are darker with the shadow map than without; floor on the lit side is unchanged."""
+    from tests.render.conftest import EMPTY
+
+    w, h = 160, 120
+    eye = first_person_eye(pos=np.zeros(2), heading=0.0, pitch=-0.35, eye_height=1.6, aspect=w / h)
+    snap, _ = posed([[3.0, 0.0]], [math.pi], reference=True)
+    unshadowed = Renderer(ctx, world=EMPTY, shadows=False)
+    try:
+        with_map, without = render(renderer, snap, [eye], size=(w, h)), render(unshadowed, snap, [eye], size=(w, h))
+    finally:
+        unshadowed.release()
+    sun = np.array([0.35, 0.45]) / np.hypot(0.35, 0.45)  # the light's direction on the ground (x, y)
+    lum = lambda img, p: float(img[int(p[1]) - 1 : int(p[1]) + 2, int(p[0]) - 1 : int(p[0]) + 2].mean())  # noqa: E731
+    for d in (0.55, 0.8):
+        shade = project(eye.view_projection, np.array([3.0 - sun[0] * d, 0.0, -sun[1] * d]), width=w, height=h)
+        assert lum(with_map, shade) < 0.75 * lum(without, shade), d
+    lit = project(eye.view_projection, np.array([3.0 + sun[0] * 0.7, 0.0, sun[1] * 0.7]), width=w, height=h)
+    assert abs(lum(with_map, lit) - lum(without, lit)) < 3
+
+
+def _lightness(rgb: np.ndarray) -> float:
+    """CIE L* of an sRGB colour (0-255)."""
+    c = np.asarray(rgb, np.float64) / 255.0
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    y = float(lin @ [0.2126, 0.7152, 0.0722])
+    return 116.0 * (y ** (1 / 3) if y > 0.008856 else 7.787 * y + 16 / 116) - 16.0
+
+
+def test_skin_tones_read_from_light_to_dark_on_rendered_faces(renderer: Renderer) -> None:
+    """Measured on a rendered frame (issue 16): faces of the ten Monk tones, lit as the crowd is,
+    keep their order and span a wide range of lightness (the lightest not read as brown)."""
+    from pedvr.render.crowd import SKIN_TONES, agent_looks
+
+    pool = np.arange(400)
+    tones = agent_looks(pool, sk.user_dims(len(pool))).tone
+    ids = np.array([pool[tones == k][0] for k in range(len(SKIN_TONES))])
+    n = len(ids)
+    ys = (np.arange(n) - (n - 1) / 2) * 0.45
+    snap, body = posed(np.stack([np.full(n, 3.2), ys], axis=1), np.full(n, math.pi), reference=True)
+    snap = dataclasses.replace(snap, ids=ids)
+    w, h = 960, 240
+    eye = first_person_eye(pos=np.zeros(2), heading=0.0, eye_height=1.6, aspect=w / h, fovy=math.radians(30))
+    img = render(renderer, snap, [eye], size=(w, h))
+    head = body.state.world_pos[:, sk.HEAD]
+    lightness = []
+    for i in range(n):
+        cheek = head[i] + np.array([-0.09, 0.0, 0.04])  # on a cheek, facing the camera
+        c, r = project(eye.view_projection, cheek, width=w, height=h)
+        patch = img[int(r) - 1 : int(r) + 2, int(c) - 1 : int(c) + 2].reshape(-1, 3)
+        lightness.append(_lightness(np.median(patch, axis=0)))
+    # In the shade of the key light (faces toward the camera, away from the light): lightest and
+    # darkest as a person would read them, the order kept, lightness tracking the tones' own.
+    albedo = [_lightness(255 * np.where(t <= 0.0031308, 12.92 * t, 1.055 * t ** (1 / 2.4) - 0.055))
+              for t in SKIN_TONES]
+    assert lightness[0] > 55 and lightness[-1] < 26, lightness
+    assert np.corrcoef(albedo, lightness)[0, 1] > 0.97, (albedo, lightness)
+    assert np.ptp(lightness) > 30
+    assert sum(b > a + 1 for a, b in zip(lightness, lightness[1:], strict=False)) <= 1, lightness

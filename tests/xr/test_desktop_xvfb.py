@@ -59,7 +59,7 @@ from pedvr.xr.desktop import DesktopPresenter
 from pedvr.xr.select import choose_backend
 
 out = {"backend": choose_backend("desktop")[0]}
-scene = load_any(resolve_scene("headon_corridor"), seed=None)
+scene = load_any(resolve_scene("bidirectional_flow"), seed=None)  # outdoors: the sky shows
 user = KeyboardMouseUser(start=scene.user.start, heading=scene.user.heading)
 p = DesktopPresenter(scene, user=user, width=96, height=64, vsync=False, visible=True)
 out["renderer"] = p.ctx.info["GL_RENDERER"]
