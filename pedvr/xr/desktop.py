@@ -4,8 +4,9 @@ moved with a mouse and keyboard).
 Keys: W A S D or the arrows walk at 1.3 m/s (Shift: twice as fast); the
 mouse turns and looks up and down once the window has captured it (click;
 Tab releases it; until the first click a line at the bottom says so); 1 mono,
-2 side-by-side stereo, 3 anaglyph, 4 overhead debug view; H toggles the HUD; F11 full screen; Esc quits. Vsync is on by
-default, so frames follow the monitor's refresh.
+2 side-by-side stereo, 3 anaglyph, 4 overhead debug view; H toggles the HUD;
+F11 full screen; Esc quits. Vsync is on by default, so frames follow the
+monitor's refresh.
 """
 
 from __future__ import annotations
