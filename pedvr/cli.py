@@ -103,7 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
     bd.add_argument("--steps", type=_positive(int), default=300)
     bd.add_argument("--json", action="store_true")
     rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
-    rb.add_argument("--agents", type=_positive(int), action="append", default=None)
+    rb.add_argument("--agents", type=_positive(int), action="extend", nargs="+", default=None)
     rb.add_argument("--width", type=_positive(int), default=1280)
     rb.add_argument("--height", type=_positive(int), default=720)
     rb.add_argument("--frames", type=_positive(int), default=30)

@@ -216,53 +216,72 @@ class Blinks:
     SHIFT_DEG, WINDOW = 12.0, 0.08  # a gaze shift: the eyes turn more than 12° within 80 ms (150°/s)
 
     def __init__(self) -> None:
-        self._next: dict[int, float] = {}
-        self._count: dict[int, int] = {}
-        self._start: dict[int, float] = {}
-        self._dir: dict[int, tuple[float, np.ndarray]] = {}
+        self._ids = np.zeros(0, np.int64)  # sorted ids seen so far; the arrays below follow them
+        self._next = np.zeros(0)
+        self._count = np.zeros(0, np.int64)
+        self._start = np.zeros(0)
+        self._ref_t = np.zeros(0)
+        self._ref_dir = np.zeros((0, 3))
         self._t = -math.inf
 
-    def _interval(self, agent: int, k: int) -> float:
-        u = float(_hash01(np.array([agent * 4099 + k]), 7)[0])
-        return 1.0 + -math.log(1.0 - u) * 2.4
+    @staticmethod
+    def _interval(ids: np.ndarray, k: np.ndarray) -> np.ndarray:
+        u = _hash01(np.asarray(ids, np.int64) * 4099 + np.asarray(k, np.int64), 7)
+        return 1.0 + -np.log1p(-u) * 2.4
 
-    def closure(self, age: float) -> float:
-        """Lid closure ``age`` seconds into a blink."""
-        if age < 0.0:
-            return 0.0
-        if age < self.CLOSE:
-            return age / self.CLOSE
-        if age < self.CLOSE + self.SHUT:
-            return 1.0
-        return max(0.0, 1.0 - (age - self.CLOSE - self.SHUT) / self.OPEN)
+    def closure(self, age: np.ndarray) -> np.ndarray:
+        """Lid closure ``age`` seconds into a blink (0 before it starts and after it ends)."""
+        age = np.asarray(age, np.float64)
+        closing = age / self.CLOSE
+        opening = 1.0 - (age - self.CLOSE - self.SHUT) / self.OPEN
+        out = np.where(age < self.CLOSE, closing, np.where(age < self.CLOSE + self.SHUT, 1.0, opening))
+        return np.clip(np.where(age < 0.0, 0.0, out), 0.0, 1.0)
+
+    def _slots(self, ids: np.ndarray, t: float, dirs: np.ndarray) -> np.ndarray:
+        new = np.setdiff1d(ids, self._ids)
+        if new.size:
+            merged = np.concatenate([self._ids, new])
+            order = np.argsort(merged, kind="stable")
+            first = t + 0.8 * self._interval(new, np.zeros(len(new), np.int64))
+            pos = np.searchsorted(new, ids[np.isin(ids, new)])
+            new_dirs = np.zeros((len(new), 3))
+            new_dirs[pos] = dirs[np.isin(ids, new)]
+            self._ids = merged[order]
+            self._next = np.concatenate([self._next, first])[order]
+            self._count = np.concatenate([self._count, np.zeros(len(new), np.int64)])[order]
+            self._start = np.concatenate([self._start, np.full(len(new), -np.inf)])[order]
+            self._ref_t = np.concatenate([self._ref_t, np.full(len(new), t)])[order]
+            self._ref_dir = np.concatenate([self._ref_dir, new_dirs])[order]
+        return np.searchsorted(self._ids, ids)
 
     def update(self, ids: np.ndarray, t: float, eye_dirs: np.ndarray) -> np.ndarray:
         """Closure ``(N,)`` at time ``t`` of agents ``ids`` whose eyes look along ``eye_dirs (N, 3)``."""
         if t < self._t:
             self.__init__()  # type: ignore[misc]
         self._t = t
-        out = np.zeros(len(ids))
-        for row, agent in enumerate(np.asarray(ids, np.int64).tolist()):
-            if agent not in self._next:
-                self._count[agent] = 0
-                self._next[agent] = t + self._interval(agent, 0) * 0.8
-                self._start[agent] = -math.inf
-            d = eye_dirs[row]
-            ref = self._dir.get(agent)
-            if ref is None or t - ref[0] > self.WINDOW:
-                self._dir[agent] = (t, d.copy())
-            else:
-                ang = math.degrees(math.acos(float(np.clip(np.dot(ref[1], d), -1.0, 1.0))))
-                if ang > self.SHIFT_DEG:
-                    if t - self._start[agent] > 0.6:
-                        self._start[agent] = t
-                    self._dir[agent] = (t, d.copy())
-            while t >= self._next[agent]:
-                self._start[agent] = self._next[agent]
-                self._count[agent] += 1
-                self._next[agent] += self._interval(agent, self._count[agent])
-            out[row] = self.closure(t - self._start[agent])
-        return out
+        ids = np.asarray(ids, np.int64)
+        if ids.size == 0:
+            return np.zeros(0)
+        dirs = np.asarray(eye_dirs, np.float64)
+        k = self._slots(ids, t, dirs)
+        # Gaze shifts: against the direction held at most WINDOW ago.
+        cos = np.clip(np.sum(self._ref_dir[k] * dirs, axis=1), -1.0, 1.0)
+        fresh = t - self._ref_t[k] <= self.WINDOW
+        shift = fresh & (np.degrees(np.arccos(cos)) > self.SHIFT_DEG)
+        start = self._start[k]
+        self._start[k] = np.where(shift & (t - start > 0.6), t, start)
+        renew = shift | ~fresh
+        self._ref_t[k] = np.where(renew, t, self._ref_t[k])
+        self._ref_dir[k] = np.where(renew[:, None], dirs, self._ref_dir[k])
+        # Spontaneous blinks: every one whose time has come (at most a few per frame).
+        due = t >= self._next[k]
+        while due.any():
+            kk = k[due]
+            self._start[kk] = self._next[kk]
+            self._count[kk] += 1
+            self._next[kk] += self._interval(self._ids[kk], self._count[kk])
+            due = t >= self._next[k]
+        return self.closure(t - self._start[k])
 
 
 def eye_directions(world: np.ndarray, rows: np.ndarray) -> np.ndarray:

@@ -39,6 +39,7 @@ from pedvr.render.crowd import (
     N_JOINTS,
     SKIN_TEXELS,
     Blinks,
+    Looks,
     agent_looks,
     bind_joints,
     draw_groups,
@@ -160,8 +161,8 @@ class Renderer:
         self._rows = np.zeros(0, np.int64)
         self._drawn_pos = np.zeros((0, 2))
         self._drawn_char = np.zeros(0, np.int64)
-        self._looks_key: tuple[bytes, bytes] | None = None
-        self._looks_cache: object = None
+        self._looks_key: tuple[bytes, bytes, bytes] | None = None
+        self._looks_cache: tuple[Looks, np.ndarray] | None = None
         self._blinks = Blinks()
         self._shadow_dirty = True
         self._light_vp = np.eye(4)
@@ -276,10 +277,15 @@ class Renderer:
         self.stats.draw_calls = 0
         self.stats.vertices = 0
 
-    def _looks_for(self, ids: np.ndarray, dims: np.ndarray) -> object:
-        key = (ids.tobytes(), dims.tobytes())
-        if key != self._looks_key:
-            self._looks_cache = agent_looks(ids, dims)
+    def _looks_for(self, ids: np.ndarray, dims: np.ndarray, char: np.ndarray) -> tuple[Looks, np.ndarray]:
+        """Looks and bind-pose joints of the drawn agents, recomputed only when the crowd changes."""
+        key = (ids.tobytes(), dims.tobytes(), char.tobytes())
+        if key != self._looks_key or self._looks_cache is None:
+            rest = bind_joints(dims).astype(np.float32)
+            for c, ch in enumerate(self.characters):
+                if ch.rest is not None:
+                    rest[char == c] = ch.rest
+            self._looks_cache = (agent_looks(ids, dims), rest)
             self._looks_key = key
         return self._looks_cache
 
@@ -304,16 +310,12 @@ class Renderer:
                 raise ValueError(f"character index {int(char.max())}: this renderer has "
                                  f"{len(self.characters)} characters")
         ids, d = snap.ids[rows], dims[rows]
-        rest = bind_joints(d).astype(np.float32)
-        for c, ch in enumerate(self.characters):
-            if ch.rest is not None:
-                rest[char == c] = ch.rest
+        looks, rest = self._looks_for(ids, d, char)
         self._ensure_capacity(max(n, 1))
-        looks = self._looks_for(ids, d)
         blink = self._blinks.update(ids, float(snap.t), eye_directions(world, rows)) if n else np.zeros(0)
         if n:
             skin_rows(world, rows, d[:, 3].astype(np.float32), rest, self._skin_buf)
-        lk = look_rows(looks, d, blink) if n else np.zeros((0, LOOK_TEXELS, 4), np.float32)  # type: ignore[arg-type]
+        lk = look_rows(looks, d, blink) if n else np.zeros((0, LOOK_TEXELS, 4), np.float32)
         t1 = time.perf_counter()
         if n:
             self._skin.write(self._skin_buf[:n].tobytes(), viewport=(0, 0, SKIN_TEXELS, n))

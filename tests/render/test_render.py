@@ -236,7 +236,7 @@ def test_eyes_are_readable_at_2_m_at_1280x720(renderer: Renderer) -> None:
 
 def test_a_blink_hides_the_eyes(renderer: Renderer) -> None:
     open_ = _face(renderer, (0.0, EYE_H, 0.0))
-    renderer._blinks.closure = lambda age: 1.0  # type: ignore[method-assign]
+    renderer._blinks.closure = lambda age: np.ones_like(age)  # type: ignore[method-assign]
     try:
         shut = _face(renderer, (0.0, EYE_H, 0.0))
     finally:
