@@ -196,9 +196,9 @@ void main() {
         }
         spec = 0.9;
     } else if (v_region == TEXTURED) {
-        vec4 c = texture(u_albedo, v_uv) * u_base_color;
-        if (c.a < 0.5) discard;
-        albedo = c.rgb;
+        vec4 tex = texture(u_albedo, v_uv);
+        if (tex.a < 0.5) discard;
+        albedo = pow(tex.rgb, vec3(2.2)) * v_local * u_base_color.rgb;  // v_local: the base colour factor
     }
     vec3 eye_pos = u_eye_pos[v_eye];
     vec3 c = shade_lit(albedo, v_normal, v_world, eye_pos, v_ao, spec);

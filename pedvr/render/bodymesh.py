@@ -339,9 +339,11 @@ def closed_manifold(tris: np.ndarray) -> bool:
     return len(np.unique(key)) == len(key) and bool(np.isin(rev, key).all())
 
 
-def _decimate(verts: np.ndarray, tris: np.ndarray, target: int) -> tuple[np.ndarray, np.ndarray]:
-    """Quadric decimation to about ``target`` triangles that stays a closed manifold: the
-    decimator now and then pinches an edge; then a little less aggressive or a few more triangles."""
+def _decimate(verts: np.ndarray, tris: np.ndarray, target: int, *,
+              closed: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Quadric decimation to about ``target`` triangles that stays a closed manifold (``closed``):
+    the decimator now and then pinches an edge; then a little less aggressive or a few more
+    triangles. With ``closed=False`` (meshes with open seams) the first result is taken."""
     if len(tris) <= target:
         return verts, tris
     import fast_simplification
@@ -351,7 +353,7 @@ def _decimate(verts: np.ndarray, tris: np.ndarray, target: int) -> tuple[np.ndar
         v, t = fast_simplification.simplify(verts.astype(np.float64), tris.astype(np.int32),
                                             target_count=int(target * f), agg=agg)
         t = np.asarray(t, np.int64)
-        if closed_manifold(t):
+        if not closed or closed_manifold(t):
             break
     else:
         raise RuntimeError(f"decimating {len(tris)} triangles to {target} keeps breaking the surface")

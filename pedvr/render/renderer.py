@@ -186,7 +186,7 @@ class Renderer:
             self._char_vaos.append(vaos)
             tex = None
             if ch.texture is not None:
-                img = np.ascontiguousarray(ch.texture[::-1], np.uint8)
+                img = np.ascontiguousarray(ch.texture, np.uint8)  # glTF's v runs down the image, as GL's t
                 tex = ctx.texture((img.shape[1], img.shape[0]), 4, img.tobytes())
                 tex.build_mipmaps()
                 tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
