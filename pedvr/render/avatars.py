@@ -295,6 +295,10 @@ def load_avatar(path: str | Path, *, bone_map: dict[str, str] | None = None) -> 
         raise AvatarError(f"{path}: not a readable glTF 2.0 file ({type(exc).__name__}: {exc})") from None
     if gltf is None:
         raise AvatarError(f"{path}: not a readable glTF 2.0 file")
+    unknown = sorted(j for j in (bone_map or {}).values() if j not in JOINTS)
+    if unknown:
+        raise AvatarError(f"{path}: bone_map names {', '.join(repr(j) for j in unknown)}: not pedvr joints; "
+                          f"known: {', '.join(JOINTS)}")
     bufs = _buffers(gltf, path)
     skinned = [n for n in gltf.nodes if n.skin is not None and n.mesh is not None]
     if not skinned:

@@ -40,6 +40,7 @@ from pedvr.render.crowd import (
     SKIN_TEXELS,
     Blinks,
     Looks,
+    _hash01,
     agent_looks,
     bind_joints,
     draw_groups,
@@ -64,7 +65,7 @@ from pedvr.render.overhead import BACKGROUND, disc_fan, frame_geometry, static_t
 from pedvr.render.shaders import SHADER_DIR, compile_program
 from pedvr.render.shaders import set_uniform as _set
 from pedvr.render.snapshot import SPHERE_HEIGHT, TARGET_RADIUS, Snapshot
-from pedvr.scene.config import WorldConfig
+from pedvr.scene.config import SceneConfig, WorldConfig
 
 GL_CLIP_DISTANCE0 = 0x3000
 GL_FRAMEBUFFER_SRGB = 0x8DB9
@@ -148,6 +149,7 @@ class Renderer:
         shadows: bool = True,
         shadow_map_size: int = SHADOW_MAP_SIZE,
         characters: Sequence[CharacterMesh] | None = None,
+        profile_characters: Sequence[Sequence[int]] = (),
     ) -> None:
         self.ctx = ctx
         self.world = world
@@ -172,6 +174,7 @@ class Renderer:
         p = self.programs
 
         self.characters: list[CharacterMesh] = list(characters) if characters else [procedural_character()]
+        self._profile_chars = [np.asarray(c, np.int64) for c in profile_characters]
         self._char_vaos: list[list[tuple[moderngl.VertexArray, int]]] = []
         self._char_buffers: list[moderngl.Buffer] = []
         self._char_textures: list[moderngl.Texture | None] = []
@@ -277,6 +280,35 @@ class Renderer:
         self.stats.draw_calls = 0
         self.stats.vertices = 0
 
+    @classmethod
+    def for_scene(cls, ctx: moderngl.Context, scene: SceneConfig, **kw: object) -> Renderer:
+        """A renderer for ``scene`` with the characters its profiles name (issue 16): the procedural
+        one and every glTF/VRM file, loaded once; raises AvatarError naming a file that cannot be used."""
+        from pedvr.render.avatars import load_avatar
+
+        chars: list[CharacterMesh] = [procedural_character()]
+        index: dict[str, int] = {"builtin": 0}
+        table = []
+        for prof in scene.profiles.values():
+            picks = []
+            for name in prof.characters or ("builtin",):
+                if name not in index:
+                    index[name] = len(chars)
+                    chars.append(load_avatar(name, bone_map=scene.bone_map))
+                picks.append(index[name])
+            table.append(tuple(picks))
+        return cls(ctx, world=scene.world, characters=chars, profile_characters=table, **kw)  # type: ignore[arg-type]
+
+    def _by_profile(self, ids: np.ndarray, profile: np.ndarray) -> np.ndarray:
+        """Each agent's character: one of its profile's, picked by its stable id (0 for the user)."""
+        out = np.zeros(len(ids), np.int64)
+        pick = _hash01(ids, 31)
+        for p, choices in enumerate(self._profile_chars):
+            sel = profile == p
+            if sel.any():
+                out[sel] = choices[np.minimum((pick[sel] * len(choices)).astype(np.int64), len(choices) - 1)]
+        return out
+
     def _looks_for(self, ids: np.ndarray, dims: np.ndarray, char: np.ndarray) -> tuple[Looks, np.ndarray]:
         """Looks and bind-pose joints of the drawn agents, recomputed only when the crowd changes."""
         key = (ids.tobytes(), dims.tobytes(), char.tobytes())
@@ -304,7 +336,9 @@ class Renderer:
                 raise ValueError(f"bones shape {world.shape}: expected ({len(snap)}, {N_JOINTS}, 4, 4)")
         world = np.ascontiguousarray(world, np.float32)
         char = np.zeros(n, np.int64)
-        if snap.character is not None:
+        if snap.character is None and snap.profile is not None and self._profile_chars:
+            char = self._by_profile(snap.ids[rows], np.asarray(snap.profile, np.int64)[rows])
+        elif snap.character is not None:
             char = np.asarray(snap.character, np.int64)[rows]
             if n and (char.min() < 0 or char.max() >= len(self.characters)):
                 raise ValueError(f"character index {int(char.max())}: this renderer has "

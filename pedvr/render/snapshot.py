@@ -33,8 +33,9 @@ class Snapshot:
     route is done; ``route`` all spheres. ``doors`` ``(L, 5)`` is every door
     leaf's hinge x, hinge y, world angle, length and height
     (``DoorLeaves.pose()``); None draws them closed. ``character`` ``(N,)``
-    indexes the renderer's characters per agent (None: the first, the
-    procedural one for every agent).
+    indexes the renderer's characters per agent (None: chosen by ``profile``,
+    each agent's index into the scene's profiles, -1 for the user, through
+    the scene's ``characters`` keys; neither: the procedural character).
     """
 
     t: float
@@ -53,6 +54,7 @@ class Snapshot:
     next_sphere: int = 0
     doors: np.ndarray | None = None
     character: np.ndarray | None = None
+    profile: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.ids.shape[0])
@@ -91,6 +93,7 @@ class Snapshot:
             route=route,
             next_sphere=nxt,
             doors=sim.doors.pose() if len(sim.doors) else None,
+            profile=sim.profile_index.copy(),
         )
 
     @classmethod

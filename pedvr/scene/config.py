@@ -122,6 +122,9 @@ class AgentProfile:
     pref_speed: float = 1.3
     max_speed: float = 1.6
     limits: MotionLimits = field(default_factory=MotionLimits)
+    # Drawing only (issue 16): characters an agent of this profile is drawn as, picked per agent:
+    # "builtin" (the procedural character) or glTF/VRM files; empty: the procedural character.
+    characters: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -266,7 +269,7 @@ class SceneConfig:
     gaze_speed: float = 2.0  # D2 of PedVR eq. 3, m/s
     description: str = ""
     content_hash: str = ""
-
+    bone_map: dict[str, str] = field(default_factory=dict)  # avatars' bone name -> pedvr joint
     @property
     def decision_every(self) -> int:
         """Steps between behavior decisions (30 Hz at the default 90 Hz step)."""

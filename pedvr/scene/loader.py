@@ -133,7 +133,8 @@ def load_any(path: str | Path, *, seed: int | None, display_path: str | None = N
         data = tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise SceneError([f"{shown}: not valid TOML: {exc}"]) from None
-    cfg = parse_scene(data, source=shown, content_hash=hashlib.sha256(raw).hexdigest()[:16])
+    cfg = parse_scene(data, source=shown, content_hash=hashlib.sha256(raw).hexdigest()[:16],
+                      base=p.parent)
     if seed is not None:
         from dataclasses import replace
 
@@ -141,10 +142,12 @@ def load_any(path: str | Path, *, seed: int | None, display_path: str | None = N
     return cfg
 
 
-def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") -> SceneConfig:
-    """Validate a parsed TOML document; raise one SceneError with all problems."""
+def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
+                base: Path | None = None) -> SceneConfig:
+    """Validate a parsed TOML document; raise one SceneError with all problems. ``base`` is the
+    folder the scene's relative file patterns (avatars) are resolved in (default: the working one)."""
     c = _Checker(source)
-    c.known(data, "", ("scene", "world", "steering", "gaze", "agents", "behavior", "user"))
+    c.known(data, "", ("scene", "world", "steering", "gaze", "agents", "behavior", "user", "characters"))
 
     scene = c.table(data, "scene", "scene", required=True) or {}
     c.known(scene, "scene", ("name", "description", "seed", "duration", "dt"))
@@ -167,7 +170,14 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
     behavior = _behavior(c, c.table(data, "behavior", "behavior", required=True) or {})
     agents = c.table(data, "agents", "agents", required=True) or {}
     c.known(agents, "agents", ("profiles", "spawns"))
-    profiles = _profiles(c, c.table(agents, "profiles", "agents.profiles", required=True) or {})
+    profiles = _profiles(c, c.table(agents, "profiles", "agents.profiles", required=True) or {}, base)
+    chars = c.table(data, "characters", "characters", required=False) or {}
+    c.known(chars, "characters", ("bone_map",))
+    bone_map = chars.get("bone_map", {})
+    if not isinstance(bone_map, dict) or not all(isinstance(k, str) and isinstance(v, str) and v
+                                                 for k, v in bone_map.items()):
+        c.bad("characters.bone_map", bone_map, 'expected a table of "bone name" = "pedvr joint name"')
+        bone_map = {}
     spawns = _spawns(c, agents.get("spawns", MISSING), profiles, behavior, world)
     user = _user(c, c.table(data, "user", "user", required=True) or {}, world)
 
@@ -179,7 +189,7 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
     return SceneConfig(name=name, source=source, seed=seed, dt=dt, duration=duration, world=world,
                        profiles=profiles, spawns=spawns, behavior=behavior, user=user,
                        steering=steering, gaze_distance=gaze_distance, gaze_speed=gaze_speed,
-                       description=description, content_hash=content_hash)
+                       description=description, content_hash=content_hash, bone_map=dict(bone_map))
 
 
 def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
@@ -393,12 +403,39 @@ def _or(v: float | None, d: float) -> float:
     return d if v is None else v
 
 
-_PROFILE_KEYS = ("inherit", "radius", "pref_speed", "max_speed", "limits")
+_PROFILE_KEYS = ("inherit", "radius", "pref_speed", "max_speed", "limits", "characters")
+AVATAR_SUFFIXES = (".glb", ".gltf", ".vrm")
 _LIMIT_KEYS = ("max_accel", "max_decel", "turn_rate_standing", "turn_rate_walking",
                "max_backward_speed", "max_sideways_speed")
 
 
-def _profiles(c: _Checker, raw: dict[str, Any]) -> dict[str, AgentProfile]:
+def _characters(c: _Checker, v: object, path: str, base: Path | None) -> tuple[str, ...]:
+    """``characters = ["builtin", "avatars/*.glb"]``: each entry ``builtin`` or a glob of glTF/VRM
+    files relative to the scene file's folder, matching at least one file (issue 16). Whether a
+    file is a usable skinned humanoid is checked when a renderer loads it (pedvr.render.avatars)."""
+    if not isinstance(v, list) or not v or not all(isinstance(x, str) and x for x in v):
+        c.bad(path, v, 'expected a list of "builtin" or glTF/VRM file patterns')
+        return ()
+    out: list[str] = []
+    folder = base or Path.cwd()
+    for i, pattern in enumerate(v):
+        if pattern == "builtin":
+            out.append(pattern)
+            continue
+        p = Path(pattern)
+        found = sorted(Path(p.anchor).glob(str(p.relative_to(p.anchor))) if p.is_absolute()
+                       else folder.glob(pattern))
+        files = [f for f in found if f.is_file()]
+        if not files:
+            c.bad(f"{path}[{i}]", pattern, f"matches no file in {folder}")
+        elif bad := [f.name for f in files if f.suffix.lower() not in AVATAR_SUFFIXES]:
+            c.bad(f"{path}[{i}]", pattern, f"{bad[0]}: expected a {', '.join(AVATAR_SUFFIXES)} file")
+        else:
+            out.extend(str(f.resolve()) for f in files)
+    return tuple(out)
+
+
+def _profiles(c: _Checker, raw: dict[str, Any], base: Path | None = None) -> dict[str, AgentProfile]:
     """Resolve ``inherit`` chains (a child overrides its parent key by key)."""
     resolved: dict[str, dict[str, Any]] = {}
 
@@ -457,9 +494,10 @@ def _profiles(c: _Checker, raw: dict[str, Any]) -> dict[str, AgentProfile]:
             vals = {k: c.number(lim_raw, k, f"{path}.limits.{k}", required=False,
                                 default=getattr(d, k), check=pos, expect="> 0") for k in _LIMIT_KEYS}
             lim = MotionLimits(**{k: (v if v is not None else getattr(d, k)) for k, v in vals.items()})
+        chars = _characters(c, m["characters"], f"{path}.characters", base) if "characters" in m else ()
         if radius is not None and pref is not None and mx is not None:
             out[name] = AgentProfile(name=name, radius=radius, pref_speed=pref, max_speed=mx,
-                                     limits=lim)
+                                     limits=lim, characters=chars)
     return out
 
 

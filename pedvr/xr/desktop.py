@@ -113,7 +113,7 @@ class DesktopPresenter:
         self.glfw, self.window, self.ctx = open_gl_window(width, height, f"pedvr: {scene.name}",
                                                           visible=visible, vsync=vsync)
         glfw = self.glfw
-        self.renderer = Renderer(self.ctx, world=scene.world)
+        self.renderer = Renderer.for_scene(self.ctx, scene)
         self.composer = ViewComposer(self.renderer)
         self.user = user
         self.mode = view

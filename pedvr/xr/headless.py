@@ -92,7 +92,7 @@ class HeadlessPresenter:
         self.fps = fps
         self.frames_dir = frames_dir
         self.ctx = create_offscreen_context()
-        self.renderer = Renderer(self.ctx, world=sim.scene.world)
+        self.renderer = Renderer.for_scene(self.ctx, sim.scene)
         self.composer = ViewComposer(self.renderer)
         self.first = OffscreenTarget(self.ctx, self.size)
         self.over = OffscreenTarget(self.ctx, self.size)
