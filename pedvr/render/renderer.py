@@ -109,16 +109,39 @@ class FrameStats:
 
 
 class OffscreenTarget:
-    """Colour (RGBA8) + depth framebuffer of ``size`` ``(width, height)``; :meth:`read`: top row first."""
+    """Colour (RGBA8) + depth framebuffer of ``size`` ``(width, height)``; :meth:`read`: top row first.
+
+    With ``samples`` > 0 it is multisampled (issue 16: the headless frames and video use 4×);
+    :meth:`read` and :attr:`resolved` resolve it into a plain texture first.
+    """
 
     def __init__(self, ctx: moderngl.Context, size: tuple[int, int], *, samples: int = 0) -> None:
         self.size = size
+        self.ctx = ctx
+        self.samples = samples
         self.color = ctx.texture(size, 4, samples=samples)
         self.depth = ctx.depth_renderbuffer(size, samples=samples)
         self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
+        self._resolve_tex: moderngl.Texture | None = None
+        self._resolve_fbo: moderngl.Framebuffer | None = None
+        if samples:
+            self._resolve_tex = ctx.texture(size, 4)
+            self._resolve_fbo = ctx.framebuffer(color_attachments=[self._resolve_tex])
+
+    @property
+    def resolved(self) -> moderngl.Texture:
+        """The colour as a single-sampled texture (resolved now when multisampled)."""
+        if self._resolve_fbo is None or self._resolve_tex is None:
+            return self.color
+        self.ctx.copy_framebuffer(self._resolve_fbo, self.fbo)
+        return self._resolve_tex
 
     def read(self, *, components: int = 3) -> np.ndarray:
-        data = self.fbo.read(components=components, alignment=1)
+        fbo = self.fbo
+        if self._resolve_fbo is not None:
+            self.ctx.copy_framebuffer(self._resolve_fbo, self.fbo)
+            fbo = self._resolve_fbo
+        data = fbo.read(components=components, alignment=1)
         img = np.frombuffer(data, dtype=np.uint8).reshape(self.size[1], self.size[0], components)
         return img[::-1].copy()
 
@@ -126,6 +149,9 @@ class OffscreenTarget:
         self.fbo.release()
         self.color.release()
         self.depth.release()
+        if self._resolve_fbo is not None and self._resolve_tex is not None:
+            self._resolve_fbo.release()
+            self._resolve_tex.release()
 
 
 class Renderer:

@@ -75,6 +75,7 @@ def open_gl_window(width: int, height: int, title: str, *, visible: bool,
         (glfw.OPENGL_FORWARD_COMPAT, glfw.TRUE),
         (glfw.VISIBLE, glfw.TRUE if visible else glfw.FALSE),
         (glfw.DEPTH_BITS, 24),
+        (glfw.SAMPLES, 4),  # multisampling (issue 16)
     ):
         glfw.window_hint(hint, value)
     window = glfw.create_window(width, height, title, None, None)

@@ -380,3 +380,19 @@ def test_skin_tones_read_from_light_to_dark_on_rendered_faces(renderer: Renderer
     assert np.corrcoef(albedo, lightness)[0, 1] > 0.97, (albedo, lightness)
     assert np.ptp(lightness) > 30
     assert sum(b > a + 1 for a, b in zip(lightness, lightness[1:], strict=False)) <= 1, lightness
+
+
+def test_multisampled_targets_smooth_edges_and_resolve_on_read(renderer: Renderer) -> None:
+    eye = first_person_eye(pos=np.zeros(2), heading=0.0, eye_height=1.6, aspect=W / H)
+    snap, _ = posed([[2.5, 0.0]], [math.pi], reference=True)
+    images = []
+    for samples in (0, 4):
+        t = OffscreenTarget(renderer.ctx, (W, H), samples=samples)
+        renderer.update(snap)
+        renderer.draw_scene([eye], framebuffer=t.fbo)
+        images.append(t.read().astype(int))
+        t.release()
+    plain, msaa = images
+    assert np.abs(plain - msaa).mean() < 4.0  # the same picture...
+    edges = lambda img: len(np.unique(img.reshape(-1, 3), axis=0))  # noqa: E731
+    assert edges(msaa) > 1.2 * edges(plain)  # ...with blended edge pixels
