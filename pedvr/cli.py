@@ -162,7 +162,7 @@ def build_parser() -> argparse.ArgumentParser:
     bh.add_argument("--seconds", type=_positive(float), default=20.0, help="simulated seconds timed")
     bh.add_argument("--json", action="store_true")
     rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
-    rb.add_argument("--agents", type=_positive(int), action="append", default=None)
+    rb.add_argument("--agents", type=_positive(int), action="extend", nargs="+", default=None)
     rb.add_argument("--width", type=_positive(int), default=1280)
     rb.add_argument("--height", type=_positive(int), default=720)
     rb.add_argument("--frames", type=_positive(int), default=30)

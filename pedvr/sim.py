@@ -110,6 +110,8 @@ class Simulation:
         self.cursor = np.zeros(0, np.int64)
         self.sequences: list[tuple[SequenceGoal, ...]] = []
         self.stuck_time = np.zeros(0)
+        # Each row's profile, as an index into list(scene.profiles) (-1: the user); for drawing.
+        self.profile_index = np.zeros(0, np.int64)
         self._flat: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._next_id = 0
         self._leaving = np.zeros(0, np.bool_)
@@ -186,7 +188,8 @@ class Simulation:
 
     def _add_rows(self, n: int, *, pos: np.ndarray, radius: float, pref_speed: float, max_speed: float,
                   limits: list[float], is_user: bool, heading: np.ndarray,
-                  state: str | None = None, sequence: tuple[SequenceGoal, ...] = ()) -> None:
+                  state: str | None = None, sequence: tuple[SequenceGoal, ...] = (),
+                  profile: int = -1) -> None:
         ids = np.arange(self._next_id, self._next_id + n, dtype=np.int64)
         self._next_id += n
         rows = CrowdState(
@@ -206,6 +209,7 @@ class Simulation:
         self.cursor = np.concatenate([self.cursor, np.ones(n, np.int64)])
         self.sequences.extend(sequence for _ in range(n))
         self.stuck_time = np.concatenate([self.stuck_time, np.zeros(n)])
+        self.profile_index = np.concatenate([self.profile_index, np.full(n, profile, np.int64)])
         self._flat = None
         if state is not None:
             for row in range(first, first + n):
@@ -220,7 +224,8 @@ class Simulation:
             heading = np.nan if spawn.facing is None else spawn.facing
             self._add_rows(1, pos=np.asarray([p]), radius=prof.radius, pref_speed=prof.pref_speed,
                            max_speed=prof.max_speed, limits=_limits_row(prof), is_user=False,
-                           heading=np.asarray([heading]), state=spawn.state, sequence=spawn.goal_sequence)
+                           heading=np.asarray([heading]), state=spawn.state, sequence=spawn.goal_sequence,
+                           profile=list(self.scene.profiles).index(spawn.profile))
 
     def _place(self, k: int, spawn: Spawn, radius: float) -> list[tuple[float, float]]:
         """Draw ``spawn.count`` free positions in the spawn's region with the run's rng."""
@@ -483,7 +488,8 @@ class Simulation:
             heading = np.nan if facing is None else facing
             self._add_rows(1, pos=p[None], radius=prof.radius, pref_speed=prof.pref_speed,
                            max_speed=prof.max_speed, limits=_limits_row(prof), is_user=False,
-                           heading=np.asarray([heading]), state=state)
+                           heading=np.asarray([heading]), state=state,
+                           profile=list(self.scene.profiles).index(profile))
         self._face_unset()
         return np.arange(first, self._next_id, dtype=np.int64)
 
@@ -506,6 +512,7 @@ class Simulation:
         self.paths = [p for p, k in zip(self.paths, keep, strict=True) if k]
         self.sequences = [s for s, k in zip(self.sequences, keep, strict=True) if k]
         self.cursor = self.cursor[keep]
+        self.profile_index = self.profile_index[keep]
         self.stuck_time = self.stuck_time[keep]
         self._flat = None
         self._leaving = np.zeros(len(self.crowd), np.bool_)

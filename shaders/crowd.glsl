@@ -1,56 +1,207 @@
-// The whole crowd in one instanced draw (issue 4, DESIGN.md "render").
-// Vertices belong to body segments; each names its bone and colour slot.
-// Bone matrices (bone-local -> world, column-major, 4 RGBA32F texels per
-// bone) of agent i are row i of u_bones; agent i's four clothing/skin
-// colours are row i of u_palette. Instance k draws agent k / u_eyes for
-// eye k % u_eyes.
+// The crowd: skinned characters, one instanced draw per character and level of detail
+// (issue 16, DESIGN.md "render"). Instance k of a draw is agent u_order[u_base + k / u_eyes]
+// seen by eye k % u_eyes. Agent i's skinning matrices are row i of u_skin (three texels per
+// bone: the rows of M = [s·R | p − s·R·r], pedvr/render/crowd.py skin_rows); its looks are
+// row i of u_looks (crowd.py look_rows). Vertices carry up to four bones and weights, two
+// shape offsets (sex, build), a region for the materials and a variant (hair styles, skirt):
+// pieces an agent does not wear collapse to a point and draw nothing.
 #include "common.glsl"
+
+// Regions (pedvr/render/bodymesh.py).
+const int SKIN = 0, TRUNK = 1, ARM = 2, LEG = 3, FOOT = 4, EYE = 5, LID_UPPER = 6, LID_LOWER = 7,
+          HAIR = 8, SKIRT = 9, LIPS = 10, BROW = 11, TEXTURED = 12;
+const int SKIRT_VARIANT = 10;
+
+uniform sampler2D u_skin;
+uniform sampler2D u_looks;
+uniform isampler2D u_order;
+uniform int u_base;
+
+vec4 look(int agent, int k) { return texelFetch(u_looks, ivec2(k, agent), 0); }
 
 #ifdef VERTEX_SHADER
 in vec3 in_pos;
 in vec3 in_normal;
-in int in_bone;
-in int in_slot;
-
-uniform sampler2D u_bones;
-uniform sampler2D u_palette;
+in vec3 in_dsex;
+in vec3 in_dbuild;
+in uvec4 in_bones;
+in vec4 in_weights;
+in int in_region;
+in float in_t;
+in vec3 in_local;
+in float in_ao;
+in vec2 in_uv;
+in int in_variant;
 
 out vec3 v_world;
 out vec3 v_normal;
-out vec3 v_albedo;
+out vec3 v_local;
+out vec2 v_uv;
+out float v_t;
+out float v_ao;
+flat out int v_region;
+flat out int v_agent;
 flat out int v_eye;
 
-// Fixed colours of the slots that do not vary per agent (linear RGB).
-const vec3 EYE_WHITE = vec3(0.92, 0.92, 0.90);
-const vec3 PUPIL = vec3(0.01, 0.01, 0.012);
+const float LID_CLOSE_UPPER = 0.80;  // rad the upper lid turns down to shut (24° above the axis to 22° below)
+const float LID_CLOSE_LOWER = 0.06;  // rad the lower lid rises
+
+mat3x4 bone_rows(int agent, int b) {
+    return mat3x4(texelFetch(u_skin, ivec2(3 * b, agent), 0), texelFetch(u_skin, ivec2(3 * b + 1, agent), 0),
+                  texelFetch(u_skin, ivec2(3 * b + 2, agent), 0));
+}
+
+vec3 xform(mat3x4 m, vec4 p) { return vec3(dot(m[0], p), dot(m[1], p), dot(m[2], p)); }
+
+// Rotation about the x axis by a (decreases the angle above the z axis by a).
+vec3 rot_x(vec3 v, float a) {
+    float c = cos(a), s = sin(a);
+    return vec3(v.x, c * v.y - s * v.z, s * v.y + c * v.z);
+}
 
 void main() {
     int eye = gl_InstanceID % u_eyes;
-    int agent = gl_InstanceID / u_eyes;
-    int b = in_bone * 4;
-    mat4 bone = mat4(texelFetch(u_bones, ivec2(b, agent), 0), texelFetch(u_bones, ivec2(b + 1, agent), 0),
-                     texelFetch(u_bones, ivec2(b + 2, agent), 0), texelFetch(u_bones, ivec2(b + 3, agent), 0));
-    vec4 world = bone * vec4(in_pos, 1.0);
-    v_world = world.xyz;
-    v_normal = mat3(bone) * in_normal;
-    if (in_slot < 4) {
-        v_albedo = texelFetch(u_palette, ivec2(in_slot, agent), 0).rgb;
-    } else {
-        v_albedo = in_slot == 4 ? EYE_WHITE : PUPIL;
-    }
+    int agent = texelFetch(u_order, ivec2(u_base + gl_InstanceID / u_eyes, 0), 0).r;
+    v_agent = agent;
     v_eye = eye;
-    gl_Position = eye_clip(v_world, eye);
+    v_region = in_region;
+    v_t = in_t;
+    v_ao = in_ao;
+    v_uv = in_uv;
+    v_local = in_local;
+    if (in_variant >= 0) {
+        bool worn = in_variant == SKIRT_VARIANT ? look(agent, 4).a > 0.5
+                                                : in_variant == int(look(agent, 3).a + 0.5);
+        if (!worn) {
+            gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: nothing drawn
+            v_world = vec3(0.0);
+            v_normal = vec3(0.0, 1.0, 0.0);
+            gl_ClipDistance[0] = -1.0;
+            return;
+        }
+    }
+    vec4 shape = look(agent, 6);
+    vec3 p = in_pos + shape.x * in_dsex + shape.y * in_dbuild;
+    vec3 n = in_normal;
+    if (in_region == LID_UPPER || in_region == LID_LOWER) {
+        // Lids turn about the eye's centre: down to blink, and with the eye's pitch in the head.
+        int eb = in_local.x > 0.0 ? 14 : 15;  // LEye, REye
+        mat3x4 h = bone_rows(agent, 13), e = bone_rows(agent, eb);
+        vec3 fwd = vec3(e[0].z, e[1].z, e[2].z);  // the eye's +Z in the world (times the scale)
+        vec3 in_head = vec3(dot(vec3(h[0].x, h[1].x, h[2].x), fwd), dot(vec3(h[0].y, h[1].y, h[2].y), fwd),
+                            dot(vec3(h[0].z, h[1].z, h[2].z), fwd));
+        float pitch = asin(clamp(in_head.y / max(length(in_head), 1e-6), -1.0, 1.0));
+        float blink = look(agent, 5).a;
+        float a = in_region == LID_UPPER ? -0.75 * pitch + blink * LID_CLOSE_UPPER
+                                         : -0.35 * pitch - blink * LID_CLOSE_LOWER;
+        p = in_local + rot_x(p - in_local, a);
+        n = rot_x(n, a);
+    }
+    vec4 hp = vec4(p, 1.0);
+    vec3 world = vec3(0.0);
+    vec3 normal = vec3(0.0);
+    for (int k = 0; k < 4; ++k) {
+        float w = in_weights[k];
+        if (w > 0.0) {
+            mat3x4 m = bone_rows(agent, int(in_bones[k]));
+            world += w * xform(m, hp);
+            normal += w * xform(m, vec4(n, 0.0));
+        }
+    }
+    v_world = world;
+    v_normal = normal;
+    gl_Position = eye_clip(world, eye);
 }
 #endif
 
 #ifdef FRAGMENT_SHADER
 in vec3 v_world;
 in vec3 v_normal;
-in vec3 v_albedo;
+in vec3 v_local;
+in vec2 v_uv;
+in float v_t;
+in float v_ao;
+flat in int v_region;
+flat in int v_agent;
 flat in int v_eye;
 out vec4 f_color;
 
+uniform sampler2D u_albedo;  // avatars' base colour texture (TEXTURED region)
+uniform vec4 u_base_color;   // avatars' base colour factor (linear)
+
+const vec3 EYE_WHITE = vec3(0.82, 0.79, 0.75);
+const vec3 PUPIL = vec3(0.008);
+const float IRIS = 0.53;   // rad from the eye's axis: a 12.5 mm iris on the 24 mm eyeball
+const float PUPIL_R = 0.2; // rad
+
+float segment_distance(vec3 p, vec3 a, vec3 b) {
+    vec3 ab = b - a;
+    float h = clamp(dot(p - a, ab) / dot(ab, ab), 0.0, 1.0);
+    return length(p - a - ab * h);
+}
+
 void main() {
-    f_color = encode_output(shade(v_albedo, v_normal, v_world, u_eye_pos[v_eye]), 1.0);
+    if (u_shadow_pass) { f_color = vec4(1.0); return; }
+    vec3 skin = look(v_agent, 0).rgb;
+    vec3 albedo = skin;
+    float spec = 0.0;
+    if (v_region == TRUNK) {
+        // One clothable surface: v_local = (armness, legness, fraction along the limb), v_t = height.
+        float neckline = 1.455 - 0.035 * smoothstep(0.0, 0.07, v_uv.x);  // v_uv.x: bind-pose z
+        vec3 bind = vec3(v_uv.y, v_t, v_uv.x);
+        if (v_t > neckline && v_local.x < 0.5) {
+            albedo = skin;
+            vec3 q = vec3(abs(bind.x), bind.y, bind.z);
+            if (segment_distance(q, vec3(0.012, 1.661, 0.098), vec3(0.052, 1.658, 0.085)) < 0.0082) {
+                albedo = mix(skin, look(v_agent, 4).rgb, 0.85);  // brows
+            } else if (segment_distance(q, vec3(0.0, 1.583, 0.094), vec3(0.021, 1.583, 0.094)) < 0.0068
+                       || segment_distance(q, vec3(0.0, 1.571, 0.092), vec3(0.018, 1.571, 0.092)) < 0.0078) {
+                albedo = skin * vec3(0.78, 0.52, 0.52) + vec3(0.015, 0.0, 0.0);  // lips
+            }
+        } else if (v_local.x > 0.5) {
+            albedo = v_local.z < look(v_agent, 0).a ? look(v_agent, 1).rgb : skin;
+        } else if (v_local.y > 0.5) {
+            if (v_local.z > 0.955) {
+                albedo = look(v_agent, 3).rgb;
+                spec = 0.15;
+            } else {
+                albedo = v_local.z < look(v_agent, 1).a ? look(v_agent, 2).rgb : skin;
+            }
+        } else {
+            albedo = v_t > look(v_agent, 2).a ? look(v_agent, 1).rgb : look(v_agent, 2).rgb;
+        }
+    } else if (v_region == SKIRT) {
+        albedo = look(v_agent, 2).rgb;
+    } else if (v_region == HAIR) {
+        vec3 h = look(v_agent, 4).rgb;
+        // Strands: fine streaks running down from the crown (v_local: the bind-pose position).
+        float around = atan(v_local.x, v_local.z + 0.01);
+        albedo = h * (0.88 + 0.12 * sin(around * 150.0) + 0.08 * sin(around * 47.0));
+        spec = 0.2;
+    } else if (v_region == LIPS) {
+        albedo = skin * vec3(0.78, 0.52, 0.52) + vec3(0.02, 0.0, 0.0);
+    } else if (v_region == BROW) {
+        albedo = mix(skin, look(v_agent, 4).rgb, 0.85);
+    } else if (v_region == LID_UPPER || v_region == LID_LOWER) {
+        albedo = v_t < 0.09 ? mix(vec3(0.01), skin, smoothstep(0.03, 0.09, v_t)) : skin;
+    } else if (v_region == EYE) {
+        vec3 d = normalize(v_local);
+        float ang = acos(clamp(d.z, -1.0, 1.0));
+        vec3 iris = look(v_agent, 5).rgb;
+        albedo = EYE_WHITE;
+        if (ang < IRIS) {
+            float r = ang / IRIS;
+            albedo = mix(iris * (0.8 + 0.4 * r), iris * 0.35, smoothstep(0.85, 1.0, r));  // dark limbal ring
+            albedo = mix(PUPIL, albedo, smoothstep(PUPIL_R - 0.03, PUPIL_R + 0.02, ang));
+        }
+        spec = 0.9;
+    } else if (v_region == TEXTURED) {
+        vec4 tex = texture(u_albedo, v_uv);
+        if (tex.a < 0.5) discard;
+        albedo = pow(tex.rgb, vec3(2.2)) * v_local * u_base_color.rgb;  // v_local: the base colour factor
+    }
+    vec3 eye_pos = u_eye_pos[v_eye];
+    vec3 c = shade_lit(albedo, v_normal, v_world, eye_pos, v_ao, spec);
+    f_color = encode_output(c, 1.0);
 }
 #endif

@@ -1,16 +1,21 @@
 """Static scene geometry from the scene's polygons (pure numpy and shapely, no GL).
 
-The floor, a barrier along the world bounds (the border acts as a wall in
-the simulation), and every obstacle extruded from its counter-clockwise
-polygon to its height, shaped and coloured by ``kind``: walls and pillars
-full height; tables a top slab on a pedestal; counters solid to their height;
-booths and shops with a darker glazed band at eye level. Vertices are
-``(position, normal, linear RGB colour)`` in world space (ground ``(x, y)``
-→ ``(x, 0, y)``, :mod:`pedvr.render.math3d`).
+The floor with its markings (crosswalks), walls along the world bounds
+(indoors at the scene's wall height, with an optional ceiling; outdoors a
+barrier one can see over: the border acts as a wall in the simulation), and
+every obstacle extruded from its counter-clockwise polygon to its height,
+shaped by ``kind``: walls and pillars full height; tables a top slab on a
+leg; counters solid; booths a counter at 1.05 m with a banner panel up to
+their height (so aisles stay visible, issue 16); shops a glazed front under a
+coloured fascia; buildings a façade with windows. Vertices are
+``(position, normal, linear RGB colour, uv, material)`` in world space (ground
+``(x, y)`` → ``(x, 0, y)``, :mod:`pedvr.render.math3d`); the environment
+shader draws each material's procedural texture from ``uv`` (metres).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,7 +23,14 @@ import shapely
 
 from pedvr.scene.config import Door, Obstacle, WorldConfig
 
-ENV_DTYPE = np.dtype([("pos", "<f4", 3), ("normal", "<f4", 3), ("color", "<f4", 3)])
+ENV_DTYPE = np.dtype([("pos", "<f4", 3), ("normal", "<f4", 3), ("color", "<f4", 3), ("uv", "<f4", 2),
+                      ("material", "<i4")])
+ENV_FORMAT = ("3f 3f 3f 2f 1i", "in_pos", "in_normal", "in_color", "in_uv", "in_material")
+# Materials (shaders/environment.glsl draws each procedurally from uv: metres along a wall's
+# perimeter and up it, or across and along a marking).
+PAINT, FLOOR, PLASTER, GLASS_MAT, WOOD, FACADE, FABRIC, ASPHALT, MARKING, CONCRETE, METAL, CEILING = range(12)
+FLOOR_PATTERNS = {"grid": 0, "tiles": 1, "wood": 2, "carpet": 3, "asphalt": 4, "paving": 5}
+COUNTER_HEIGHT = 1.05  # m: booths are counters at this height with a banner panel (issue 16)
 BOUNDARY_HEIGHT = 1.1  # m: a barrier one can see over, so large outdoor scenes do not feel boxed in
 FLOOR_MARGIN = 60.0  # m of floor beyond the bounds, so the horizon is not an edge
 TABLE_TOP = 0.05  # m, thickness of a table top
@@ -32,6 +44,7 @@ _COLOURS = {  # sRGB, converted to linear below
     "table": (0.55, 0.36, 0.22),
     "counter": (0.45, 0.40, 0.50),
     "booth": (0.30, 0.50, 0.70),
+    "building": (0.72, 0.66, 0.58),
     "shop": (0.78, 0.70, 0.55),
     "boundary": (0.55, 0.53, 0.50),
     "door": (0.56, 0.40, 0.26),
@@ -55,16 +68,23 @@ def kind_colour(kind: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class EnvironmentMesh:
-    """Vertices of the floor (drawn with the grid pattern) and of everything else."""
+    """Vertices of the floor (and its markings), of everything that casts shadows, and of the
+    ceiling (which does not: the key light shines through it)."""
 
     floor: np.ndarray
     solids: np.ndarray
+    ceiling: np.ndarray
 
 
-def _verts(pos: list[np.ndarray], nrm: list[np.ndarray], col: list[np.ndarray]) -> np.ndarray:
+def _verts(pos: list[np.ndarray], nrm: list[np.ndarray], col: list[np.ndarray],
+           uv: list[np.ndarray] | None = None, mat: list[int] | None = None) -> np.ndarray:
     v = np.zeros(len(pos), dtype=ENV_DTYPE)
     if pos:
         v["pos"], v["normal"], v["color"] = np.asarray(pos), np.asarray(nrm), np.asarray(col)
+        if uv:
+            v["uv"] = np.asarray(uv)
+        if mat:
+            v["material"] = np.asarray(mat)
     return v
 
 
@@ -82,26 +102,52 @@ def _cap_triangles(poly: np.ndarray) -> np.ndarray:
     return np.asarray(out).reshape(-1, 3, 2)
 
 
+class _Parts:
+    """Vertex lists of a mesh being built: positions, normals, colours, uv, materials."""
+
+    def __init__(self) -> None:
+        self.pos: list[np.ndarray] = []
+        self.nrm: list[np.ndarray] = []
+        self.col: list[np.ndarray] = []
+        self.uv: list[np.ndarray] = []
+        self.mat: list[int] = []
+
+    def add(self, p: list[np.ndarray], n: np.ndarray, c: np.ndarray, uv: list[np.ndarray], m: int) -> None:
+        self.pos += p
+        self.nrm += [n] * len(p)
+        self.col += [c] * len(p)
+        self.uv += uv
+        self.mat += [m] * len(p)
+
+    def verts(self) -> np.ndarray:
+        return _verts(self.pos, self.nrm, self.col, self.uv, self.mat)
+
+
 def _prism(
     poly: np.ndarray,
     y0: float,
     y1: float,
     colour: np.ndarray,
+    out: _Parts,
     *,
-    band: tuple[float, float] | None,
-    pos: list[np.ndarray],
-    nrm: list[np.ndarray],
-    col: list[np.ndarray],
+    material: int = PAINT,
+    band: tuple[float, float] | None = None,
+    band_material: int = GLASS_MAT,
     top: bool = True,
     bottom: bool = False,
+    top_material: int | None = None,
 ) -> None:
-    """Sides (split at ``band`` into facade / glass / facade) and caps of a vertical prism."""
+    """Sides (split at ``band`` into facade / glass / facade) and caps of a vertical prism.
+
+    Sides get uv = (metres along the perimeter, height), caps uv = ground (x, y).
+    """
     poly = np.asarray(poly, dtype=np.float64)
     cuts = [y0, y1]
     if band is not None:
         cuts = sorted({y0, y1, *(min(max(b, y0), y1) for b in band)})
     glass = linear(GLASS)
     n = len(poly)
+    along = 0.0
     for i in range(n):
         a, b = poly[i], poly[(i + 1) % n]
         e = b - a
@@ -113,17 +159,18 @@ def _prism(
         for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
             if hi - lo < 1e-9:
                 continue
-            c = glass if band is not None and band[0] <= lo and hi <= band[1] else colour
+            in_band = band is not None and band[0] <= lo and hi <= band[1]
+            c = glass if in_band and band_material == GLASS_MAT else colour
+            m = band_material if in_band else material
             a0, b0 = np.array([a[0], lo, a[1]]), np.array([b[0], lo, b[1]])
             a1, b1 = np.array([a[0], hi, a[1]]), np.array([b[0], hi, b[1]])
-            # Seen from outside, (a0, b0, b1) runs counter-clockwise given the 2D CCW order and Y up
-            # mirrored into z: check with the normal and flip if needed.
-            tri = [a0, b0, b1, a0, b1, a1]
+            ua0, ub0 = np.array([along, lo]), np.array([along + length, lo])
+            ua1, ub1 = np.array([along, hi]), np.array([along + length, hi])
+            tri, uv = [a0, b0, b1, a0, b1, a1], [ua0, ub0, ub1, ua0, ub1, ua1]
             if np.dot(np.cross(b0 - a0, b1 - a0), normal) < 0:
-                tri = [a0, b1, b0, a0, a1, b1]
-            pos += tri
-            nrm += [normal] * 6
-            col += [c] * 6
+                tri, uv = [a0, b1, b0, a0, a1, b1], [ua0, ub1, ub0, ua0, ua1, ub1]
+            out.add(tri, normal, c, uv, m)
+        along += length
     tris = _cap_triangles(poly)
     for y, up in ((y1, True), (y0, False)):
         if (up and not top) or (not up and not bottom):
@@ -133,64 +180,126 @@ def _prism(
             p3 = [np.array([q[0], y, q[1]]) for q in t]
             if np.dot(np.cross(p3[1] - p3[0], p3[2] - p3[0]), normal) < 0:
                 p3 = p3[::-1]
-            pos += p3
-            nrm += [normal] * 3
-            col += [colour] * 3
+            out.add(p3, normal, colour, [np.array([q[0], q[2]]) for q in p3],
+                    material if top_material is None or not up else top_material)
+
+
+_KIND_MATERIAL = {"wall": PLASTER, "pillar": CONCRETE, "building": FACADE, "shop": PLASTER, "box": PAINT,
+                  "counter": FABRIC, "polygon": PAINT}
+
+
+def _hash_colour(x: float, y: float) -> np.ndarray:
+    """A stable bright colour from a position (booth fabrics, shop signs)."""
+    h = (math.sin(x * 12.9898 + y * 78.233) * 43758.5453) % 1.0
+    palette = [(0.75, 0.2, 0.2), (0.2, 0.45, 0.75), (0.25, 0.6, 0.35), (0.85, 0.65, 0.2), (0.55, 0.3, 0.65),
+               (0.9, 0.45, 0.15), (0.2, 0.6, 0.65)]
+    return linear(palette[int(h * len(palette)) % len(palette)])
 
 
 def obstacle_vertices(ob: Obstacle) -> np.ndarray:
-    """The extruded geometry of one obstacle, by kind."""
-    pos: list[np.ndarray] = []
-    nrm: list[np.ndarray] = []
-    col: list[np.ndarray] = []
+    """The extruded geometry of one obstacle, by kind (issue 16: booths are counters with a banner,
+    shops have glazed fronts under a coloured fascia, buildings have windows)."""
+    out = _Parts()
     poly = np.asarray(ob.vertices, dtype=np.float64)
     colour = kind_colour(ob.kind)
     h = ob.height
     if ob.kind == "table":
-        _prism(poly, max(h - TABLE_TOP, 0.0), h, colour, band=None, pos=pos, nrm=nrm, col=col, bottom=True)
+        _prism(poly, max(h - TABLE_TOP, 0.0), h, colour, out, material=WOOD, bottom=True)
         c = poly.mean(axis=0)
         r = min(0.06, 0.25 * float(np.min(np.ptp(poly, axis=0))))
         leg = c + np.array([[-r, -r], [r, -r], [r, r], [-r, r]])
-        _prism(
-            leg, 0.0, max(h - TABLE_TOP, 0.0), colour * 0.6, band=None, pos=pos, nrm=nrm, col=col, top=False
-        )
-    elif ob.kind in ("shop", "booth") and h > GLAZING[1]:
-        _prism(poly, 0.0, h, colour, band=GLAZING, pos=pos, nrm=nrm, col=col)
+        _prism(leg, 0.0, max(h - TABLE_TOP, 0.0), linear((0.3, 0.3, 0.32)), out, material=METAL, top=False)
+    elif ob.kind == "booth":
+        c = poly.mean(axis=0)
+        fabric = _hash_colour(float(c[0]), float(c[1]))
+        top = min(h, COUNTER_HEIGHT)
+        _prism(poly, 0.0, top, fabric, out, material=FABRIC, top_material=WOOD)
+        if h > COUNTER_HEIGHT + 0.2:
+            # A banner panel along the booth's long axis, 1.2 m wide at most, up to the booth's height.
+            ext = np.ptp(poly, axis=0)
+            ax = 0 if ext[0] >= ext[1] else 1
+            half = min(0.6, 0.3 * float(ext[ax]))
+            d = np.zeros(2)
+            d[ax] = half
+            nrm = np.zeros(2)
+            nrm[1 - ax] = 0.03
+            panel = _ccw(np.array([c - d - nrm, c + d - nrm, c + d + nrm, c - d + nrm]))
+            _prism(panel, top, h - 0.45, linear((0.9, 0.9, 0.88)), out, material=FABRIC, top=False)
+            _prism(panel, h - 0.45, h, fabric, out, material=FABRIC)
+    elif ob.kind == "shop" and h > GLAZING[1]:
+        _prism(poly, 0.0, h, colour, out, material=PLASTER, band=GLAZING)
+        # The fascia: a coloured sign band above the glazing.
+        c = poly.mean(axis=0)
+        fascia = _hash_colour(float(c[0]), float(c[1]))
+        n0 = len(out.pos)
+        _prism(poly, GLAZING[1] + 0.15, min(h, GLAZING[1] + 0.55), fascia, out, material=PAINT, top=False)
+        for k in range(n0, len(out.pos)):  # pushed out a little so it does not fight the wall
+            out.pos[k] = out.pos[k] + out.nrm[k] * 0.01
     else:
-        _prism(poly, 0.0, h, colour, band=None, pos=pos, nrm=nrm, col=col)
-    return _verts(pos, nrm, col)
+        _prism(poly, 0.0, h, colour, out, material=_KIND_MATERIAL.get(ob.kind, PAINT))
+    return out.verts()
 
 
 def boundary_vertices(
-    world: WorldConfig, *, height: float = BOUNDARY_HEIGHT, thickness: float = 0.15
+    world: WorldConfig, *, height: float | None = None, thickness: float = 0.15
 ) -> np.ndarray:
-    """A barrier just outside the world bounds (four thin prisms)."""
+    """Walls just outside the world bounds (four thin prisms): indoors ``world.wall_height`` of
+    plaster, outdoors a concrete barrier one can see over."""
     (x0, y0), (x1, y1) = world.bounds
     t = thickness
+    if height is None:
+        height = world.wall_height if world.indoor else BOUNDARY_HEIGHT
     rects = [
         ((x0 - t, y0 - t), (x1 + t, y0)),
         ((x0 - t, y1), (x1 + t, y1 + t)),
         ((x0 - t, y0), (x0, y1)),
         ((x1, y0), (x1 + t, y1)),
     ]
-    pos: list[np.ndarray] = []
-    nrm: list[np.ndarray] = []
-    col: list[np.ndarray] = []
+    out = _Parts()
+    colour = kind_colour("wall" if world.indoor else "boundary")
     for (a, b), (c, d) in rects:
         poly = np.array([[a, b], [c, b], [c, d], [a, d]])
-        _prism(poly, 0.0, height, kind_colour("boundary"), band=None, pos=pos, nrm=nrm, col=col)
-    return _verts(pos, nrm, col)
+        _prism(poly, 0.0, height, colour, out, material=PLASTER if world.indoor else CONCRETE)
+    return out.verts()
 
 
 def floor_vertices(world: WorldConfig, *, margin: float = FLOOR_MARGIN) -> np.ndarray:
+    """The floor (indoors the room itself, outdoors beyond the bounds too) and its markings."""
     (x0, y0), (x1, y1) = world.bounds
-    a, b, c, d = x0 - margin, y0 - margin, x1 + margin, y1 + margin
-    quad = [
-        np.array(p, dtype=np.float64)
-        for p in ((a, 0, b), (a, 0, d), (c, 0, d), (a, 0, b), (c, 0, d), (c, 0, b))
-    ]
-    up = np.array([0.0, 1.0, 0.0])
-    return _verts(quad, [up] * 6, [linear(FLOOR_COLOUR)] * 6)
+    m = 0.2 if world.indoor else margin
+    a, b, c, d = x0 - m, y0 - m, x1 + m, y1 + m
+    quad = [np.array(p, dtype=np.float64)
+            for p in ((a, 0, b), (a, 0, d), (c, 0, d), (a, 0, b), (c, 0, d), (c, 0, b))]
+    out = _Parts()
+    out.add(quad, np.array([0.0, 1.0, 0.0]), linear(FLOOR_COLOUR), [q[[0, 2]] for q in quad], FLOOR)
+    for mk in world.markings:
+        p, q = np.asarray(mk.start, np.float64), np.asarray(mk.end, np.float64)
+        along = (q - p) / np.linalg.norm(q - p)
+        across = np.array([-along[1], along[0]]) * mk.width / 2
+        length = float(np.linalg.norm(q - p))
+        corners = [p - across, p + across, q + across, q - across]
+        uvs = [np.array([-mk.width / 2, 0.0]), np.array([mk.width / 2, 0.0]),
+               np.array([mk.width / 2, length]), np.array([-mk.width / 2, length])]
+        pts = [np.array([c2[0], 0.006, c2[1]]) for c2 in corners]
+        tri = [0, 1, 2, 0, 2, 3]
+        if np.cross(pts[1] - pts[0], pts[2] - pts[0])[1] < 0:  # counter-clockwise seen from above
+            tri = [0, 2, 1, 0, 3, 2]
+        out.add([pts[i] for i in tri], np.array([0.0, 1.0, 0.0]), linear((0.92, 0.92, 0.9)),
+                [uvs[i] for i in tri], MARKING)
+    return out.verts()
+
+
+def ceiling_vertices(world: WorldConfig) -> np.ndarray:
+    """A ceiling at ``world.wall_height`` over the bounds, facing down (only with ``world.ceiling``)."""
+    if not world.ceiling:
+        return np.zeros(0, dtype=ENV_DTYPE)
+    (x0, y0), (x1, y1) = world.bounds
+    y = world.wall_height
+    quad = [np.array(p, dtype=np.float64)
+            for p in ((x0, y, y0), (x1, y, y1), (x0, y, y1), (x0, y, y0), (x1, y, y0), (x1, y, y1))]
+    out = _Parts()
+    out.add(quad, np.array([0.0, -1.0, 0.0]), linear((0.9, 0.9, 0.88)), [q[[0, 2]] for q in quad], CEILING)
+    return out.verts()
 
 
 def door_frame_vertices(door: Door, world: WorldConfig) -> np.ndarray:
@@ -203,29 +312,25 @@ def door_frame_vertices(door: Door, world: WorldConfig) -> np.ndarray:
     walls = [o.height for o in world.obstacles
              if any(shapely.Polygon(o.vertices).distance(j) < 0.05 for j in jambs)]
     top = max([door.height + 0.25, *walls])
-    pos: list[np.ndarray] = []
-    nrm: list[np.ndarray] = []
-    col: list[np.ndarray] = []
+    out = _Parts()
     colour = kind_colour("door_frame")
     d = LEAF_THICKNESS / 2 + FRAME
     for end, inward in ((a, t), (b, -t)):
         post = [end - d * n, end + FRAME * inward - d * n, end + FRAME * inward + d * n, end + d * n]
-        _prism(_ccw(np.asarray(post)), 0.0, door.height, colour, band=None, pos=pos, nrm=nrm, col=col)
+        _prism(_ccw(np.asarray(post)), 0.0, door.height, colour, out, material=METAL)
     lintel = _ccw(np.asarray([a - d * n, b - d * n, b + d * n, a + d * n]))
-    _prism(lintel, door.height, top, colour, band=None, pos=pos, nrm=nrm, col=col, bottom=True)
-    return _verts(pos, nrm, col)
+    _prism(lintel, door.height, top, kind_colour("wall"), out, material=PLASTER, bottom=True)
+    return out.verts()
 
 
 def door_leaf_vertices(length: float, height: float) -> np.ndarray:
     """One leaf in its own frame: hinge at the origin, closed along +x, a glass panel at eye
     height. :func:`place_leaves` turns it to the leaf's angle every frame."""
-    pos: list[np.ndarray] = []
-    nrm: list[np.ndarray] = []
-    col: list[np.ndarray] = []
+    out = _Parts()
     h = LEAF_THICKNESS / 2
     poly = np.array([[0.01, -h], [length - 0.005, -h], [length - 0.005, h], [0.01, h]])
-    _prism(poly, 0.01, height, kind_colour("door"), band=LEAF_GLAZING, pos=pos, nrm=nrm, col=col)
-    return _verts(pos, nrm, col)
+    _prism(poly, 0.01, height, kind_colour("door"), out, material=WOOD, band=LEAF_GLAZING)
+    return out.verts()
 
 
 def place_leaves(local: list[np.ndarray], pose: np.ndarray) -> np.ndarray:
@@ -254,14 +359,33 @@ def environment_mesh(world: WorldConfig) -> EnvironmentMesh:
     door frame (the leaves move: :func:`place_leaves`)."""
     parts = ([boundary_vertices(world)] + [obstacle_vertices(o) for o in world.obstacles]
              + [door_frame_vertices(d, world) for d in world.doors])
-    return EnvironmentMesh(floor=floor_vertices(world), solids=np.concatenate(parts))
+    return EnvironmentMesh(floor=floor_vertices(world), solids=np.concatenate(parts),
+                           ceiling=ceiling_vertices(world))
 
 
 def sphere_vertices(*, colour: tuple[float, float, float] = (0.9, 0.05, 0.04)) -> np.ndarray:
     """A unit-diameter sphere (scaled by the model matrix): the red target sphere."""
-    from pedvr.render.figures import unit_sphere
-
     p, n = unit_sphere(rings=12, sectors=20)
     v = np.zeros(len(p), dtype=ENV_DTYPE)
-    v["pos"], v["normal"], v["color"] = p, n, linear(colour)
+    v["pos"], v["normal"], v["color"], v["material"] = p, n, linear(colour), PAINT
     return v
+
+
+def unit_sphere(*, rings: int = 8, sectors: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles of a sphere of radius 0.5 (positions, normals), counter-clockwise outside."""
+    pos = []
+    for r in range(rings):
+        t0, t1 = math.pi * r / rings, math.pi * (r + 1) / rings
+        for s in range(sectors):
+            p0, p1 = 2 * math.pi * s / sectors, 2 * math.pi * (s + 1) / sectors
+
+            def pt(t: float, p: float) -> np.ndarray:
+                return np.array([math.sin(t) * math.cos(p), math.cos(t), -math.sin(t) * math.sin(p)])
+
+            a, b, c, d = pt(t0, p0), pt(t1, p0), pt(t1, p1), pt(t0, p1)
+            if r > 0:
+                pos += [a, b, d]
+            if r < rings - 1:
+                pos += [d, b, c]
+    n = np.asarray(pos)
+    return n * 0.5, n

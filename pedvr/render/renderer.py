@@ -33,24 +33,44 @@ import numpy as np
 
 from pedvr.errors import BackendUnavailableError
 from pedvr.etiquette.doors import DoorLeaves
+from pedvr.render.bodymesh import VERTEX_ATTRIBUTES, VERTEX_FORMAT, CharacterMesh, procedural_character
+from pedvr.render.crowd import (
+    LOOK_TEXELS,
+    N_JOINTS,
+    SKIN_TEXELS,
+    Blinks,
+    Looks,
+    _hash01,
+    agent_looks,
+    bind_joints,
+    draw_groups,
+    eye_directions,
+    lod_levels,
+    look_rows,
+    skin_rows,
+)
 from pedvr.render.environment import (
     ENV_DTYPE,
+    ENV_FORMAT,
+    FLOOR_PATTERNS,
     door_leaf_vertices,
     environment_mesh,
     place_leaves,
     sphere_vertices,
 )
-from pedvr.render.figures import BODY, agent_looks, default_dims, skeleton_mesh, standing_bones
+from pedvr.render.figures import default_dims, standing_bones
+from pedvr.render.lighting import SHADOW_MAP_SIZE, light_view_projection
 from pedvr.render.math3d import EyeView, overhead_transform
 from pedvr.render.overhead import BACKGROUND, disc_fan, frame_geometry, static_triangles
 from pedvr.render.shaders import SHADER_DIR, compile_program
 from pedvr.render.shaders import set_uniform as _set
-from pedvr.render.snapshot import SPHERE_HEIGHT, Snapshot
-from pedvr.scene.config import WorldConfig
+from pedvr.render.snapshot import SPHERE_HEIGHT, TARGET_RADIUS, Snapshot
+from pedvr.scene.config import SceneConfig, WorldConfig
 
 GL_CLIP_DISTANCE0 = 0x3000
 GL_FRAMEBUFFER_SRGB = 0x8DB9
 SKY_LINEAR = (0.62, 0.74, 0.88)  # the shaders' SKY: the clear colour matches the fog
+TARGET_ALPHA = 0.35  # the route target's opacity where it is in front of a pedestrian
 
 
 def srgb_encode_rgb(c: Sequence[float]) -> tuple[float, ...]:
@@ -85,19 +105,43 @@ class FrameStats:
     upload_ms: float = 0.0
     draw_calls: int = 0
     agents_drawn: int = 0
+    vertices: int = 0  # crowd vertices submitted since begin_frame (all views and the shadow pass)
 
 
 class OffscreenTarget:
-    """Colour (RGBA8) + depth framebuffer of ``size`` ``(width, height)``; :meth:`read`: top row first."""
+    """Colour (RGBA8) + depth framebuffer of ``size`` ``(width, height)``; :meth:`read`: top row first.
+
+    With ``samples`` > 0 it is multisampled (issue 16: the headless frames and video use 4×);
+    :meth:`read` and :attr:`resolved` resolve it into a plain texture first.
+    """
 
     def __init__(self, ctx: moderngl.Context, size: tuple[int, int], *, samples: int = 0) -> None:
         self.size = size
+        self.ctx = ctx
+        self.samples = samples
         self.color = ctx.texture(size, 4, samples=samples)
         self.depth = ctx.depth_renderbuffer(size, samples=samples)
         self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
+        self._resolve_tex: moderngl.Texture | None = None
+        self._resolve_fbo: moderngl.Framebuffer | None = None
+        if samples:
+            self._resolve_tex = ctx.texture(size, 4)
+            self._resolve_fbo = ctx.framebuffer(color_attachments=[self._resolve_tex])
+
+    @property
+    def resolved(self) -> moderngl.Texture:
+        """The colour as a single-sampled texture (resolved now when multisampled)."""
+        if self._resolve_fbo is None or self._resolve_tex is None:
+            return self.color
+        self.ctx.copy_framebuffer(self._resolve_fbo, self.fbo)
+        return self._resolve_tex
 
     def read(self, *, components: int = 3) -> np.ndarray:
-        data = self.fbo.read(components=components, alignment=1)
+        fbo = self.fbo
+        if self._resolve_fbo is not None:
+            self.ctx.copy_framebuffer(self._resolve_fbo, self.fbo)
+            fbo = self._resolve_fbo
+        data = fbo.read(components=components, alignment=1)
         img = np.frombuffer(data, dtype=np.uint8).reshape(self.size[1], self.size[0], components)
         return img[::-1].copy()
 
@@ -105,13 +149,20 @@ class OffscreenTarget:
         self.fbo.release()
         self.color.release()
         self.depth.release()
+        if self._resolve_fbo is not None and self._resolve_tex is not None:
+            self._resolve_fbo.release()
+            self._resolve_tex.release()
 
 
 class Renderer:
     """Draws one world and its crowd. Keyword-only options:
 
     ``shader_dir``: where the GLSL files are. ``hide_user``: do not draw the
-    user's own body (first person, issue 4).
+    user's own body (first person, issue 4). ``shadows``: the key light's
+    shadow map (issue 16; off, only the contact shadows stay).
+    ``shadow_map_size``: its texels per side. ``characters``: meshes to draw
+    agents with (default: the procedural character alone);
+    ``Snapshot.character`` picks one per agent.
     """
 
     def __init__(
@@ -121,35 +172,67 @@ class Renderer:
         world: WorldConfig,
         shader_dir: Path = SHADER_DIR,
         hide_user: bool = True,
+        shadows: bool = True,
+        shadow_map_size: int = SHADOW_MAP_SIZE,
+        characters: Sequence[CharacterMesh] | None = None,
+        profile_characters: Sequence[Sequence[int]] = (),
     ) -> None:
         self.ctx = ctx
         self.world = world
-        self.skeleton = BODY
         self.hide_user = hide_user
+        self.shadows = shadows
         self.stats = FrameStats()
         self._n = 0
         self._capacity = 0
         self._sphere: np.ndarray | None = None
-        self._sphere_radius = 0.25
         self._snap: Snapshot | None = None
+        self._rows = np.zeros(0, np.int64)
+        self._drawn_pos = np.zeros((0, 2))
+        self._drawn_char = np.zeros(0, np.int64)
+        self._looks_key: tuple[bytes, bytes, bytes] | None = None
+        self._looks_cache: tuple[Looks, np.ndarray] | None = None
+        self._blinks = Blinks()
+        self._shadow_dirty = True
+        self._light_vp = np.eye(4)
 
         names = ("crowd", "environment", "shadow", "overlay", "discs", "panel", "composite")
         self.programs = {n: compile_program(ctx, f"{n}.glsl", shader_dir=shader_dir) for n in names}
         p = self.programs
 
-        mesh = skeleton_mesh(self.skeleton)
-        self._crowd_vbo = ctx.buffer(mesh.tobytes())
-        self._crowd_vao = ctx.vertex_array(
-            p["crowd"], [(self._crowd_vbo, "3f 3f 1i 1i", "in_pos", "in_normal", "in_bone", "in_slot")]
-        )
-        self.crowd_vertices = len(mesh)
+        self.characters: list[CharacterMesh] = list(characters) if characters else [procedural_character()]
+        self._profile_chars = [np.asarray(c, np.int64) for c in profile_characters]
+        self._char_vaos: list[list[tuple[moderngl.VertexArray, int]]] = []
+        self._char_buffers: list[moderngl.Buffer] = []
+        self._char_textures: list[moderngl.Texture | None] = []
+        for ch in self.characters:
+            vaos = []
+            for lod in ch.lods:
+                vbo = ctx.buffer(lod.vertices.tobytes())
+                ibo = ctx.buffer(lod.triangles.astype(np.uint32).tobytes())
+                self._char_buffers += [vbo, ibo]
+                vaos.append((ctx.vertex_array(p["crowd"], [(vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)],
+                                              index_buffer=ibo, index_element_size=4), len(lod.vertices)))
+            self._char_vaos.append(vaos)
+            tex = None
+            if ch.texture is not None:
+                img = np.ascontiguousarray(ch.texture, np.uint8)  # glTF's v runs down the image, as GL's t
+                tex = ctx.texture((img.shape[1], img.shape[0]), 4, img.tobytes())
+                tex.build_mipmaps()
+                tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+            self._char_textures.append(tex)
+        self._white = ctx.texture((1, 1), 4, bytes([255, 255, 255, 255]))
+        self.crowd_vertices = self.characters[0].vertex_counts[0]
 
         env = environment_mesh(world)
         self._floor_vbo = ctx.buffer(env.floor.tobytes())
         self._solid_vbo = ctx.buffer(env.solids.tobytes())
-        fmt = ("3f 3f 3f", "in_pos", "in_normal", "in_color")
+        fmt = ENV_FORMAT
         self._floor_vao = ctx.vertex_array(p["environment"], [(self._floor_vbo, *fmt)])
         self._solid_vao = ctx.vertex_array(p["environment"], [(self._solid_vbo, *fmt)])
+        self._ceiling_count = len(env.ceiling)
+        self._ceiling_vbo = ctx.buffer(env.ceiling.tobytes() if len(env.ceiling)
+                                       else b"\0" * ENV_DTYPE.itemsize)
+        self._ceiling_vao = ctx.vertex_array(p["environment"], [(self._ceiling_vbo, *fmt)])
         leaves = DoorLeaves.of_world(world)
         self._closed_doors = leaves.pose()
         self._leaf_local = [door_leaf_vertices(float(w), float(h))
@@ -162,6 +245,13 @@ class Renderer:
         sphere = sphere_vertices()
         self._sphere_vbo = ctx.buffer(sphere.tobytes())
         self._sphere_vao = ctx.vertex_array(p["environment"], [(self._sphere_vbo, *fmt)])
+
+        self._shadow_size = int(shadow_map_size)
+        self._shadow_tex = ctx.depth_texture((self._shadow_size, self._shadow_size))
+        self._shadow_tex.compare_func = "<="
+        self._shadow_tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self._shadow_tex.repeat_x = self._shadow_tex.repeat_y = False
+        self._shadow_fbo = ctx.framebuffer(depth_attachment=self._shadow_tex)
 
         quad = np.array([[-1, -1], [1, -1], [1, 1], [-1, -1], [1, 1], [-1, 1]], dtype=np.float32)
         self._quad_vbo = ctx.buffer(quad.tobytes())
@@ -196,51 +286,100 @@ class Renderer:
             return
         cap = max(64, 1 << (n - 1).bit_length())
         limit = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 8192))
-        if cap > limit or 4 * self.skeleton.joints > limit:
+        if cap > limit:
             raise BackendUnavailableError(f"{n} agents: more than this GPU's texture height {limit} allows")
-        for name in ("_bones", "_palette", "_discs"):
+        for name in ("_skin", "_looks", "_discs", "_order"):
             old = getattr(self, name, None)
             if old is not None:
                 old.release()
-        self._bones = self.ctx.texture((4 * self.skeleton.joints, cap), 4, dtype="f4")
-        self._palette = self.ctx.texture((4, cap), 4, dtype="f4")
+        self._skin = self.ctx.texture((SKIN_TEXELS, cap), 4, dtype="f4")
+        self._looks = self.ctx.texture((LOOK_TEXELS, cap), 4, dtype="f4")
         self._discs = self.ctx.texture((1, cap), 4, dtype="f4")
-        for tex in (self._bones, self._palette, self._discs):
+        self._order = self.ctx.texture((cap, 1), 1, dtype="i4")
+        for tex in (self._skin, self._looks, self._discs, self._order):
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._skin_buf = np.zeros((cap, SKIN_TEXELS, 4), np.float32)
         self._capacity = cap
 
     def begin_frame(self) -> None:
-        """Reset the per-frame draw-call count."""
+        """Reset the per-frame draw-call and vertex counts."""
         self.stats.draw_calls = 0
+        self.stats.vertices = 0
+
+    @classmethod
+    def for_scene(cls, ctx: moderngl.Context, scene: SceneConfig, **kw: object) -> Renderer:
+        """A renderer for ``scene`` with the characters its profiles name (issue 16): the procedural
+        one and every glTF/VRM file, loaded once; raises AvatarError naming a file that cannot be used."""
+        from pedvr.render.avatars import load_avatar
+
+        chars: list[CharacterMesh] = [procedural_character()]
+        index: dict[str, int] = {"builtin": 0}
+        table = []
+        for prof in scene.profiles.values():
+            picks = []
+            for name in prof.characters or ("builtin",):
+                if name not in index:
+                    index[name] = len(chars)
+                    chars.append(load_avatar(name, bone_map=scene.bone_map))
+                picks.append(index[name])
+            table.append(tuple(picks))
+        return cls(ctx, world=scene.world, characters=chars, profile_characters=table, **kw)  # type: ignore[arg-type]
+
+    def _by_profile(self, ids: np.ndarray, profile: np.ndarray) -> np.ndarray:
+        """Each agent's character: one of its profile's, picked by its stable id (0 for the user)."""
+        out = np.zeros(len(ids), np.int64)
+        pick = _hash01(ids, 31)
+        for p, choices in enumerate(self._profile_chars):
+            sel = profile == p
+            if sel.any():
+                out[sel] = choices[np.minimum((pick[sel] * len(choices)).astype(np.int64), len(choices) - 1)]
+        return out
+
+    def _looks_for(self, ids: np.ndarray, dims: np.ndarray, char: np.ndarray) -> tuple[Looks, np.ndarray]:
+        """Looks and bind-pose joints of the drawn agents, recomputed only when the crowd changes."""
+        key = (ids.tobytes(), dims.tobytes(), char.tobytes())
+        if key != self._looks_key or self._looks_cache is None:
+            rest = bind_joints(dims).astype(np.float32)
+            for c, ch in enumerate(self.characters):
+                if ch.rest is not None:
+                    rest[char == c] = ch.rest
+            self._looks_cache = (agent_looks(ids, dims), rest)
+            self._looks_key = key
+        return self._looks_cache
 
     def update(self, snap: Snapshot) -> None:
-        """Upload the crowd of ``snap``: its body poses (``snap.bones``), looks and shadow discs."""
+        """Upload the crowd of ``snap``: skinning matrices, looks (with blinks) and contact-shadow discs."""
         t0 = time.perf_counter()
         show = ~snap.is_user if self.hide_user else np.ones(len(snap), np.bool_)
         rows = np.flatnonzero(show)
         n = int(rows.size)
-        palette, _ = agent_looks(snap.ids)
         dims = default_dims(snap.ids) if snap.dims is None else np.asarray(snap.dims, np.float64)
         if snap.bones is None:
-            world = standing_bones(snap.pos[rows], snap.heading[rows], dims[rows])
+            world = standing_bones(snap.pos, snap.heading, dims)
         else:
-            bones = np.asarray(snap.bones)
-            if bones.shape != (len(snap), self.skeleton.joints, 4, 4):
-                raise ValueError(
-                    f"bones shape {bones.shape}: expected ({len(snap)}, {self.skeleton.joints}, 4, 4)"
-                )
-            world = bones[rows].astype(np.float32)  # a copy: the caller's array is not touched
-        # Segments are sized for the reference adult: scale each agent's joint frames by its body scale.
-        world[:, :, :3, :3] *= dims[rows, 3].astype(np.float32)[:, None, None, None]
-        t1 = time.perf_counter()
+            world = np.asarray(snap.bones)
+            if world.shape != (len(snap), N_JOINTS, 4, 4):
+                raise ValueError(f"bones shape {world.shape}: expected ({len(snap)}, {N_JOINTS}, 4, 4)")
+        world = np.ascontiguousarray(world, np.float32)
+        char = np.zeros(n, np.int64)
+        if snap.character is None and snap.profile is not None and self._profile_chars:
+            char = self._by_profile(snap.ids[rows], np.asarray(snap.profile, np.int64)[rows])
+        elif snap.character is not None:
+            char = np.asarray(snap.character, np.int64)[rows]
+            if n and (char.min() < 0 or char.max() >= len(self.characters)):
+                raise ValueError(f"character index {int(char.max())}: this renderer has "
+                                 f"{len(self.characters)} characters")
+        ids, d = snap.ids[rows], dims[rows]
+        looks, rest = self._looks_for(ids, d, char)
         self._ensure_capacity(max(n, 1))
+        blink = self._blinks.update(ids, float(snap.t), eye_directions(world, rows)) if n else np.zeros(0)
         if n:
-            # Column-major: texel 4j + k of row i is column k of agent i's joint j.
-            cols = np.ascontiguousarray(world.transpose(0, 1, 3, 2), dtype=np.float32)
-            self._bones.write(cols.tobytes(), viewport=(0, 0, 4 * self.skeleton.joints, n))
-            pal = np.zeros((n, 4, 4), np.float32)
-            pal[:, :, :3] = palette[rows]
-            self._palette.write(pal.tobytes(), viewport=(0, 0, 4, n))
+            skin_rows(world, rows, d[:, 3].astype(np.float32), rest, self._skin_buf)
+        lk = look_rows(looks, d, blink) if n else np.zeros((0, LOOK_TEXELS, 4), np.float32)
+        t1 = time.perf_counter()
+        if n:
+            self._skin.write(self._skin_buf[:n].tobytes(), viewport=(0, 0, SKIN_TEXELS, n))
+            self._looks.write(lk.tobytes(), viewport=(0, 0, LOOK_TEXELS, n))
             discs = np.zeros((n, 4), np.float32)
             discs[:, :2], discs[:, 2], discs[:, 3] = snap.pos[rows], snap.radius[rows], 1.0
             self._discs.write(discs.tobytes(), viewport=(0, 0, 1, n))
@@ -250,9 +389,12 @@ class Renderer:
                 raise ValueError(f"doors shape {pose.shape}: expected {self._closed_doors.shape}")
             self._leaf_vbo.write(place_leaves(self._leaf_local, pose).tobytes())
         self._n = n
+        self._rows = rows
+        self._drawn_pos = np.asarray(snap.pos, np.float64)[rows]
+        self._drawn_char = char
         self._sphere = None if snap.sphere is None else np.asarray(snap.sphere, dtype=np.float64)
-        self._sphere_radius = min(0.25, 0.6 * snap.sphere_radius)
         self._snap = snap
+        self._shadow_dirty = True
         t2 = time.perf_counter()
         self.stats.pose_ms = (t1 - t0) * 1e3
         self.stats.upload_ms = (t2 - t1) * 1e3
@@ -264,7 +406,8 @@ class Renderer:
         vao.render(**kw)  # type: ignore[arg-type]
         self.stats.draw_calls += 1
 
-    def _common(self, prog: moderngl.Program, eyes: Sequence[EyeView], srgb_encode: bool) -> None:
+    def _common(self, prog: moderngl.Program, eyes: Sequence[EyeView], srgb_encode: bool, *,
+                shadow_pass: bool = False) -> None:
         vp = np.zeros((2, 4, 4), np.float32)
         pos = np.zeros((2, 3), np.float32)
         for k in range(2):
@@ -273,8 +416,58 @@ class Renderer:
             pos[k] = e.position
         _write(prog, "u_view_proj", vp.tobytes())
         _write(prog, "u_eye_pos", pos.tobytes())
-        _set(prog, "u_eyes", len(eyes))
+        _write(prog, "u_light_vp", self._light_vp.T.astype(np.float32).tobytes())
+        _set(prog, "u_eyes", 1 if shadow_pass else len(eyes))
         _set(prog, "u_srgb_encode", srgb_encode)
+        _set(prog, "u_shadow_pass", shadow_pass)
+        _set(prog, "u_shadows", self.shadows and not shadow_pass)
+        _set(prog, "u_shadow_map", 7)
+
+    def _draw_crowd(self, groups: list[tuple[int, int, int, int]], eyes: int, *, shadow_pass: bool) -> None:
+        crowd = self.programs["crowd"]
+        _set(crowd, "u_skin", 0)
+        _set(crowd, "u_looks", 1)
+        _set(crowd, "u_order", 2)
+        _set(crowd, "u_albedo", 3)
+        self._skin.use(location=0)
+        self._looks.use(location=1)
+        self._order.use(location=2)
+        for c, level, first, count in groups:
+            vao, verts = self._char_vaos[c][level]
+            tex = self._char_textures[c] or self._white
+            tex.use(location=3)
+            _set(crowd, "u_base_color", (1.0, 1.0, 1.0, 1.0))
+            _set(crowd, "u_base", first)
+            self._render(vao, instances=count * eyes)
+            self.stats.vertices += verts * count * eyes
+
+    def _groups(self, eyes: Sequence[EyeView]) -> list[tuple[int, int, int, int]]:
+        viewer = np.mean([e.position for e in eyes], axis=0)
+        lod = lod_levels(self._drawn_pos, np.array([viewer[0], viewer[2]]))
+        order, groups = draw_groups(self._drawn_char, lod, len(self.characters), 3)
+        self._order.write(order.tobytes(), viewport=(0, 0, len(order), 1))
+        return groups
+
+    def _shadow_map(self, eyes: Sequence[EyeView], groups: list[tuple[int, int, int, int]]) -> None:
+        """Render the key light's depth around the first eye into the shadow map (once per update)."""
+        ctx = self.ctx
+        self._light_vp = light_view_projection(np.asarray(eyes[0].position) * np.array([1.0, 0.0, 1.0]),
+                                               size=self._shadow_size)
+        self._shadow_fbo.use()
+        self._shadow_fbo.viewport = (0, 0, self._shadow_size, self._shadow_size)
+        self._shadow_fbo.clear(depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.CULL_FACE)  # thin walls and open shells cast from both sides
+        env = self.programs["environment"]
+        self._common(env, eyes, True, shadow_pass=True)
+        _write(env, "u_model", np.eye(4, dtype=np.float32).tobytes())
+        self._render(self._solid_vao)
+        if self._leaf_count:
+            self._render(self._leaf_vao)
+        if self._n:
+            self._common(self.programs["crowd"], eyes, True, shadow_pass=True)
+            self._draw_crowd(groups, 1, shadow_pass=True)
+        self._shadow_dirty = False
 
     def draw_scene(
         self,
@@ -285,10 +478,17 @@ class Renderer:
         srgb_encode: bool = True,
         clear: bool = True,
     ) -> None:
-        """Draw the 3D scene for one eye, or two eyes side by side in one pass, into ``viewport``."""
+        """Draw the 3D scene for one eye, or two eyes side by side in one pass, into ``viewport``.
+
+        The first call after :meth:`update` also renders the key light's
+        shadow map around the eyes (later calls for other eyes reuse it).
+        """
         if len(eyes) not in (1, 2):
             raise ValueError(f"{len(eyes)} eyes: expected 1 or 2")
         ctx = self.ctx
+        groups = self._groups(eyes) if self._n else []
+        if self.shadows and self._shadow_dirty:
+            self._shadow_map(eyes, groups)
         framebuffer.use()
         vp = viewport or (0, 0, *framebuffer.size)
         framebuffer.viewport = vp
@@ -301,42 +501,61 @@ class Renderer:
         ctx.disable(moderngl.BLEND)
         framebuffer.depth_mask = True
         ctx.enable_direct(GL_CLIP_DISTANCE0)
+        self._shadow_tex.use(location=7)
         k = len(eyes)
         env = self.programs["environment"]
         self._common(env, eyes, srgb_encode)
         _write(env, "u_model", np.eye(4, dtype=np.float32).tobytes())
         _set(env, "u_emissive", (0.0, 0.0, 0.0))
+        _set(env, "u_alpha", 1.0)
+        _set(env, "u_floor", FLOOR_PATTERNS.get(self.world.floor, 0))
         _set(env, "u_pattern", 1)
         self._render(self._floor_vao, instances=k)
         _set(env, "u_pattern", 0)
         self._render(self._solid_vao, instances=k)
+        if self._ceiling_count:
+            self._render(self._ceiling_vao, instances=k)
         if self._leaf_count:
             self._render(self._leaf_vao, instances=k)
+        sphere_model = None
         if self._sphere is not None:
-            m = np.eye(4, dtype=np.float32)
-            m[:3, :3] *= 2 * self._sphere_radius
-            m[:3, 3] = (self._sphere[0], SPHERE_HEIGHT, self._sphere[1])
-            _write(env, "u_model", m.T.tobytes())
-            _set(env, "u_emissive", (0.25, 0.01, 0.0))
+            # The route target, first opaque without writing depth: pedestrians behind it cover it...
+            sphere_model = np.eye(4, dtype=np.float32)
+            sphere_model[:3, :3] *= 2 * TARGET_RADIUS
+            sphere_model[:3, 3] = (self._sphere[0], SPHERE_HEIGHT, self._sphere[1])
+            _write(env, "u_model", sphere_model.T.tobytes())
+            _set(env, "u_emissive", (0.22, 0.02, 0.0))
+            framebuffer.depth_mask = False
             self._render(self._sphere_vao, instances=k)
+            framebuffer.depth_mask = True
+            _write(env, "u_model", np.eye(4, dtype=np.float32).tobytes())
+            _set(env, "u_emissive", (0.0, 0.0, 0.0))
         if self._n:
-            crowd = self.programs["crowd"]
-            self._common(crowd, eyes, srgb_encode)
-            _set(crowd, "u_bones", 0)
-            _set(crowd, "u_palette", 1)
-            self._bones.use(location=0)
-            self._palette.use(location=1)
-            self._render(self._crowd_vao, instances=self._n * k)
+            self._common(self.programs["crowd"], eyes, srgb_encode)
+            self._draw_crowd(groups, k, shadow_pass=False)
             shadow = self.programs["shadow"]
             self._common(shadow, eyes, srgb_encode)
-            _set(shadow, "u_discs", 2)
-            self._discs.use(location=2)
+            _set(shadow, "u_discs", 4)
+            self._discs.use(location=4)
             ctx.enable(moderngl.BLEND)
             ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
             framebuffer.depth_mask = False
             self._render(self._shadow_vao, instances=self._n * k)
             framebuffer.depth_mask = True
             ctx.disable(moderngl.BLEND)
+        if sphere_model is not None:
+            # ...then blended over whatever it is in front of: semi-transparent over a pedestrian,
+            # unchanged over the background it already covers (issue 16).
+            _write(env, "u_model", sphere_model.T.tobytes())
+            _set(env, "u_emissive", (0.22, 0.02, 0.0))
+            _set(env, "u_alpha", TARGET_ALPHA)
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+            framebuffer.depth_mask = False
+            self._render(self._sphere_vao, instances=k)
+            framebuffer.depth_mask = True
+            ctx.disable(moderngl.BLEND)
+            _set(env, "u_alpha", 1.0)
         ctx.disable_direct(GL_CLIP_DISTANCE0)
         ctx.disable(moderngl.CULL_FACE)
 
@@ -480,6 +699,15 @@ class Renderer:
                 obj.release()
         for tex in self._panel_textures.values():
             tex.release()
+        for vaos in self._char_vaos:
+            for vao, _ in vaos:
+                vao.release()
+        for buf in self._char_buffers:
+            buf.release()
+        for t in self._char_textures:
+            if t is not None:
+                t.release()
+        self._shadow_fbo.release()
         for prog in self.programs.values():
             prog.release()
 

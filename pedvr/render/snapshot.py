@@ -15,7 +15,8 @@ import numpy as np
 if TYPE_CHECKING:
     from pedvr.sim import Simulation
 
-SPHERE_HEIGHT = 1.4  # m: the red target sphere floats just below eye level
+SPHERE_HEIGHT = 1.25  # m: the red route target floats at chest height, below the eyes (issue 16)
+TARGET_RADIUS = 0.11  # m: its drawn size (the scene's sphere_radius is how near counts as reached)
 
 
 @dataclass(frozen=True)
@@ -31,7 +32,10 @@ class Snapshot:
     ``sphere`` is the next red target sphere on the ground, or None when the
     route is done; ``route`` all spheres. ``doors`` ``(L, 5)`` is every door
     leaf's hinge x, hinge y, world angle, length and height
-    (``DoorLeaves.pose()``); None draws them closed.
+    (``DoorLeaves.pose()``); None draws them closed. ``character`` ``(N,)``
+    indexes the renderer's characters per agent (None: chosen by ``profile``,
+    each agent's index into the scene's profiles, -1 for the user, through
+    the scene's ``characters`` keys; neither: the procedural character).
     """
 
     t: float
@@ -49,6 +53,8 @@ class Snapshot:
     route: np.ndarray | None = None
     next_sphere: int = 0
     doors: np.ndarray | None = None
+    character: np.ndarray | None = None
+    profile: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.ids.shape[0])
@@ -87,6 +93,7 @@ class Snapshot:
             route=route,
             next_sphere=nxt,
             doors=sim.doors.pose() if len(sim.doors) else None,
+            profile=sim.profile_index.copy(),
         )
 
     @classmethod
@@ -104,6 +111,7 @@ class Snapshot:
         dims: np.ndarray | None = None,
         sphere: np.ndarray | None = None,
         doors: np.ndarray | None = None,
+        character: np.ndarray | None = None,
         t: float = 0.0,
     ) -> Snapshot:
         """A hand-made snapshot (tests, benchmarks): agents at ``pos`` facing ``heading``.
@@ -125,4 +133,5 @@ class Snapshot:
             dims=dims,
             sphere=None if sphere is None else np.asarray(sphere, np.float64),
             doors=None if doors is None else np.asarray(doors, np.float64),
+            character=None if character is None else np.asarray(character, np.int64),
         )

@@ -82,7 +82,7 @@ class ViewComposer:
                 aspect=w / h,
             )
             r.draw_scene(list(eyes), framebuffer=self._stereo.fbo)
-            r.draw_anaglyph(self._stereo.color, framebuffer=framebuffer, viewport=viewport)
+            r.draw_anaglyph(self._stereo.resolved, framebuffer=framebuffer, viewport=viewport)
         if hud is not None:
             r.draw_panel(hud.image(), framebuffer=framebuffer, viewport=viewport, x=6, y=6)
 

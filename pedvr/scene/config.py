@@ -62,16 +62,40 @@ class Door:
         return math.dist(self.span[0], self.span[1])
 
 
+MARKING_KINDS = ("crosswalk",)
+FLOORS = ("grid", "tiles", "wood", "carpet", "asphalt", "paving")
+
+
+@dataclass(frozen=True)
+class Marking:
+    """Paint on the floor, for drawing only: a ``crosswalk`` (zebra stripes) of ``width`` metres
+    across the line from ``start`` to ``end`` (the way people cross)."""
+
+    kind: str
+    start: Vec2
+    end: Vec2
+    width: float = 3.0
+
+
 @dataclass(frozen=True)
 class WorldConfig:
     """The static world: a rectangular walkable area, obstacles inside it, and doors.
 
     ``bounds`` is ``((xmin, ymin), (xmax, ymax))``; its border acts as a wall.
+    The rest is for drawing only (issue 16): ``indoor`` worlds have walls of
+    ``wall_height`` along the bounds (default 2.6 m; outdoors a 1.1 m barrier)
+    and, with ``ceiling``, a ceiling on top; ``floor`` names the floor's
+    material; ``markings`` are painted on the floor.
     """
 
     bounds: tuple[Vec2, Vec2]
     obstacles: tuple[Obstacle, ...] = ()
     doors: tuple[Door, ...] = ()
+    indoor: bool = False
+    wall_height: float = 2.6
+    ceiling: bool = False
+    floor: str = "grid"
+    markings: tuple[Marking, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -100,6 +124,9 @@ class AgentProfile:
     pref_speed: float = 1.3
     max_speed: float = 1.6
     limits: MotionLimits = field(default_factory=MotionLimits)
+    # Drawing only (issue 16): characters an agent of this profile is drawn as, picked per agent:
+    # "builtin" (the procedural character) or glTF/VRM files; empty: the procedural character.
+    characters: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -261,7 +288,7 @@ class SceneConfig:
     gaze_speed: float = 2.0  # D2 of PedVR eq. 3, m/s
     description: str = ""
     content_hash: str = ""
-
+    bone_map: dict[str, str] = field(default_factory=dict)  # avatars' bone name -> pedvr joint
     @property
     def decision_every(self) -> int:
         """Steps between behavior decisions (30 Hz at the default 90 Hz step)."""

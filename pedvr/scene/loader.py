@@ -21,13 +21,16 @@ from pedvr.behavior.goals import selectors, validate_params
 from pedvr.errors import SceneError
 from pedvr.scene.config import (
     DOOR_KINDS,
+    FLOORS,
     GESTURE_CLIPS,
+    MARKING_KINDS,
     USER_WALKS,
     AgentProfile,
     BehaviorConfig,
     Door,
     GoalSelector,
     GoalSet,
+    Marking,
     MotionLimits,
     Obstacle,
     SceneConfig,
@@ -42,7 +45,7 @@ from pedvr.scene.config import (
 )
 from pedvr.validation import MISSING, Checker, is_num
 
-OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter")
+OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter", "building")
 # success / failure: the state's behavior tree ended so (pedvr.behavior.scheduler)
 TRANSITION_EVENTS = ("arrival", "timer", "probability", "success", "failure")
 
@@ -133,7 +136,8 @@ def load_any(path: str | Path, *, seed: int | None, display_path: str | None = N
         data = tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise SceneError([f"{shown}: not valid TOML: {exc}"]) from None
-    cfg = parse_scene(data, source=shown, content_hash=hashlib.sha256(raw).hexdigest()[:16])
+    cfg = parse_scene(data, source=shown, content_hash=hashlib.sha256(raw).hexdigest()[:16],
+                      base=p.parent)
     if seed is not None:
         from dataclasses import replace
 
@@ -141,10 +145,12 @@ def load_any(path: str | Path, *, seed: int | None, display_path: str | None = N
     return cfg
 
 
-def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") -> SceneConfig:
-    """Validate a parsed TOML document; raise one SceneError with all problems."""
+def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
+                base: Path | None = None) -> SceneConfig:
+    """Validate a parsed TOML document; raise one SceneError with all problems. ``base`` is the
+    folder the scene's relative file patterns (avatars) are resolved in (default: the working one)."""
     c = _Checker(source)
-    c.known(data, "", ("scene", "world", "steering", "gaze", "agents", "behavior", "user"))
+    c.known(data, "", ("scene", "world", "steering", "gaze", "agents", "behavior", "user", "characters"))
 
     scene = c.table(data, "scene", "scene", required=True) or {}
     c.known(scene, "scene", ("name", "description", "seed", "duration", "dt"))
@@ -167,7 +173,14 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
     behavior = _behavior(c, c.table(data, "behavior", "behavior", required=True) or {}, world)
     agents = c.table(data, "agents", "agents", required=True) or {}
     c.known(agents, "agents", ("profiles", "spawns"))
-    profiles = _profiles(c, c.table(agents, "profiles", "agents.profiles", required=True) or {})
+    profiles = _profiles(c, c.table(agents, "profiles", "agents.profiles", required=True) or {}, base)
+    chars = c.table(data, "characters", "characters", required=False) or {}
+    c.known(chars, "characters", ("bone_map",))
+    bone_map = chars.get("bone_map", {})
+    if not isinstance(bone_map, dict) or not all(isinstance(k, str) and isinstance(v, str) and v
+                                                 for k, v in bone_map.items()):
+        c.bad("characters.bone_map", bone_map, 'expected a table of "bone name" = "pedvr joint name"')
+        bone_map = {}
     spawns = _spawns(c, agents.get("spawns", MISSING), profiles, behavior, world)
     user = _user(c, c.table(data, "user", "user", required=True) or {}, world)
 
@@ -179,11 +192,12 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "") ->
     return SceneConfig(name=name, source=source, seed=seed, dt=dt, duration=duration, world=world,
                        profiles=profiles, spawns=spawns, behavior=behavior, user=user,
                        steering=steering, gaze_distance=gaze_distance, gaze_speed=gaze_speed,
-                       description=description, content_hash=content_hash)
+                       description=description, content_hash=content_hash, bone_map=dict(bone_map))
 
 
 def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
-    c.known(w, "world", ("bounds", "obstacles", "doors"))
+    c.known(w, "world", ("bounds", "obstacles", "doors", "indoor", "wall_height", "ceiling", "floor",
+                         "markings"))
     bounds = None
     b = w.get("bounds", MISSING)
     if b is MISSING:
@@ -211,7 +225,49 @@ def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
                 c.bad(path, "{...}", "lies outside world.bounds")
             obstacles.append(ob)
     doors = _doors(c, w.get("doors", []), bounds, obstacles)
-    return WorldConfig(bounds=bounds, obstacles=tuple(obstacles), doors=doors) if bounds else None
+    indoor = c.boolean(w, "indoor", "world.indoor", default=False)
+    wall_height = c.number(w, "wall_height", "world.wall_height", required=False, default=2.6,
+                           check=lambda x: 2.0 <= x <= 30.0, expect="between 2 and 30 m")
+    ceiling = c.boolean(w, "ceiling", "world.ceiling", default=False)
+    if ceiling and not indoor:
+        c.bad("world.ceiling", True, "needs world.indoor = true")
+    floor = c.string(w, "floor", "world.floor", required=False, default="grid", choices=FLOORS)
+    markings = _markings(c, w.get("markings", []))
+    if not bounds:
+        return None
+    return WorldConfig(bounds=bounds, obstacles=tuple(obstacles), doors=doors, indoor=indoor,
+                       wall_height=wall_height or 2.6, ceiling=ceiling, floor=floor or "grid",
+                       markings=markings)
+
+
+def _markings(c: _Checker, raw: object) -> tuple[Marking, ...]:
+    """``[[world.markings]]``: paint on the floor (drawing only)."""
+    if not isinstance(raw, list):
+        c.bad("world.markings", raw, "expected an array of tables [[world.markings]]")
+        return ()
+    out = []
+    for i, m in enumerate(raw):
+        path = f"world.markings[{i}]"
+        if not isinstance(m, dict):
+            c.bad(path, m, "expected a table")
+            continue
+        c.known(m, path, ("kind", "from", "to", "width"))
+        kind = c.string(m, "kind", f"{path}.kind", choices=MARKING_KINDS)
+        a = b = None
+        for key in ("from", "to"):
+            if key not in m:
+                c.bad(f"{path}.{key}", MISSING, "required [x, y]")
+        if "from" in m:
+            a = c.point(m["from"], f"{path}.from")
+        if "to" in m:
+            b = c.point(m["to"], f"{path}.to")
+        width = c.number(m, "width", f"{path}.width", required=False, default=3.0,
+                         check=lambda x: 0.5 <= x <= 10.0, expect="between 0.5 and 10 m")
+        if a is not None and b is not None and math.dist(a, b) < 1.0:
+            c.bad(f"{path}.to", m["to"], "must be at least 1 m from world.markings.from")
+        elif kind and a is not None and b is not None and width is not None:
+            out.append(Marking(kind=kind, start=a, end=b, width=width))
+    return tuple(out)
 
 
 DOOR_WIDTH = {"single": (0.7, 1.6), "double": (1.2, 3.2)}  # m, jamb to jamb
@@ -358,12 +414,39 @@ def _or(v: float | None, d: float) -> float:
     return d if v is None else v
 
 
-_PROFILE_KEYS = ("inherit", "radius", "pref_speed", "max_speed", "limits")
+_PROFILE_KEYS = ("inherit", "radius", "pref_speed", "max_speed", "limits", "characters")
+AVATAR_SUFFIXES = (".glb", ".gltf", ".vrm")
 _LIMIT_KEYS = ("max_accel", "max_decel", "turn_rate_standing", "turn_rate_walking",
                "max_backward_speed", "max_sideways_speed")
 
 
-def _profiles(c: _Checker, raw: dict[str, Any]) -> dict[str, AgentProfile]:
+def _characters(c: _Checker, v: object, path: str, base: Path | None) -> tuple[str, ...]:
+    """``characters = ["builtin", "avatars/*.glb"]``: each entry ``builtin`` or a glob of glTF/VRM
+    files relative to the scene file's folder, matching at least one file (issue 16). Whether a
+    file is a usable skinned humanoid is checked when a renderer loads it (pedvr.render.avatars)."""
+    if not isinstance(v, list) or not v or not all(isinstance(x, str) and x for x in v):
+        c.bad(path, v, 'expected a list of "builtin" or glTF/VRM file patterns')
+        return ()
+    out: list[str] = []
+    folder = base or Path.cwd()
+    for i, pattern in enumerate(v):
+        if pattern == "builtin":
+            out.append(pattern)
+            continue
+        p = Path(pattern)
+        found = sorted(Path(p.anchor).glob(str(p.relative_to(p.anchor))) if p.is_absolute()
+                       else folder.glob(pattern))
+        files = [f for f in found if f.is_file()]
+        if not files:
+            c.bad(f"{path}[{i}]", pattern, f"matches no file in {folder}")
+        elif bad := [f.name for f in files if f.suffix.lower() not in AVATAR_SUFFIXES]:
+            c.bad(f"{path}[{i}]", pattern, f"{bad[0]}: expected a {', '.join(AVATAR_SUFFIXES)} file")
+        else:
+            out.extend(str(f.resolve()) for f in files)
+    return tuple(out)
+
+
+def _profiles(c: _Checker, raw: dict[str, Any], base: Path | None = None) -> dict[str, AgentProfile]:
     """Resolve ``inherit`` chains (a child overrides its parent key by key)."""
     resolved: dict[str, dict[str, Any]] = {}
 
@@ -422,9 +505,10 @@ def _profiles(c: _Checker, raw: dict[str, Any]) -> dict[str, AgentProfile]:
             vals = {k: c.number(lim_raw, k, f"{path}.limits.{k}", required=False,
                                 default=getattr(d, k), check=pos, expect="> 0") for k in _LIMIT_KEYS}
             lim = MotionLimits(**{k: (v if v is not None else getattr(d, k)) for k, v in vals.items()})
+        chars = _characters(c, m["characters"], f"{path}.characters", base) if "characters" in m else ()
         if radius is not None and pref is not None and mx is not None:
             out[name] = AgentProfile(name=name, radius=radius, pref_speed=pref, max_speed=mx,
-                                     limits=lim)
+                                     limits=lim, characters=chars)
     return out
 
 

@@ -3,9 +3,10 @@ moved with a mouse and keyboard).
 
 Keys: W A S D or the arrows walk at 1.3 m/s (Shift: twice as fast); the
 mouse turns and looks up and down once the window has captured it (click;
-Tab releases it); 1 mono, 2 side-by-side stereo, 3 anaglyph, 4 overhead
-debug view; H toggles the HUD; F11 full screen; Esc quits. Vsync is on by
-default, so frames follow the monitor's refresh.
+Tab releases it; until the first click a line at the bottom says so); 1 mono,
+2 side-by-side stereo, 3 anaglyph, 4 overhead debug view; H toggles the HUD;
+F11 full screen; Esc quits. Vsync is on by default, so frames follow the
+monitor's refresh.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pedvr.errors import BackendUnavailableError, UsageError
 from pedvr.render.math3d import EYE_HEIGHT
 from pedvr.render.renderer import Renderer
 from pedvr.render.snapshot import Snapshot
-from pedvr.render.text import Hud
+from pedvr.render.text import Hud, text_panel
 from pedvr.render.views import VIEW_MODES, ViewComposer
 from pedvr.scene.config import SceneConfig
 from pedvr.xr.locomotion import KeyboardMouseUser
@@ -28,6 +29,7 @@ if TYPE_CHECKING:
     from pedvr.sim import Simulation
 
 MOUSE_SENSITIVITY = 0.0025  # rad per pixel
+CAPTURE_HINT = "Click in the window to look around with the mouse (Tab releases it)"
 MODE_KEYS = {"1": "mono", "2": "sbs", "3": "anaglyph", "4": "overhead"}
 
 
@@ -73,6 +75,7 @@ def open_gl_window(width: int, height: int, title: str, *, visible: bool,
         (glfw.OPENGL_FORWARD_COMPAT, glfw.TRUE),
         (glfw.VISIBLE, glfw.TRUE if visible else glfw.FALSE),
         (glfw.DEPTH_BITS, 24),
+        (glfw.SAMPLES, 4),  # multisampling (issue 16)
     ):
         glfw.window_hint(hint, value)
     window = glfw.create_window(width, height, title, None, None)
@@ -111,7 +114,7 @@ class DesktopPresenter:
         self.glfw, self.window, self.ctx = open_gl_window(width, height, f"pedvr: {scene.name}",
                                                           visible=visible, vsync=vsync)
         glfw = self.glfw
-        self.renderer = Renderer(self.ctx, world=scene.world)
+        self.renderer = Renderer.for_scene(self.ctx, scene)
         self.composer = ViewComposer(self.renderer)
         self.user = user
         self.mode = view
@@ -121,6 +124,7 @@ class DesktopPresenter:
         self.clock = clock
         self._closed = False
         self._captured = False
+        self.show_capture_hint = True  # until the mouse is first captured (issue 11)
         self._cursor: tuple[float, float] | None = None
         self._windowed: tuple[int, int, int, int] | None = None
         self._last_frame: float | None = None
@@ -158,6 +162,8 @@ class DesktopPresenter:
         glfw = self.glfw
         glfw.set_input_mode(self.window, glfw.CURSOR, glfw.CURSOR_DISABLED if on else glfw.CURSOR_NORMAL)
         self._captured = on
+        if on:
+            self.show_capture_hint = False
         # From here on motion is relative to where the (now virtual) cursor is, so the very first
         # movement after the click already turns the view.
         self._cursor = tuple(glfw.get_cursor_pos(self.window)) if on else None
@@ -240,6 +246,12 @@ class DesktopPresenter:
             eye_height=self.eye_height,
             hud=self.hud if self.show_hud and self.mode != "overhead" else None,
         )
+        if self.show_capture_hint:
+            # Until the first click: how to capture the mouse, centred near the bottom (issue 11).
+            img = text_panel([CAPTURE_HINT], font_size=max(10, min(18, w // 40)))
+            x = max(0, (w - img.shape[1]) // 2)
+            y = max(0, h - img.shape[0] - max(6, h // 12))
+            self.renderer.draw_panel(img, framebuffer=fb, viewport=(0, 0, w, h), x=x, y=y)
 
     def end_frame(self) -> None:
         self.glfw.swap_buffers(self.window)

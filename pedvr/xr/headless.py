@@ -92,9 +92,9 @@ class HeadlessPresenter:
         self.fps = fps
         self.frames_dir = frames_dir
         self.ctx = create_offscreen_context()
-        self.renderer = Renderer(self.ctx, world=sim.scene.world)
+        self.renderer = Renderer.for_scene(self.ctx, sim.scene)
         self.composer = ViewComposer(self.renderer)
-        self.first = OffscreenTarget(self.ctx, self.size)
+        self.first = OffscreenTarget(self.ctx, self.size, samples=4)  # multisampled (issue 16)
         self.over = OffscreenTarget(self.ctx, self.size)
         self.hud = Hud(label=hud_label)
         self.video = VideoWriter(video, size=(2 * width, height), fps=fps) if video is not None else None

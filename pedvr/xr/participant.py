@@ -288,7 +288,7 @@ class DesktopFrontend:
         from pedvr.xr.locomotion import KeyboardMouseUser, WalkableArea
 
         self._release_trial()
-        self.renderer = Renderer(self.ctx, world=scene.world)
+        self.renderer = Renderer.for_scene(self.ctx, scene)
         self.composer = ViewComposer(self.renderer)
         self.user = KeyboardMouseUser(
             start=scene.user.start,
@@ -465,7 +465,7 @@ class XrFrontend:
         if self.ctx is not None:
             from pedvr.render.renderer import Renderer
 
-            self.renderer = Renderer(self.ctx, world=scene.world)
+            self.renderer = Renderer.for_scene(self.ctx, scene)
         self.user = HeadsetUser(
             start=scene.user.start,
             heading=scene.user.heading,

@@ -52,7 +52,7 @@ def _xr_presenter(scene: SceneConfig, opts: ViewOptions) -> tuple[XrPresenter, H
         heading=scene.user.heading,
         walkable=WalkableArea(scene.world, radius=scene.user.radius),
     )
-    renderer = Renderer(port.ctx, world=scene.world)
+    renderer = Renderer.for_scene(port.ctx, scene)
 
     def update(sim: Simulation) -> None:
         renderer.begin_frame()

@@ -1,4 +1,4 @@
-"""The body-layer skeleton's segments, the standing fallback and per-agent looks (pure numpy)."""
+"""The standing fallback for agents without a body, and default dims (pure numpy)."""
 
 from __future__ import annotations
 
@@ -9,30 +9,9 @@ import pytest
 
 from pedvr.body import JOINTS
 from pedvr.body import skeleton as sk
-from pedvr.render.figures import (
-    BODY,
-    PUPIL,
-    Segment,
-    Skeleton,
-    agent_looks,
-    default_dims,
-    skeleton_mesh,
-    standing_bones,
-)
+from pedvr.render.figures import default_dims, standing_bones
 from tests.render.conftest import posed
-
-
-def _mesh_world(bones: np.ndarray, scale: float) -> np.ndarray:
-    """World positions of agent 0's mesh vertices, joint frames scaled as the renderer does."""
-    b = bones[0].astype(np.float64).copy()
-    b[:, :3, :3] *= scale
-    mesh = skeleton_mesh(BODY)
-    return np.einsum("vij,vj->vi", b[mesh["bone"]], np.c_[mesh["pos"], np.ones(len(mesh))])[:, :3]
-
-
-def test_the_skeleton_is_the_body_layers() -> None:
-    assert BODY.names == tuple(JOINTS) and BODY.joints == 26
-    assert {BODY.names[s.bone] for s in BODY.segments if s.slot == PUPIL} == {"LEye", "REye"}
+from tests.render.test_characters import skinned_world
 
 
 @pytest.mark.parametrize("height", [1.58, 1.75, 1.9])
@@ -42,11 +21,11 @@ def test_a_posed_body_stands_on_the_floor_and_is_as_tall_as_its_dims(height: flo
     dims[:, sk.DIM_HEIGHT], dims[:, sk.DIM_SCALE] = height, height / sk.REFERENCE_HEIGHT
     for bones in (snap.bones, standing_bones(snap.pos, snap.heading, dims)):
         assert bones is not None
-        scale = 1.0 if bones is snap.bones else height / sk.REFERENCE_HEIGHT
-        world = _mesh_world(bones, scale)
+        d = body.state.dims if bones is snap.bones else dims
+        world = skinned_world(bones[0], d[0])
         target = 1.75 if bones is snap.bones else height
-        assert world[:, 1].min() == pytest.approx(0.0, abs=0.03)
-        assert world[:, 1].max() == pytest.approx(target, abs=0.04)
+        assert world[:, 1].min() == pytest.approx(0.0, abs=0.01)
+        assert world[:, 1].max() == pytest.approx(target, abs=0.04 * target / 1.75)
         # Centred on the agent, facing its heading: the nose is ahead of the pelvis.
         assert world[:, [0, 2]].mean(axis=0) == pytest.approx([1.0, 2.0], abs=0.08)
 
@@ -60,16 +39,10 @@ def test_standing_bones_face_the_heading_with_the_left_on_the_left() -> None:
     assert np.dot(left, b[0, 0, :3, :3] @ [1, 0, 0]) > 0.05  # +X of the body frame is its left
 
 
-def test_looks_are_stable_per_id_and_varied_across_ids() -> None:
-    pal, h = agent_looks(np.arange(200))
-    pal2, h2 = agent_looks(np.arange(200))
-    assert np.array_equal(pal, pal2) and np.array_equal(h, h2)
-    assert 1.55 <= h.min() and h.max() <= 1.92 and h.std() > 0.05
-    assert len({tuple(np.round(c, 3)) for c in pal[:, 1]}) >= 8  # many shirt colours
-
-
-def test_skeleton_validates_its_parents_and_segments() -> None:
-    with pytest.raises(ValueError, match="parent 1 must come before it"):
-        Skeleton(names=("a", "b"), parents=(-1, 1), segments=())
-    with pytest.raises(ValueError, match="segment shape 'cone'"):
-        Skeleton(names=("a",), parents=(-1,), segments=(Segment(0, "cone", (0, 0, 0), (1, 1, 1), 0),))
+def test_default_dims_are_drawn_from_the_id_like_the_body_layers() -> None:
+    d = default_dims(np.arange(400))
+    assert np.array_equal(d, default_dims(np.arange(400)))
+    female = d[:, sk.DIM_SEX] == 1.0
+    assert 0.4 < female.mean() < 0.6
+    assert d[female, 0].mean() == pytest.approx(1.63, abs=0.02) and d[~female, 0].mean() == pytest.approx(1.76, abs=0.02)
+    assert np.allclose(d[:, sk.DIM_SCALE], d[:, sk.DIM_HEIGHT] / sk.REFERENCE_HEIGHT)

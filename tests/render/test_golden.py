@@ -3,6 +3,9 @@
 Regenerate with ``PEDVR_REGENERATE_GOLDEN=1 pytest tests/render/test_golden.py``. References live in
 ``tests/render/golden/<scene>-seed<seed>-<camera>-<w>x<h>-llvmpipe.png``; on failure the rendered
 image and an amplified difference are written next to the test's tmp_path and named in the message.
+Every shipped scene's first-person view is here too (half a second into the run, from the user's
+eyes); what regenerating cannot fake is checked as properties in test_render.py and
+test_characters.py.
 """
 
 from __future__ import annotations
@@ -20,6 +23,9 @@ from PIL import Image
 from pedvr.render.math3d import desktop_stereo_eyes, first_person_eye
 from pedvr.render.renderer import OffscreenTarget, Renderer, gl_renderer_name
 from pedvr.render.snapshot import Snapshot
+from pedvr.scene.loader import load_scene
+from pedvr.scenes import resolve_scene, shipped_scenes
+from pedvr.sim import Simulation
 from tests.render.conftest import WORLD, posed
 
 GOLDEN = Path(__file__).parent / "golden"
@@ -63,7 +69,36 @@ def test_golden_image(ctx: moderngl.Context, camera: str, tmp_path: Path) -> Non
     img = t.read()
     t.release()
     r.release()
-    ref_path = GOLDEN / f"test_world-seed0-{camera}-{W}x{H}-llvmpipe.png"
+    _compare(img, GOLDEN / f"test_world-seed0-{camera}-{W}x{H}-llvmpipe.png", camera, tmp_path)
+
+
+SW, SH = 96, 54  # the scenes' first-person views
+
+
+@pytest.mark.parametrize("scene", [p.stem for p in shipped_scenes()])
+def test_golden_scene_first_person(ctx: moderngl.Context, scene: str, tmp_path: Path) -> None:
+    name = gl_renderer_name(ctx)
+    if "llvmpipe" not in name:
+        pytest.skip(f"golden images are for Mesa llvmpipe only; this is {name}")
+    config = load_scene(resolve_scene(scene))
+    sim = Simulation(config)
+    for _ in range(round(0.5 / sim.dt)):
+        sim.step()
+    snap = Snapshot.from_sim(sim)
+    u = snap.user_row
+    assert u is not None
+    eye = first_person_eye(pos=snap.pos[u], heading=float(snap.heading[u]), aspect=SW / SH)
+    r = Renderer(ctx, world=config.world, shadow_map_size=1024)
+    t = OffscreenTarget(ctx, (SW, SH))
+    r.update(snap)
+    r.draw_scene([eye], framebuffer=t.fbo)
+    img = t.read()
+    t.release()
+    r.release()
+    _compare(img, GOLDEN / f"{scene}-seed{config.seed}-first_person-{SW}x{SH}-llvmpipe.png", scene, tmp_path)
+
+
+def _compare(img: np.ndarray, ref_path: Path, camera: str, tmp_path: Path) -> None:
     if os.environ.get("PEDVR_REGENERATE_GOLDEN") == "1" or not ref_path.exists():
         if os.environ.get("PEDVR_REGENERATE_GOLDEN") != "1":
             pytest.fail(f"{ref_path} is missing; run with PEDVR_REGENERATE_GOLDEN=1 to create it")

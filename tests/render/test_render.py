@@ -2,17 +2,20 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import moderngl
 import numpy as np
 import pytest
 
+from pedvr.body import JOINTS
 from pedvr.body import skeleton as sk
+from pedvr.render import bodymesh as bm
 from pedvr.render.math3d import EyeView, desktop_stereo_eyes, first_person_eye, first_person_rotation, project
 from pedvr.render.overhead import USER
-from pedvr.render.renderer import OffscreenTarget, Renderer
-from pedvr.render.snapshot import Snapshot
+from pedvr.render.renderer import TARGET_ALPHA, OffscreenTarget, Renderer
+from pedvr.render.snapshot import SPHERE_HEIGHT, TARGET_RADIUS, Snapshot
 from pedvr.render.text import Hud
 from tests.render.conftest import posed
 
@@ -118,66 +121,162 @@ def test_side_by_side_single_pass_equals_two_passes(renderer: Renderer) -> None:
         half = single[:, k * w : (k + 1) * w]
         differ = np.abs(half - alone).max(axis=2) > 24
         assert differ.mean() < 0.01, f"eye {k}: {differ.mean():.3%} of pixels differ"
-    assert renderer.stats.draw_calls == 5  # floor, obstacles, sphere, crowd, shadows: both eyes in each call
+    both = renderer.stats.draw_calls
+    render(renderer, snap, eyes[:1], size=(w, h))
+    assert renderer.stats.draw_calls == both  # both eyes in each call: no call per eye
 
 
 EYE_H = 1.64  # m: the reference body's eye height
+FACE_ID = 16  # an id whose looks give medium-dark skin (Monk tone 7), so eye whites stand out from skin
 
 
-def _face(renderer: Renderer, gaze: tuple[float, float, float]) -> np.ndarray:
-    """An agent 0.55 m in front of the camera, facing it, its gaze controller aimed at ``gaze``."""
-    w, h = 120, 90
-    snap, _ = posed([[0.55, 0.0]], [math.pi], seconds=1.5, gaze={0: gaze}, reference=True)
+def _face(renderer: Renderer, gaze: tuple[float, float, float], *, size: tuple[int, int] = (240, 180),
+          dist: float = 0.55, fovy: float = 30.0) -> np.ndarray:
+    """An agent ``dist`` in front of the camera, facing it, its gaze controller aimed at ``gaze``."""
+    w, h = size
+    snap, _ = posed([[dist, 0.0]], [math.pi], seconds=1.5, gaze={0: gaze}, reference=True)
+    snap = dataclasses.replace(snap, ids=np.array([FACE_ID]))
+    return _render_face(renderer, snap, size=size, fovy=fovy)
+
+
+def _render_face(renderer: Renderer, snap: Snapshot, *, size: tuple[int, int], fovy: float) -> np.ndarray:
+    """The agent's pixels (elsewhere -1: the empty scene is subtracted)."""
+    w, h = size
     cam = EyeView.from_pose(
         rotation=first_person_rotation(0.0),
         position=np.array([0.0, EYE_H, 0.0]),
         projection=first_person_eye(
-            pos=np.zeros(2), heading=0.0, fovy=math.radians(30), aspect=w / h
+            pos=np.zeros(2), heading=0.0, fovy=math.radians(fovy), aspect=w / h
         ).projection,
     )
-    return render(renderer, snap, [cam], size=(w, h))
+    img = render(renderer, snap, [cam], size=(w, h))
+    empty = render(renderer, nobody(), [cam], size=(w, h))
+    img[~changed(img, empty, threshold=2)] = -1
+    return img
 
 
-def _pupil_offset(img: np.ndarray) -> tuple[float, int]:
-    """Horizontal offset (px) of the dark pupil pixels from the centre of the eye whites."""
-    white = (img.min(axis=2) > 170) & (np.ptp(img, axis=2) < 30)
+def _irises(img: np.ndarray, *, bright: int = 140) -> list[tuple[float, int, int]]:
+    """Per visible eye (left to right in the image): where its iris sits between the whites,
+    -1 (against the image-left corner) .. +1 (image-right), and the white and iris pixel counts.
+
+    Whites: bright, unsaturated pixels; the iris: dark pixels on the rows of the whites, between
+    the leftmost and rightmost white pixel of that eye.
+    """
+    white = (img.min(axis=2) > bright) & (np.ptp(img, axis=2) < 40)
     rows, cols = np.nonzero(white)
-    assert rows.size > 4, "no eye whites visible"
-    r0, r1, c0, c1 = rows.min() - 2, rows.max() + 3, cols.min() - 2, cols.max() + 3
-    region = img[r0:r1, c0:c1]
-    dark = region.max(axis=2) < 40
-    pr, pc = np.nonzero(dark)
-    # Against the middle of the whites' extent (their mean leans toward the lit side).
-    return float(pc.mean() + c0 - (cols.min() + cols.max()) / 2) if pc.size else float("nan"), int(pc.size)
+    assert rows.size >= 4, "no eye whites visible"
+    mid = img.shape[1] / 2
+    out = []
+    for side in (cols < mid, cols >= mid):
+        r, c = rows[side], cols[side]
+        if r.size < 3:
+            continue
+        box = img[r.min() : r.max() + 1, c.min() : c.max() + 1]
+        dark = box.max(axis=2) < 110
+        _, ic = np.nonzero(dark)
+        if ic.size == 0:
+            out.append((float("nan"), int(r.size), 0))
+            continue
+        iris = ic.mean() + c.min()
+        left, right = (c < iris).sum(), (c > iris).sum()
+        out.append((float((left - right) / (left + right)), int(r.size), int(ic.size)))
+    return out
 
 
-def test_an_agent_gazing_at_the_camera_shows_its_pupils_centred_toward_it(renderer: Renderer) -> None:
-    off, n = _pupil_offset(_face(renderer, (0.0, EYE_H, 0.0)))  # the body's gaze_at the camera
-    assert n >= 8 and abs(off) < 2.0  # pupils in the middle of the whites: looking at us
-    # The agent at 2D (0.55, 0) faces 2D -x; its right is heading + 90° = 2D -y, its left 2D +y (math3d's
-    # chirality note). The camera faces 2D +x, so its right is 2D +y: the agent's left looks camera-right.
-    off_left, n_left = _pupil_offset(_face(renderer, (-0.45, EYE_H, 0.6)))
-    off_right, n_right = _pupil_offset(_face(renderer, (-0.45, EYE_H, -0.6)))
-    assert n_left >= 2 and n_right >= 2
-    assert off_left > off + 1.5 and off_right < off - 1.5
+BLUE_EYED = 39  # an id whose looks give blue irises and a mid skin tone (Monk 6)
 
 
-def test_the_red_target_sphere_is_red_and_in_front(renderer: Renderer) -> None:
-    eye = first_person_eye(pos=np.zeros(2), heading=0.0, eye_height=1.4, aspect=W / H)
-    snap = Snapshot.of_agents(pos=np.zeros((0, 2)), heading=np.zeros(0), sphere=np.array([3.0, 0.0]))
-    img = render(renderer, snap, [eye])
-    c = img[H // 2, W // 2]
-    assert c[0] > 150 and c[1] < 60 and c[2] < 60
+def _iris_on_pixels(renderer: Renderer, gaze: tuple[float, float, float]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per eye: the blue iris pixels' centroid, the projected eye centre and the projected point
+    where the eye's axis leaves the eyeball (what the body layer says the eye looks along)."""
+    w, h, fovy = 360, 270, 30.0
+    snap, body = posed([[0.55, 0.0]], [math.pi], seconds=1.5, gaze={0: gaze}, reference=True)
+    snap = dataclasses.replace(snap, ids=np.array([BLUE_EYED]))
+    img = _render_face(renderer, snap, size=(w, h), fovy=fovy)
+    proj = first_person_eye(pos=np.zeros(2), heading=0.0, fovy=math.radians(fovy), aspect=w / h).projection
+    cam = EyeView.from_pose(rotation=first_person_rotation(0.0), position=np.array([0.0, EYE_H, 0.0]),
+                            projection=proj)
+    blue = (img[:, :, 2] > img[:, :, 0] + 12) & (img[:, :, 2] > img[:, :, 1]) & (img.min(axis=2) >= 0)
+    assert snap.bones is not None
+    out = []
+    for j in (sk.L_EYE, sk.R_EYE):
+        m = snap.bones[0, j].astype(np.float64)
+        centre = project(cam.view_projection, m[:3, 3], width=w, height=h)
+        axis = project(cam.view_projection, m[:3, 3] + m[:3, 2] * bm.EYE_RADIUS, width=w, height=h)
+        rows, cols = np.nonzero(blue)
+        near = np.hypot(cols - centre[0], rows - centre[1]) < 12
+        assert near.sum() >= 20, f"eye {JOINTS[j]}: {int(near.sum())} iris pixels"
+        out.append((np.array([cols[near].mean(), rows[near].mean()]) + 0.5, centre, axis))
+    return out
+
+
+def test_the_irises_on_pixels_follow_the_eyes_and_centre_when_gazing_at_the_camera(renderer: Renderer) -> None:
+    """Iris position on rendered pixels (issue 16): the iris drawn is where the body's eye joint
+    points, within a pixel (at ~7 px iris radius); gazing at the camera it is centred on the eye."""
+    at_camera = _iris_on_pixels(renderer, (0.0, EYE_H, 0.0))
+    for iris, centre, axis in at_camera:
+        assert abs(iris[0] - axis[0]) < 1.0
+        assert abs(iris[0] - centre[0]) < 1.0  # looking at us: iris over the eye's centre
+    for side, target in ((+1, (-0.45, EYE_H, 0.3)), (-1, (-0.45, EYE_H, -0.3))):
+        aside = _iris_on_pixels(renderer, target)
+        for iris, centre, axis in aside:
+            assert abs(iris[0] - axis[0]) < 1.0
+            # The agent's left is image-right (math3d's chirality note).
+            assert side * (iris[0] - centre[0]) > 2.0, (side, iris, centre)
+
+
+def test_eyes_are_readable_at_2_m_at_1280x720(renderer: Renderer) -> None:
+    """At 2 m in a 1280×720, 70° view (the desktop window) both eyes show white and a dark iris."""
+    img = _face(renderer, (0.0, EYE_H, 0.0), size=(1280, 720), dist=2.0, fovy=70.0)
+    eyes = _irises(img, bright=120)
+    assert len(eyes) == 2
+    for _, whites, iris in eyes:
+        assert whites >= 3 and iris >= 2, eyes
+
+
+def test_a_blink_hides_the_eyes(renderer: Renderer) -> None:
+    open_ = _face(renderer, (0.0, EYE_H, 0.0))
+    renderer._blinks.closure = lambda age: np.ones_like(age)  # type: ignore[method-assign]
+    try:
+        shut = _face(renderer, (0.0, EYE_H, 0.0))
+    finally:
+        del renderer._blinks.closure
+    white = lambda img: ((img.min(axis=2) > 140) & (np.ptp(img, axis=2) < 40)).sum()  # noqa: E731
+    assert white(open_) > 40 and white(shut) < 0.1 * white(open_)
+
+
+def test_the_red_target_is_small_at_chest_height_and_see_through_over_a_pedestrian(renderer: Renderer) -> None:
+    """Issue 16: the route target floats at chest height, 22 cm across; over the background it is
+    red, in front of a pedestrian it lets the pedestrian show through."""
+    eye = first_person_eye(pos=np.zeros(2), heading=0.0, eye_height=SPHERE_HEIGHT, aspect=W / H)
+    alone = render(renderer, Snapshot.of_agents(pos=np.zeros((0, 2)), heading=np.zeros(0),
+                                                sphere=np.array([1.5, 0.0])), [eye])
+    c = alone[H // 2, W // 2]
+    assert c[0] > 150 and c[1] < 70 and c[2] < 70
+    top = project(eye.view_projection, np.array([1.5, SPHERE_HEIGHT + TARGET_RADIUS, 0.0]), width=W, height=H)
+    red = (alone[:, :, 0] > 120) & (alone[:, :, 1] < 70)
+    assert abs(np.nonzero(red[:, W // 2])[0].min() - top[1]) <= 1.5
+    snap, _ = posed([[3.0, 0.0]], [math.pi], reference=True)
+    behind = render(renderer, dataclasses.replace(snap, sphere=np.array([1.5, 0.0])), [eye])
+    person = render(renderer, snap, [eye])
+    mix = behind[H // 2, W // 2].astype(float)
+    expect = TARGET_ALPHA * c + (1 - TARGET_ALPHA) * person[H // 2, W // 2]
+    assert np.abs(mix - expect).max() < 40  # a blend: the pedestrian shows through the target
+    assert np.abs(mix - c).max() > 40
 
 
 def test_draw_calls_do_not_grow_with_the_crowd(renderer: Renderer) -> None:
     eye = first_person_eye(pos=np.zeros(2), heading=0.0, aspect=W / H)
     counts = []
-    for n in (1, 40, 300):
-        pos = np.stack([3 + np.arange(n) % 20, np.arange(n) // 20 - 7.0], axis=1).astype(float)
+    rng = np.random.default_rng(1)
+    for n in (40, 300, 1000):
+        ang, rad = rng.uniform(-0.5, 0.5, n), rng.uniform(2.0, 30.0, n)
+        pos = np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=1)
         render(renderer, Snapshot.of_agents(pos=pos, heading=np.zeros(n)), [eye])
         counts.append(renderer.stats.draw_calls)
-    assert counts[0] == counts[1] == counts[2] == 4
+    # floor and solids; per level of detail one crowd draw in the shadow map and one in the view;
+    # the solids' shadow; the contact shadows.
+    assert counts[0] == counts[1] == counts[2] == 2 + 2 * 3 + 1 + 1
 
 
 def test_overhead_view_shows_the_user_in_blue_where_it_stands(
@@ -219,3 +318,81 @@ def test_hud_panel_is_drawn_top_left(ctx: moderngl.Context, renderer: Renderer) 
     img = t.read().astype(int)
     assert img[4, 4].max() < 200 and img[H - 2, W - 2].min() > 250
     assert hud.lines() == [" 90.0 fps   11.1 ms", "condition B"]
+
+
+def test_a_standing_character_casts_a_shadow_on_the_floor(ctx: moderngl.Context, renderer: Renderer) -> None:
+    """The key light's shadow (issue 16): floor pixels beside the feet, on the side away from the
+    light, are darker with the shadow map than without; floor on the lit side is unchanged."""
+    from tests.render.conftest import EMPTY
+
+    w, h = 160, 120
+    eye = first_person_eye(pos=np.zeros(2), heading=0.0, pitch=-0.35, eye_height=1.6, aspect=w / h)
+    snap, _ = posed([[3.0, 0.0]], [math.pi], reference=True)
+    unshadowed = Renderer(ctx, world=EMPTY, shadows=False)
+    try:
+        with_map, without = render(renderer, snap, [eye], size=(w, h)), render(unshadowed, snap, [eye], size=(w, h))
+    finally:
+        unshadowed.release()
+    sun = np.array([0.35, 0.45]) / np.hypot(0.35, 0.45)  # the light's direction on the ground (x, y)
+    lum = lambda img, p: float(img[int(p[1]) - 1 : int(p[1]) + 2, int(p[0]) - 1 : int(p[0]) + 2].mean())  # noqa: E731
+    for d in (0.55, 0.8):
+        shade = project(eye.view_projection, np.array([3.0 - sun[0] * d, 0.0, -sun[1] * d]), width=w, height=h)
+        assert lum(with_map, shade) < 0.75 * lum(without, shade), d
+    lit = project(eye.view_projection, np.array([3.0 + sun[0] * 0.7, 0.0, sun[1] * 0.7]), width=w, height=h)
+    assert abs(lum(with_map, lit) - lum(without, lit)) < 3
+
+
+def _lightness(rgb: np.ndarray) -> float:
+    """CIE L* of an sRGB colour (0-255)."""
+    c = np.asarray(rgb, np.float64) / 255.0
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    y = float(lin @ [0.2126, 0.7152, 0.0722])
+    return 116.0 * (y ** (1 / 3) if y > 0.008856 else 7.787 * y + 16 / 116) - 16.0
+
+
+def test_skin_tones_read_from_light_to_dark_on_rendered_faces(renderer: Renderer) -> None:
+    """Measured on a rendered frame (issue 16): faces of the ten Monk tones, lit as the crowd is,
+    keep their order and span a wide range of lightness (the lightest not read as brown)."""
+    from pedvr.render.crowd import SKIN_TONES, agent_looks
+
+    pool = np.arange(400)
+    tones = agent_looks(pool, sk.user_dims(len(pool))).tone
+    ids = np.array([pool[tones == k][0] for k in range(len(SKIN_TONES))])
+    n = len(ids)
+    ys = (np.arange(n) - (n - 1) / 2) * 0.45
+    snap, body = posed(np.stack([np.full(n, 3.2), ys], axis=1), np.full(n, math.pi), reference=True)
+    snap = dataclasses.replace(snap, ids=ids)
+    w, h = 960, 240
+    eye = first_person_eye(pos=np.zeros(2), heading=0.0, eye_height=1.6, aspect=w / h, fovy=math.radians(30))
+    img = render(renderer, snap, [eye], size=(w, h))
+    head = body.state.world_pos[:, sk.HEAD]
+    lightness = []
+    for i in range(n):
+        cheek = head[i] + np.array([-0.09, 0.0, 0.04])  # on a cheek, facing the camera
+        c, r = project(eye.view_projection, cheek, width=w, height=h)
+        patch = img[int(r) - 1 : int(r) + 2, int(c) - 1 : int(c) + 2].reshape(-1, 3)
+        lightness.append(_lightness(np.median(patch, axis=0)))
+    # In the shade of the key light (faces toward the camera, away from the light): lightest and
+    # darkest as a person would read them, the order kept, lightness tracking the tones' own.
+    albedo = [_lightness(255 * np.where(t <= 0.0031308, 12.92 * t, 1.055 * t ** (1 / 2.4) - 0.055))
+              for t in SKIN_TONES]
+    assert lightness[0] > 55 and lightness[-1] < 26, lightness
+    assert np.corrcoef(albedo, lightness)[0, 1] > 0.97, (albedo, lightness)
+    assert np.ptp(lightness) > 30
+    assert sum(b > a + 1 for a, b in zip(lightness, lightness[1:], strict=False)) <= 1, lightness
+
+
+def test_multisampled_targets_smooth_edges_and_resolve_on_read(renderer: Renderer) -> None:
+    eye = first_person_eye(pos=np.zeros(2), heading=0.0, eye_height=1.6, aspect=W / H)
+    snap, _ = posed([[2.5, 0.0]], [math.pi], reference=True)
+    images = []
+    for samples in (0, 4):
+        t = OffscreenTarget(renderer.ctx, (W, H), samples=samples)
+        renderer.update(snap)
+        renderer.draw_scene([eye], framebuffer=t.fbo)
+        images.append(t.read().astype(int))
+        t.release()
+    plain, msaa = images
+    assert np.abs(plain - msaa).mean() < 4.0  # the same picture...
+    edges = lambda img: len(np.unique(img.reshape(-1, 3), axis=0))  # noqa: E731
+    assert edges(msaa) > 1.2 * edges(plain)  # ...with blended edge pixels

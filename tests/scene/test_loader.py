@@ -210,3 +210,30 @@ def test_all_six_paper_scenes_are_shipped() -> None:
     names = {p.stem for p in shipped_scenes()}
     assert {"antipodal_circle", "bidirectional_flow", "headon_corridor", "shibuya_crossing",
             "tradeshow", "shopping_mall"} <= names
+
+
+def test_the_world_s_look_keys_load_and_default_outdoors(tmp_path: Path) -> None:
+    """Issue 16: walls at real heights, a ceiling, the floor's material, crosswalks (drawing only)."""
+    plain = load_scene(write(tmp_path, GOOD)).world
+    assert (plain.indoor, plain.ceiling, plain.floor, plain.markings) == (False, False, "grid", ())
+    s = load_scene(write(tmp_path, patched(
+        world__indoor=True, world__ceiling=True, world__wall_height=3.2, world__floor="tiles",
+        world__markings=[{"kind": "crosswalk", "from": [-2.0, 0.0], "to": [2.0, 0.0], "width": 2.5}])))
+    w = s.world
+    assert (w.indoor, w.ceiling, w.wall_height, w.floor) == (True, True, 3.2, "tiles")
+    (m,) = w.markings
+    assert (m.kind, m.start, m.end, m.width) == ("crosswalk", (-2.0, 0.0), (2.0, 0.0), 2.5)
+
+
+def test_bad_look_keys_are_all_reported(tmp_path: Path) -> None:
+    path = write(tmp_path, patched(
+        world__ceiling=True, world__wall_height=1.0, world__floor="lava",
+        world__markings=[{"kind": "zebra", "from": [0.0, 0.0], "to": [0.3, 0.0]}]))
+    with pytest.raises(SceneError) as e:
+        load_scene(path)
+    msg = str(e.value)
+    assert "world.ceiling = true: needs world.indoor = true" in msg
+    assert "world.wall_height = 1.0: must be between 2 and 30 m" in msg
+    assert "world.floor = 'lava': expected one of grid, tiles, wood, carpet, asphalt, paving" in msg
+    assert "world.markings[0].kind = 'zebra': expected one of crosswalk" in msg
+    assert "world.markings[0].to = [0.3, 0.0]: must be at least 1 m from world.markings.from" in msg

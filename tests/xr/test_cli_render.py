@@ -19,7 +19,7 @@ def test_frames_and_video_of_first_person_and_overhead(tmp_path: Path, capsys: p
     code = main(
         [
             "run",
-            "headon_corridor",
+            "bidirectional_flow",  # outdoors: the sky shows (headon_corridor has a ceiling)
             "--duration",
             "0.5",
             "--frames",

@@ -59,7 +59,7 @@ from pedvr.xr.desktop import DesktopPresenter
 from pedvr.xr.select import choose_backend
 
 out = {"backend": choose_backend("desktop")[0]}
-scene = load_any(resolve_scene("headon_corridor"), seed=None)
+scene = load_any(resolve_scene("bidirectional_flow"), seed=None)  # outdoors: the sky shows
 user = KeyboardMouseUser(start=scene.user.start, heading=scene.user.heading)
 p = DesktopPresenter(scene, user=user, width=96, height=64, vsync=False, visible=True)
 out["renderer"] = p.ctx.info["GL_RENDERER"]
@@ -140,9 +140,20 @@ out["fullscreen_size"] = list(glfw.get_framebuffer_size(win))
 xdo("key", "F11")
 out["windowed"] = pump(lambda: not glfw.get_window_monitor(win)
                        and tuple(glfw.get_framebuffer_size(win)) == (96, 64))
+from pedvr.sim import Simulation
+sim = Simulation(scene, user_input=user)
+sim.advance_to(0.02)
+p.show_hud = False
+
+def hint_pixels():
+    p.render(sim)
+    return [list(p.read_pixel(x, 44)) for x in range(0, 96, 4)]
+
+out["hint_before"], out["before"] = p.show_capture_hint, hint_pixels()
 xdo("mousemove", "--window", wid, "48", "32")
 xdo("click", "1")
 out["captured"] = pump(lambda: glfw.get_input_mode(win, glfw.CURSOR) == glfw.CURSOR_DISABLED)
+out["hint_after"], out["after"] = p.show_capture_hint, hint_pixels()
 h0, p0 = user.heading, user.pitch
 xdo("mousemove_relative", "--", "40", "-20")
 pump(lambda: user.heading != h0 and user.pitch != p0)
@@ -167,7 +178,8 @@ print(json.dumps(out))
 
 def test_real_x_input_fullscreen_mouse_capture_keys_and_escape(xvfb_display: str) -> None:
     """Real X events (xdotool through the X server, not calls to our callbacks): F11 goes full
-    screen on Xvfb's 320×240 screen and back, a click captures the mouse and moving it turns and
+    screen on Xvfb's 320×240 screen and back, a hint says to click until a click captures the mouse,
+    moving it turns and
     pitches the view by the sensitivity, Tab releases it, W walks forward at 1.3 m/s and Shift
     doubles it, Esc closes the window."""
     if shutil.which("xdotool") is None:
@@ -176,6 +188,11 @@ def test_real_x_input_fullscreen_mouse_capture_keys_and_escape(xvfb_display: str
     assert out["focused"] and out["fullscreen"] and out["windowed"], out
     assert out["fullscreen_size"] == [320, 240]
     assert out["captured"] and out["released"], out
+    # Issue 11: until that first click the window says how to capture the mouse (a dark text panel
+    # near the bottom); once captured the line is gone.
+    assert out["hint_before"] and not out["hint_after"]
+    dark = lambda row: sum(max(px) < 90 for px in row)  # noqa: E731
+    assert dark(out["before"]) >= 8 and dark(out["after"]) <= 1, (out["before"], out["after"])
     k = out["sensitivity"]
     assert out["turn"] == pytest.approx(40 * k) and out["look_up"] == pytest.approx(20 * k)  # right, up
     walk = out["walk"]
