@@ -142,7 +142,7 @@ def test_corridor_trajectories_by_responsibility(tmp_path: Path) -> None:
         assert b["gave_way"]["user"] == b["gave_way"]["both"] == 0
     assert by["1"]["gave_way"]["agent"] == 1
     assert by["0"]["min_distance_m"]["mean"] <= by["1"]["min_distance_m"]["mean"]
-    assert len(cor["trajectories"]) == 4 and len(cor["trajectories"][0]["user"]) == 406
+    assert len(cor["trajectories"]) == 4 and len(cor["trajectories"][0]["user"]) == 541
 
 
 def test_export_round_trips_through_pandas(study: Path, tmp_path: Path) -> None:
