@@ -54,6 +54,17 @@ ARM_ACTIONS = np.array([act.A_HEAD_TOUCH, act.A_HEAD_SCRATCH, act.A_YAWN, act.A_
                         act.A_BODY_SCRATCH])
 
 
+def _point3(target: object, *, what: str) -> np.ndarray:
+    """A finite 3D point from a capability's target, or :class:`UsageError` naming it."""
+    try:
+        p = np.asarray(target, np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise UsageError(f"{what} {target!r}: expected a 3D point (x, y, z)") from None
+    if not np.isfinite(p).all():
+        raise UsageError(f"{what} {target!r}: expected a finite 3D point")
+    return p
+
+
 def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors ``v (M,3)`` by unit quaternions ``q (M,4)`` (x, y, z, w)."""
     u, w = q[:, :3], q[:, 3:4]
@@ -696,7 +707,7 @@ class FullBody:
         for hd in self.handles:
             if hd.running and hd.agent == agent_id and hd.capability == capability:
                 hd.status, hd.detail = Status.SUCCESS, "stopped"
-        hd = Handle(capability, agent_id, target, getattr(self, "_t", 0.0))
+        hd = Handle(capability, agent_id, target, self._t)
         self.handles.append(hd)
         return hd
 
@@ -722,52 +733,74 @@ class FullBody:
         """Gaze at a 3D point ``(x, y, z)``, ``("agent", id)`` or ``"user"``; None stops.
 
         Succeeds when head and eyes are within 5° of the target; keeps gazing
-        until stopped.
+        until stopped. A target that is none of these raises :class:`UsageError`
+        and changes nothing.
         """
         row = self._row(agent_id)
         b = self.state
+        point = None
+        is_user = isinstance(target, str) and target == "user"
+        is_agent = isinstance(target, tuple) and len(target) == 2 and target[0] == "agent"
+        if not (target is None or is_user or is_agent):
+            point = _point3(target, what="gaze_at target")
         hd = self._start("gaze_at", agent_id, target)
         if target is None:
             b.gaze_kind[row] = GAZE_NONE
             hd.status, hd.detail = Status.SUCCESS, "stopped"
-        elif isinstance(target, str) and target == "user":
-            b.gaze_kind[row] = GAZE_USER
-        elif isinstance(target, tuple) and len(target) == 2 and target[0] == "agent":
-            b.gaze_kind[row] = GAZE_AGENT
-            b.gaze_agent[row] = int(target[1])  # type: ignore[arg-type]
-        else:
-            p = np.asarray(target, np.float64).reshape(3)
+        elif point is not None:
             b.gaze_kind[row] = GAZE_POINT
-            b.gaze_point[row] = p
+            b.gaze_point[row] = point
+        elif is_user:
+            b.gaze_kind[row] = GAZE_USER
+        else:
+            b.gaze_kind[row] = GAZE_AGENT
+            b.gaze_agent[row] = int(cast(tuple[str, int], target)[1])
         return hd
 
     def reach_for(self, agent_id: int, target: tuple[float, float, float] | None, *,
                   side: str = "right") -> Handle:
-        """Put the hand on a 3D world point; fails if it stays out of reach for 2 s. None releases."""
+        """Put the hand on a 3D world point; fails if it stays out of reach for 2 s. None releases.
+
+        A bad ``side`` or target raises :class:`UsageError` and changes nothing.
+        """
         row = self._row(agent_id)
+        if side not in ("left", "right"):
+            raise UsageError(f"reach_for side {side!r}: expected 'left' or 'right'")
         s = 1 if side == "right" else 0
+        point = None if target is None else _point3(target, what="reach_for target")
         hd = self._start("reach_for", agent_id, (target, s))
-        if target is None:
+        if point is None:
             self.state.reach_on[row, s] = False
             hd.status, hd.detail = Status.SUCCESS, "released"
         else:
             self.state.reach_on[row, s] = True
-            self.state.reach_pt[row, s] = np.asarray(target, np.float64)
+            self.state.reach_pt[row, s] = point
         return hd
 
     def gesture(self, agent_id: int, name: str | None, *, duration: float = 2.5) -> Handle:
-        """Play a gesture clip (``pose.GESTURES``); None stops the current one."""
+        """Play a gesture clip (``pose.GESTURES``) for ``duration`` s; None stops the current one.
+
+        An unknown name or a duration that is not a positive finite number
+        raises :class:`UsageError` *before* anything changes: the running
+        clip plays on and its handle stays RUNNING (a bad call is the
+        caller's mistake, reported at once, not a FAILURE handle that a
+        behavior tree might silently poll past).
+        """
         row = self._row(agent_id)
         b = self.state
+        if name is not None:
+            if name not in ps.GESTURES[1:]:
+                raise UsageError(f"gesture {name!r}: unknown; known: {', '.join(ps.GESTURES[1:])}")
+            if not (math.isfinite(duration) and duration > 0.0):
+                raise UsageError(f"gesture {name!r}: duration = {duration}: "
+                                 "must be a positive number of seconds")
         hd = self._start("gesture", agent_id, name)
         if name is None:
-            b.g_dur[row] = max(0.0, self._t - b.g_start[row]) if hasattr(self, "_t") else 0.0
+            b.g_dur[row] = max(0.0, self._t - b.g_start[row])
             hd.status, hd.detail = Status.SUCCESS, "stopped"
             return hd
-        if name not in ps.GESTURES[1:]:
-            raise UsageError(f"gesture {name!r}: unknown; known: {', '.join(ps.GESTURES[1:])}")
         b.g_kind[row] = ps.GESTURES.index(name)
-        b.g_start[row] = getattr(self, "_t", 0.0)
+        b.g_start[row] = self._t
         b.g_dur[row] = duration
         return hd
 

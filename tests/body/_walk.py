@@ -42,11 +42,11 @@ def bodies(n: int, *, heights: np.ndarray | None = None, emotion: np.ndarray | N
 
 def drive(body: FullBody, velocity: Callable[[float], np.ndarray], heading: Callable[[float], np.ndarray],
           seconds: float, *, coupled: bool = True, record: Callable[[FullBody, float], None] | None = None,
-          dt: float = DT) -> CrowdState:
-    """Move the roots with ``velocity(t) (N,2)`` and ``heading(t) (N,)`` for ``seconds``."""
+          dt: float = DT, t0: float = 0.0) -> CrowdState:
+    """Move the roots with ``velocity(t) (N,2)`` and ``heading(t) (N,)`` for ``seconds`` from time ``t0``."""
     n = len(body.state)
     crowd = crowd_of(n, pos=body.state.root, heading=body.state.heading)
-    t = 0.0
+    t = t0
     for _ in range(round(seconds / dt)):
         v = np.asarray(velocity(t), np.float64).reshape(n, 2)
         root = crowd.pos + v * dt
