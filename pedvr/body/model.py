@@ -116,6 +116,8 @@ class BodyState:
     planted: np.ndarray  # (N,2) int8
     h_prev: np.ndarray  # (N,) m, pelvis height last step
     ik_miss: np.ndarray  # (N,2) m, ankle left short of its target
+    land: np.ndarray  # (N,3) the swing foot's committed landing: x, y m, yaw rad
+    first: np.ndarray  # (N,) bool: the current step began from standing
     gaze_ang: np.ndarray  # (N,5,2) lumbar, thorax, neck, head, eyes × (yaw, pitch)
     gaze_kind: np.ndarray  # (N,) int64 GAZE_*
     gaze_point: np.ndarray  # (N,3) world target of GAZE_POINT
@@ -159,7 +161,8 @@ class BodyState:
             stepping=z(n, np.bool_), s=z(n), swing=z(n, np.int64), foot_ref=z((n, 2, 2)),
             foot_yaw=z((n, 2)), foot_pitch=z((n, 2)), foot_lift=z((n, 2)), since_land=np.full((n, 2), 10.0),
             lift_ref=z((n, 2)), lift_yaw=z(n), lift_pitch=z(n), trail_pitch0=z(n), roll=z(n), phase=z(n),
-            amp=z(n), planted=np.ones((n, 2), np.int8), h_prev=z(n), ik_miss=z((n, 2)),
+            amp=z(n), planted=np.ones((n, 2), np.int8), h_prev=z(n), ik_miss=z((n, 2)), land=z((n, 3)),
+            first=z(n, np.bool_),
             gaze_ang=z((n, 5, 2)), gaze_kind=z(n, np.int64), gaze_point=z((n, 3)),
             gaze_agent=np.full(n, -1, np.int64), gaze_rule=z(n, np.bool_),
             g_kind=z(n, np.int64), g_start=z(n), g_dur=z(n), g_next=z(n), sitting=z(n, np.bool_),
@@ -400,7 +403,7 @@ class FullBody:
                          b.dims[:, sk.DIM_SCALE].copy(), b.half_width, b.vel_s, b.stepping, b.s, b.swing,
                          b.foot_ref, b.foot_yaw, b.foot_pitch, b.foot_lift, b.since_land, b.lift_ref,
                          b.lift_yaw, b.lift_pitch, b.trail_pitch0, b.roll, b.phase, b.amp, b.planted,
-                         self._steps, 0)
+                         b.land, b.first, self._steps, 0)
         if ne:
             ev = self._steps[:ne].copy()
             ev[:, 0] = self.ids[ev[:, 0].astype(np.int64)]

@@ -30,11 +30,14 @@ PELVIS_YAW = 0.07  # rad: transverse pelvic rotation at a walk (±4°)
 PELVIS_LIST = 0.05  # rad: pelvic obliquity (±3°)
 PELVIS_TILT = 0.03  # rad: forward tilt at a walk
 SWAY = 0.02  # m (reference adult): lateral pelvis sway toward the stance foot
-BOB = 0.02  # m (reference adult): nominal vertical bob (the reach limit adds the rest)
-KNEE_BEND = 0.012  # m (reference adult): standing pelvis below a straight-leg height
-LEG_REACH = 0.995  # fraction of thigh + shin the IK may use
-RISE_RATE = 0.4  # m/s: fastest the pelvis rises (it falls as fast as the feet need)
+BOB = 0.045  # m (reference adult): pelvis bob, peak to peak, at 1.35 m/s (people: 4-5 cm)
+BOB_EXP = 0.7  # bob ∝ speed^0.7: about 2 cm at 0.5 m/s, 5.5 cm at 1.8 m/s (people: 5-6 cm)
+KNEE_STAND = math.radians(5.0)  # knee flexion of a person standing at ease (and at mid-stance)
+KNEE_MIN = math.radians(2.0)  # the straightest a planted leg gets (heel strike, toe-off)
+LEG_REACH = 0.99999  # fraction of thigh + shin the IK may use (the KNEE_MIN reach binds first)
+RISE_RATE = 0.6  # m/s: fastest the pelvis rises (it falls as fast as the feet need)
 PELVIS_FLOOR = 0.8  # fraction of the standing pelvis height the reach limit may not go below
+PITCH_MAX = math.radians(60.0)  # the most a heel-up foot rises onto its toes to keep the leg reaching
 
 # Gaze controller (SmartBody-like). Order: lumbar, thorax, neck, head, eyes.
 GAZE_LUMBAR, GAZE_THORAX, GAZE_NECK, GAZE_HEAD, GAZE_EYES = 0, 1, 2, 3, 4
@@ -44,6 +47,18 @@ GAZE_PITCH_LIMIT = np.radians([5.0, 8.0, 20.0, 25.0, 25.0])
 GAZE_SPEED = np.radians([30.0, 45.0, 100.0, 200.0, 600.0])  # °/s caps; head-on-trunk ≤ 300 °/s
 GAZE_TAU = np.array([0.45, 0.35, 0.22, 0.15, 0.03])  # s: smoothing time constants (eyes lead)
 RUNNING_TORSO = 0.3  # while "running", lumbar and thorax keep this fraction of their limits
+
+
+
+def knee_reach(l1: float, l2: float, flexion: float) -> float:
+    """Hip-to-ankle distance of a leg (thigh ``l1``, shin ``l2``) with the knee flexed ``flexion`` rad."""
+    return math.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * math.cos(flexion))
+
+
+_THIGH, _SHIN = -sk.REST_OFFSETS[sk.L_KNEE, 1], -sk.REST_OFFSETS[sk.L_ANKLE, 1]
+KNEE_BEND = _THIGH + _SHIN - knee_reach(_THIGH, _SHIN, KNEE_STAND)
+"""m (reference adult): the standing pelvis below a straight-leg height (KNEE_STAND; 0.8 mm)."""
+KNEE_MIN_COS = math.cos(KNEE_MIN)
 
 UPPER_MASK = np.zeros(sk.J, np.bool_)
 UPPER_MASK[sk.SPINE1:sk.J] = True
@@ -128,7 +143,8 @@ def loco_shadow_kernel(phase, amp, style, scale, pelvis_rest, out_q, out_p):  # 
         pt = PELVIS_TILT * min(a, 1.0)
         _put(out_q, i, sk.PELVIS, euler_yxz4(py, pt, pl))
         out_p[i, 0] = SWAY * sc * math.sin(t) * a
-        bob = BOB * sc * min(a, 1.0) * 0.5 * (1.0 + math.cos(2.0 * t))
+        # lowest at each heel strike (double support), highest at mid-stance; amp = speed / 1.3
+        bob = BOB * sc * (a * (1.3 / 1.35)) ** BOB_EXP * 0.5 * (1.0 + math.cos(2.0 * t))
         out_p[i, 1] = pelvis_rest[i] - KNEE_BEND * sc - bob
         out_p[i, 2] = 0.0
         # lower spine: counter-rotate the pelvis (spread over Spine1, Spine2) + style
@@ -211,7 +227,8 @@ def idle_kernel(t, seed, weight, scale, perm, in_q, in_p, out_q, out_p):  # type
         sc = scale[i]
         out_p[i, 0] += w * 0.012 * sc * perlin1d(0.25 * t + s, perm)
         out_p[i, 2] += w * 0.006 * sc * perlin1d(0.21 * t + s + 17.3, perm)
-        out_p[i, 1] -= w * 0.004 * sc * (1.0 + perlin1d(0.3 * t + s + 5.1, perm))
+        # a slight, slow knee bend (≤ 1.4 mm of pelvis: near-straight knees flex fast with depth)
+        out_p[i, 1] -= w * 0.0007 * sc * (1.0 + perlin1d(0.3 * t + s + 5.1, perm))
         for j, f, ay, ap, ar, off in ((sk.SPINE2, 0.3, 0.015, 0.012, 0.01, 31.7),
                                       (sk.NECK, 0.35, 0.06, 0.03, 0.01, 47.9),
                                       (sk.HEAD, 0.45, 0.05, 0.04, 0.02, 63.1),
@@ -404,10 +421,39 @@ def _qinv_mul(ax, ay, az, aw, bx, by, bz, bw):  # type: ignore[no-untyped-def]
     return qmul4(-ax, -ay, -az, aw, bx, by, bz, bw)
 
 
+@njit(cache=True, fastmath=True, inline="always")
+def toe_rise(df, du, dp, rf, ru, R, pitch):  # type: ignore[no-untyped-def]
+    """The heel-up pitch (≥ ``pitch``, ≤ ``PITCH_MAX``) that brings the ankle within ``R`` of the hip.
+
+    The ankle turns about the ball on a circle: at pitch ψ it sits at ``(rf cos ψ + ru sin ψ,
+    −rf sin ψ + ru cos ψ)`` (forward, up) from the ball. ``(df, du)`` is the hip from the ball in
+    the foot's sagittal plane, ``dp`` its sideways offset. ``|hip − ankle|² ≤ R²`` reads
+    ``A cos ψ + B sin ψ ≥ G``; the smallest such ψ above ``pitch`` on the rising side of the
+    cosine, or the best pitch when none reaches (the IK then reports the miss).
+    """
+    a = df * rf + du * ru
+    b = df * ru - du * rf
+    g = 0.5 * (df * df + du * du + dp * dp + rf * rf + ru * ru - R * R)
+    if a * math.cos(pitch) + b * math.sin(pitch) >= g:
+        return pitch
+    m = math.sqrt(a * a + b * b)
+    phi = math.atan2(b, a)
+    if phi <= pitch:
+        return pitch  # rising further would only take the ankle away
+    best = phi if g >= m else phi - math.acos(g / m)
+    return min(max(best, pitch), PITCH_MAX)
+
+
 @njit(cache=True, fastmath=True)
 def leg_ik_kernel(dt, root, root_yaw, offsets, foot_ref, foot_yaw, foot_pitch, foot_lift, planted,
                   stepping, s, swing, h_prev, pose_q, pose_p, miss):  # type: ignore[no-untyped-def]
     """Final node: pelvis height from the planted feet's reach, then analytic leg IK.
+
+    A planted foot whose heel is up (pitch > 0: late stance, push-off) may rise further onto its
+    toes, up to ``PITCH_MAX``, when the leg cannot otherwise reach it from the pelvis height the
+    other constraints allow; ``foot_pitch`` is updated (the gait's next frame and the swing start
+    from it). This is the heel rise that keeps a walker's pelvis from dropping at push-off (the
+    trailing foot is half a step and the double support behind the body there).
 
     ``root (N,2)`` ground root, ``root_yaw (N,)`` rotation about +Y;
     ``pose_q/pose_p`` the blended pose, updated in place (legs and pelvis
@@ -443,7 +489,7 @@ def leg_ik_kernel(dt, root, root_yaw, offsets, foot_ref, foot_yaw, foot_pitch, f
             hips[f, 0], hips[f, 1], hips[f, 2] = pelx + hx, hy, pelz + hz
             l1 = -offsets[i, hipk + 1, 1]
             l2 = -offsets[i, hipk + 2, 1]
-            R = LEG_REACH * (l1 + l2) * 0.999
+            R = math.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * KNEE_MIN_COS)  # knee_reach at KNEE_MIN
             # how much this foot constrains the pelvis height
             if planted[i, f]:
                 w = 1.0
@@ -457,6 +503,13 @@ def leg_ik_kernel(dt, root, root_yaw, offsets, foot_ref, foot_yaw, foot_pitch, f
                 ddz = hips[f, 2] - az
                 dxz2 = ddx * ddx + ddz * ddz
                 top = ay + math.sqrt(max(R * R - dxz2, 0.0)) - hy
+                if planted[i, f] and foot_pitch[i, f] > 0.0:
+                    # the heel may rise further: the leg reaches at least as high as on tiptoe
+                    tx_, ty_, tz_ = foot_pose(foot_ref[i, f, 0], foot_ref[i, f, 1], foot_yaw[i, f], PITCH_MAX,
+                                              0.0, heel_z, ball_z, ball_h, ankle_h)
+                    ex = hips[f, 0] - tx_
+                    ez = hips[f, 2] - tz_
+                    top = max(top, ty_ + math.sqrt(max(R * R - ex * ex - ez * ez, 0.0)) - hy)
                 cap = (1.0 - w) * h + w * top
                 if cap < h:
                     h = cap
@@ -472,6 +525,18 @@ def leg_ik_kernel(dt, root, root_yaw, offsets, foot_ref, foot_yaw, foot_pitch, f
             l2 = -offsets[i, hipk + 2, 1]
             hx, hy, hz = hips[f, 0], hips[f, 1] + pely, hips[f, 2]
             fy = foot_yaw[i, f]
+            if planted[i, f] and foot_pitch[i, f] > 0.0:
+                cy, sy = math.cos(fy), math.sin(fy)
+                bx = foot_ref[i, f, 0] + ball_z * cy  # the ball, the pivot of a heel-up foot
+                bz = foot_ref[i, f, 1] + ball_z * sy
+                R = math.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * KNEE_MIN_COS)
+                p = toe_rise((hx - bx) * cy + (hz - bz) * sy, hy - ball_h, (hz - bz) * cy - (hx - bx) * sy,
+                             -ball_z, ankle_h - ball_h, R, foot_pitch[i, f])
+                if p != foot_pitch[i, f]:
+                    foot_pitch[i, f] = p
+                    ax, ay, az = foot_pose(foot_ref[i, f, 0], foot_ref[i, f, 1], fy, p, 0.0, heel_z, ball_z,
+                                           ball_h, ankle_h)
+                    anks[f, 0], anks[f, 1], anks[f, 2] = ax, ay, az
             px, pz = math.cos(fy), math.sin(fy)  # knee points along the foot
             miss[i, f] = two_bone(hx, hy, hz, anks[f, 0], anks[f, 1], anks[f, 2], px, 0.0, pz, l1, l2,
                                   LEG_REACH, False, q1, q2)
