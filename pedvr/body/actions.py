@@ -1,12 +1,40 @@
 """Subconscious actions and the body-resource manager (Ashida et al. 2001, §3–4).
 
-Actions (:data:`ACTIONS`) arrive from a base distribution over time (Poisson,
-per-second rates :data:`BASE_RATE`, durations with mean ≈ 3 s) modulated by
-the agent model: tiredness grows with time awake (yawning), boredom grows
-while standing and fades while walking (scratching, touching), fear raises
-looking around, a speaking role raises gestures, sad agents look down more.
-Handedness orders an action's alternative resource sets (a right-handed
-agent scratches with the right hand when it is free, else with the left).
+Actions (:data:`ACTIONS`) arrive as Poisson events whose per-second rates
+(:data:`BASE_RATE`) are modulated by the agent model (:func:`modulated_rates`):
+tiredness grows with time awake (yawning), boredom grows while standing and
+fades while walking (:func:`boredom_step`; touching and scratching), fear
+raises looking around and lowers scratching, a speaking role raises gestures,
+sad agents look down more. Durations are Gamma-distributed with mean
+:data:`MEAN_DURATION`. Handedness orders an action's alternative resource
+sets (a right-handed agent scratches with the right hand when it is free,
+else with the left).
+
+Calibration (where each constant comes from)
+--------------------------------------------
+Ashida et al. §3.2 counted these actions on 33 pedestrians filmed for 35 s
+each on a university sidewalk, averaged the counts into "an average person",
+and turned them into a distribution over time with a mean action duration of
+3 s. The paper publishes the design (the action list, 33 × 35 s, 3 s), not
+the counts. :data:`CLIP_COUNTS` is our reading of such an average 35-s clip
+of a walker: looking around and looking down are the common ones, a touch of
+face or body about one walker in five, a scratch one in ten, a yawn one in
+twenty, gestures mostly from walkers in company. That is 1.85 actions per
+35 s (one about every 19 s) and a walker touching or scratching 5 % of the
+time. ``BASE_RATE = CLIP_COUNTS / 35 s``.
+
+The agent-model factors are the paper's qualitative statements (§3.3) made
+numbers ("the ways in which the Agent Model parameters alter the
+subconscious action distribution are empirically derived"): boredom doubles
+touching and scratching at its fullest (``BOREDOM_GAIN``); it rises toward 1
+with a 5-minute time constant while the body stands (waiting becomes
+boring over minutes, not seconds) and falls with a 1-minute one while it
+walks (``BOREDOM_RISE``, ``BOREDOM_FALL``), so a neutral agent standing for a
+long time touches or scratches about 10 % of the time, not the 53 % of a
+boredom that saturated within a minute at 4× the rate. Fear: "a fearful
+character is less likely to perform behaviors such as scratching" (§1, citing
+Gallaher 1992) — scratching × ``1 − FEAR_CALM·fear``, touching half as much
+— and "fear increases the frequency of looking around" (× ``1 + 4·fear``).
 
 Resources are bits: ``HEAD``, ``LEFT_ARM``, ``RIGHT_ARM``, ``UPPER_TORSO``
 (the legs are reserved for walking). Each agent has one queue of
@@ -49,9 +77,17 @@ ALTERNATIVES = np.array([
     [LEFT_ARM | RIGHT_ARM, LEFT_ARM | RIGHT_ARM],
     [LEFT_ARM | RIGHT_ARM | UPPER_TORSO | HEAD, LEFT_ARM | RIGHT_ARM | UPPER_TORSO | HEAD],
 ], np.int64)
-BASE_RATE = np.array([0.012, 0.012, 0.01, 0.008, 0.004, 0.02, 0.012, 0.006, 0.004])
+CLIP_SECONDS = 35.0  # Ashida §3.2: each of the 33 subjects was filmed for 35 s
+CLIP_COUNTS = np.array([0.2, 0.2, 0.1, 0.1, 0.05, 0.6, 0.4, 0.15, 0.05])
+"""Occurrences of each action in an average 35-s clip of a neutral, rested, unafraid walker (see above)."""
+BASE_RATE = CLIP_COUNTS / CLIP_SECONDS
 """Events per second of each action for a neutral, rested, unafraid, non-speaking agent."""
-MEAN_DURATION = 3.0  # s
+MEAN_DURATION = 3.0  # s: Ashida §3.2's average action duration
+RESTLESS = np.array([A_HEAD_TOUCH, A_BODY_TOUCH, A_HEAD_SCRATCH, A_BODY_SCRATCH])
+BOREDOM_GAIN = 1.0  # touching and scratching × (1 + BOREDOM_GAIN · boredom)
+BOREDOM_RISE = 300.0  # s: time constant of boredom rising toward 1 while standing
+BOREDOM_FALL = 60.0  # s: time constant of boredom falling toward 0 while walking
+FEAR_CALM = 0.7  # scratching × (1 − FEAR_CALM · fear); touching × (1 − FEAR_CALM · fear / 2)
 QUEUE = 6
 GIVE_UP = 8.0  # s: a subconscious entry still waiting after this is forgotten
 URGENCY_GROWTH = 0.25  # priority per second of waiting
@@ -59,13 +95,25 @@ PLANNED_PRIORITY = 100.0
 EMPTY = -1
 
 
+def boredom_step(boredom: np.ndarray, standing: np.ndarray, dt: float) -> np.ndarray:
+    """Boredom after ``dt`` s: toward 1 with ``BOREDOM_RISE`` while standing, toward 0 with
+    ``BOREDOM_FALL`` while walking (exact exponential steps, so the tick length does not matter)."""
+    rise = 1.0 - np.exp(-dt / BOREDOM_RISE)
+    fall = np.exp(-dt / BOREDOM_FALL)
+    return np.where(standing, boredom + (1.0 - boredom) * rise, boredom * fall)
+
+
 def modulated_rates(*, tiredness: np.ndarray, boredom: np.ndarray, fear: np.ndarray,
                     speaking: np.ndarray, emotion: np.ndarray) -> np.ndarray:
-    """Per-agent rates ``(N, A)`` per second from the agent model (all ``(N,)`` in [0, 1])."""
+    """Per-agent rates ``(N, A)`` per second from the agent model (all ``(N,)`` in [0, 1]); see the module
+    docstring for each factor's source."""
     r = np.tile(BASE_RATE, (tiredness.shape[0], 1))
     r[:, A_YAWN] *= 1.0 + 4.0 * tiredness
-    for a in (A_HEAD_TOUCH, A_BODY_TOUCH, A_HEAD_SCRATCH, A_BODY_SCRATCH):
-        r[:, a] *= 1.0 + 3.0 * boredom
+    r[:, RESTLESS] *= (1.0 + BOREDOM_GAIN * boredom)[:, None]
+    for a in (A_HEAD_SCRATCH, A_BODY_SCRATCH):
+        r[:, a] *= 1.0 - FEAR_CALM * fear
+    for a in (A_HEAD_TOUCH, A_BODY_TOUCH):
+        r[:, a] *= 1.0 - 0.5 * FEAR_CALM * fear
     r[:, A_LOOK_AROUND] *= 1.0 + 4.0 * fear + 1.5 * emotion[:, 4]  # worried
     r[:, A_LOOK_DOWN] *= 1.0 + 2.0 * emotion[:, 2] + 1.0 * emotion[:, 5]  # sad, tired
     for a in (A_TALK, A_SHRUG):

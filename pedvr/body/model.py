@@ -629,7 +629,7 @@ class FullBody:
         virt = ~crowd.is_user
         speed = np.linalg.norm(b.vel_s, axis=1)
         standing = speed < V_WALK
-        b.boredom[:] = np.clip(b.boredom + np.where(standing, tick / 60.0, -tick / 30.0), 0.0, 1.0)
+        b.boredom[:] = act.boredom_step(b.boredom, standing, tick)
         tired = np.clip(b.tiredness0 + t / 3600.0, 0.0, 1.0)
         rates = act.modulated_rates(tiredness=tired, boredom=b.boredom, fear=b.fear, speaking=b.speaking,
                                     emotion=b.emotion) * virt[:, None]
