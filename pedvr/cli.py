@@ -4,6 +4,7 @@
 ``pedvr scene check FILE...``  validate scene files; exit 2 on problems
 ``pedvr scene list``           the shipped scenes
 ``pedvr bench steering``       ORCA step time against RVO2
+``pedvr bench sim``            a whole simulation step with full bodies (``--load K`` beside it)
 
 Errors a user can cause print as ``pedvr: error: ...`` lines and a non-zero
 exit code, never a traceback.
@@ -102,6 +103,14 @@ def build_parser() -> argparse.ArgumentParser:
     bd.add_argument("--agents", type=_positive(int), action="append", default=None)
     bd.add_argument("--steps", type=_positive(int), default=300)
     bd.add_argument("--json", action="store_true")
+    sb = bsub.add_parser("sim", help="whole Simulation.step() with full bodies on a generated plaza")
+    sb.add_argument("--agents", type=_positive(int), action="append", default=None,
+                    help="agents on the plaza (repeatable; default 100 and 1000)")
+    sb.add_argument("--steps", type=_positive(int), default=450, help="timed steps (default: %(default)s)")
+    sb.add_argument("--warmup", type=int, default=180, help="untimed steps first (default: %(default)s)")
+    sb.add_argument("--load", type=int, default=0,
+                    help="busy processes run beside the timed steps (default: %(default)s)")
+    sb.add_argument("--json", action="store_true")
     rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
     rb.add_argument("--agents", type=_positive(int), action="append", default=None)
     rb.add_argument("--width", type=_positive(int), default=1280)
@@ -221,6 +230,12 @@ def _bench(args: argparse.Namespace) -> int:
 
         _print_results([run_render_bench(n, width=args.width, height=args.height, frames=args.frames)
                         for n in args.agents or [100, 500]], args.json)
+        return 0
+    if args.bench_command == "sim":
+        from pedvr.bench_sim import run_sim_bench
+
+        _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=args.load)
+                        for n in args.agents or [100, 1000]], args.json)
         return 0
     if args.bench_command == "body":
         from pedvr.body.bench import run_body_bench
