@@ -13,7 +13,9 @@ per named phase; and inside ``animate``, the crowd's contact pass (``contact_ms_
 steering layer's) apart from the body layer (``body_ms_mean``: root motion, gait, choreographers,
 blend, IK, forward kinematics, skate meter; ``body_ms_p95``), with ``gaze_rule_ms_mean`` (the body's
 PedVR gaze rule, timed inside ``decide``) and the renderer's bone matrices
-(``joint_matrices_ms_mean``, not part of the step).
+(``joint_matrices_ms_mean``, not part of the step). ``step_cpu_ms_mean`` and ``body_cpu_ms_mean``
+are this process's CPU time (all its threads) per step and in the body layer: on a shared machine
+they tell what the work costs when the wall times mostly tell how long it waited for a core.
 """
 
 from __future__ import annotations
@@ -63,20 +65,22 @@ def plaza_scene(agents: int, *, seed: int = 0) -> SceneConfig:
 
 
 class _Timer:
-    """Wraps a callable and accumulates its wall time (bench instrumentation only)."""
+    """Wraps a callable and accumulates its wall and CPU time (bench instrumentation only)."""
 
     def __init__(self, fn: Callable[..., Any]) -> None:
         self.fn = fn
         self.total = 0.0
         self.last = 0.0
+        self.cpu = 0.0
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         try:
             return self.fn(*args, **kwargs)
         finally:
             self.last = time.perf_counter() - t0
             self.total += self.last
+            self.cpu += time.process_time() - c0
 
 
 def run_sim_bench(agents: int, *, steps: int = 450, warmup: int = 180, load: int = 0,
@@ -101,13 +105,16 @@ def run_sim_bench(agents: int, *, steps: int = 450, warmup: int = 180, load: int
     n_before = len(sim.metrics.step_ms)
     phases_before = dict(sim.metrics.phase_ms)
     for tm in (contact, gaze, *body_parts):
-        tm.total = 0.0
+        tm.total = tm.cpu = 0.0
     body_steps: list[float] = []
     mats = np.empty((len(sim.crowd), 26, 4, 4), np.float32)
     mat_total = 0.0
+    cpu = 0.0
     with cpu_load(load) as running:
         for _ in range(steps):
+            c0 = time.process_time()
             sim.step()
+            cpu += time.process_time() - c0
             body_steps.append(body_parts[0].last + body_parts[1].last)
             if mats.shape[0] != len(sim.crowd):
                 mats = np.empty((len(sim.crowd), 26, 4, 4), np.float32)
@@ -124,10 +131,12 @@ def run_sim_bench(agents: int, *, steps: int = 450, warmup: int = 180, load: int
         "step_ms_p50": round(float(np.percentile(ms, 50)), 4),
         "step_ms_p95": round(float(np.percentile(ms, 95)), 4),
         "step_ms_mean": round(float(ms.mean()), 4),
+        "step_cpu_ms_mean": round(1e3 * cpu / steps, 4),
         "phase_ms_mean": phase,
         "contact_ms_mean": round(1e3 * contact.total / steps, 4),
         "body_ms_mean": round(1e3 * sum(t.total for t in body_parts) / steps, 4),
         "body_ms_p95": round(1e3 * float(np.percentile(body_steps, 95)), 4),
+        "body_cpu_ms_mean": round(1e3 * sum(t.cpu for t in body_parts) / steps, 4),
         "gaze_rule_ms_mean": round(1e3 * gaze.total / steps, 4),
         "joint_matrices_ms_mean": round(1e3 * mat_total / steps, 4),
         "foot_skate_max_m": summary["foot_skate_max_m"], "overlaps_over_1cm": summary["overlaps_over_1cm"],

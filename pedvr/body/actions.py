@@ -95,59 +95,123 @@ PLANNED_PRIORITY = 100.0
 EMPTY = -1
 
 
+@njit(cache=True, fastmath=True, inline="always")
+def _bored(boredom, standing, dt):  # type: ignore[no-untyped-def]
+    if standing:
+        return boredom + (1.0 - boredom) * (1.0 - math.exp(-dt / BOREDOM_RISE))
+    return boredom * math.exp(-dt / BOREDOM_FALL)
+
+
+@njit(cache=True, fastmath=True)
+def _boredom_kernel(boredom, standing, dt, out):  # type: ignore[no-untyped-def]
+    for i in range(boredom.shape[0]):
+        out[i] = _bored(boredom[i], standing[i], dt)
+
+
 def boredom_step(boredom: np.ndarray, standing: np.ndarray, dt: float) -> np.ndarray:
     """Boredom after ``dt`` s: toward 1 with ``BOREDOM_RISE`` while standing, toward 0 with
     ``BOREDOM_FALL`` while walking (exact exponential steps, so the tick length does not matter)."""
-    rise = 1.0 - np.exp(-dt / BOREDOM_RISE)
-    fall = np.exp(-dt / BOREDOM_FALL)
-    return np.where(standing, boredom + (1.0 - boredom) * rise, boredom * fall)
+    b = np.asarray(boredom, np.float64)
+    out = np.empty_like(b)
+    _boredom_kernel(b, np.broadcast_to(np.asarray(standing, np.bool_), b.shape).copy(), float(dt), out)
+    return out
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def arrival_probability(rate, dt):  # type: ignore[no-untyped-def]
+    """Probability that a Poisson event of ``rate`` per second arrives within ``dt``."""
+    return 1.0 - math.exp(-rate * dt)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def rates_row(i, tiredness, boredom, fear, speaking, emotion, base, out):  # type: ignore[no-untyped-def]
+    """Body ``i``'s per-second rates ``out (A,)`` (see :func:`modulated_rates`)."""
+    for a in range(base.shape[0]):
+        out[a] = base[a]
+    out[A_YAWN] *= 1.0 + 4.0 * tiredness
+    restless = 1.0 + BOREDOM_GAIN * boredom
+    calm = FEAR_CALM * fear
+    out[A_HEAD_SCRATCH] *= restless * (1.0 - calm)
+    out[A_BODY_SCRATCH] *= restless * (1.0 - calm)
+    out[A_HEAD_TOUCH] *= restless * (1.0 - 0.5 * calm) * (1.0 + 1.5 * emotion[i, 4])
+    out[A_BODY_TOUCH] *= restless * (1.0 - 0.5 * calm)
+    out[A_LOOK_AROUND] *= 1.0 + 4.0 * fear + 1.5 * emotion[i, 4]  # worried
+    out[A_LOOK_DOWN] *= 1.0 + 2.0 * emotion[i, 2] + 1.0 * emotion[i, 5]  # sad, tired
+    if speaking:
+        out[A_TALK] *= 5.0
+        out[A_SHRUG] *= 5.0
+
+
+@njit(cache=True, fastmath=True)
+def rates_kernel(tiredness, boredom, fear, speaking, emotion, base, out):  # type: ignore[no-untyped-def]
+    for i in range(out.shape[0]):
+        rates_row(i, tiredness[i], boredom[i], fear[i], speaking[i], emotion, base, out[i])
 
 
 def modulated_rates(*, tiredness: np.ndarray, boredom: np.ndarray, fear: np.ndarray,
                     speaking: np.ndarray, emotion: np.ndarray) -> np.ndarray:
     """Per-agent rates ``(N, A)`` per second from the agent model (all ``(N,)`` in [0, 1]); see the module
     docstring for each factor's source."""
-    r = np.tile(BASE_RATE, (tiredness.shape[0], 1))
-    r[:, A_YAWN] *= 1.0 + 4.0 * tiredness
-    r[:, RESTLESS] *= (1.0 + BOREDOM_GAIN * boredom)[:, None]
-    for a in (A_HEAD_SCRATCH, A_BODY_SCRATCH):
-        r[:, a] *= 1.0 - FEAR_CALM * fear
-    for a in (A_HEAD_TOUCH, A_BODY_TOUCH):
-        r[:, a] *= 1.0 - 0.5 * FEAR_CALM * fear
-    r[:, A_LOOK_AROUND] *= 1.0 + 4.0 * fear + 1.5 * emotion[:, 4]  # worried
-    r[:, A_LOOK_DOWN] *= 1.0 + 2.0 * emotion[:, 2] + 1.0 * emotion[:, 5]  # sad, tired
-    for a in (A_TALK, A_SHRUG):
-        r[:, a] *= np.where(speaking, 5.0, 1.0)
-    r[:, A_HEAD_TOUCH] *= 1.0 + 1.5 * emotion[:, 4]
-    return r
+    out = np.empty((tiredness.shape[0], N_ACTIONS))
+    f64 = np.float64
+    rates_kernel(np.asarray(tiredness, f64), np.asarray(boredom, f64), np.asarray(fear, f64),
+                 np.asarray(speaking, np.bool_), np.asarray(emotion, f64), BASE_RATE, out)
+    return out
+
+
+@njit(cache=True, fastmath=True)
+def arrivals(rates, u, dt, out):  # type: ignore[no-untyped-def]
+    """``out (N,A)``: which Poisson events of ``rates (N,A)`` per second arrive within ``dt``, from
+    uniforms ``u (N,A)``."""
+    for i in range(rates.shape[0]):
+        for a in range(rates.shape[1]):
+            out[i, a] = u[i, a] < arrival_probability(rates[i, a], dt)
+
+
+@njit(cache=True, fastmath=True)
+def agent_model_kernel(t, dt, tiredness0, boredom, fear, speaking, emotion, standing, measured, u,
+                       arrive):  # type: ignore[no-untyped-def]
+    """One decision tick of the agent model for every body: boredom (:func:`boredom_step`), tiredness
+    (``tiredness0 + t / 1 h``), the rates, and which subconscious actions arrive (``u (N,A)`` uniforms,
+    ``arrive (N,A)`` written). Only ``measured`` rows (virtual agents) act. Returns nothing."""
+    r = np.empty(arrive.shape[1])
+    for i in range(arrive.shape[0]):
+        boredom[i] = _bored(boredom[i], standing[i], dt)
+        tired = min(max(tiredness0[i] + t / 3600.0, 0.0), 1.0)
+        rates_row(i, tired, boredom[i], fear[i], speaking[i], emotion, BASE_RATE, r)
+        for a in range(arrive.shape[1]):
+            arrive[i, a] = measured[i] and u[i, a] < arrival_probability(r[a], dt)
 
 
 @njit(cache=True)
-def schedule_kernel(t, dt, rates, u_arrive, durations, right_handed, blocked, q_kind, q_prio, q_wait,
-                    q_planned, q_dur, run_kind, run_end, run_mask, alts, itch):  # type: ignore[no-untyped-def]
+def schedule_kernel(t, dt, arrive, durations, right_handed, blocked, q_kind, q_prio, q_wait,
+                    q_planned, q_dur, run_kind, run_end, run_mask, alts, itch, started):  # type: ignore[no-untyped-def]
     """One scheduling tick for every agent.
 
-    ``rates (N,A)`` per second; ``u_arrive (N,A)`` uniforms; ``durations
-    (N,A)`` drawn durations for entries arriving now; ``blocked (N,)``
+    ``arrive (N,A)`` the subconscious actions arriving now (:func:`arrivals`,
+    :func:`agent_model_kernel`); ``durations (N,A)`` their drawn durations
+    (read where ``arrive``); ``blocked (N,)``
     resource bits held by something outside the scheduler (the gaze rule
     holds the head). Queue ``(N,Q)`` arrays; running ``run_kind (N,R)``
     action per resource slot (-1 free), ``run_end (N,R)``, ``run_mask
     (N,R)`` the resource set of the action in that slot; ``itch (N,A)``
-    accumulated urgency. Returns nothing; arrays are updated in place.
+    accumulated urgency. ``started (N,R)`` is written: True where a slot
+    launched an action at this tick. Returns nothing; arrays are updated in place.
     """
-    n = rates.shape[0]
-    na = rates.shape[1]
+    n = arrive.shape[0]
+    na = arrive.shape[1]
     nq = q_kind.shape[1]
     nr = run_kind.shape[1]
     for i in range(n):
         # 1. finished actions free their resources
         for r in range(nr):
+            started[i, r] = False
             if run_kind[i, r] >= 0 and t >= run_end[i, r]:
                 run_kind[i, r] = -1
                 run_mask[i, r] = 0
         # 2. arrivals (subconscious), one per action kind at most
         for a in range(na):
-            if u_arrive[i, a] < 1.0 - math.exp(-rates[i, a] * dt):
+            if arrive[i, a]:
                 present = False
                 for k in range(nq):
                     if q_kind[i, k] == a:
@@ -209,6 +273,7 @@ def schedule_kernel(t, dt, rates, u_arrive, durations, right_handed, blocked, q_
                 break
             a = q_kind[i, best]
             run_kind[i, slot] = a
+            started[i, slot] = True
             run_end[i, slot] = t + q_dur[i, best]
             run_mask[i, slot] = best_set
             busy |= best_set

@@ -63,6 +63,8 @@ import math
 
 from numba import njit
 
+from pedvr.crowd.state import LIMIT_BACKWARD, LIMIT_TURN_WALKING
+
 F0 = 1.93  # steps/s at V_REF for the 1.75 m reference adult
 V_REF = 1.35  # m/s
 K_SLOW, K_FAST = 0.26, 0.6  # cadence exponents below and above V_REF
@@ -443,6 +445,25 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
         st = 1 - swing[i]
         phase[i] = math.pi * (s[i] + (1.0 if st == RIGHT else 0.0))
     return ne
+
+
+@njit(cache=True, fastmath=True)
+def limits_kernel(base, stepping, s, vel, heading, pref_speed, is_user, out):  # type: ignore[no-untyped-def]
+    """Motion limits ``out (N,6)`` for this step from the profile's ``base (N,6)`` (see
+    :meth:`pedvr.body.model.FullBody.fill_limits`): the walking turn rate 80 % mid-swing, stepping
+    back down to 40 % of the profile's the faster the body walks forward; user rows as they are."""
+    for i in range(base.shape[0]):
+        for k in range(base.shape[1]):
+            out[i, k] = base[i, k]
+        if is_user[i]:
+            continue
+        mid = 0.0
+        if stepping[i] and s[i] >= DS:
+            mid = math.sin(math.pi * min(max((s[i] - DS) / (1.0 - DS), 0.0), 1.0))
+        fwd = vel[i, 0] * math.cos(heading[i]) + vel[i, 1] * math.sin(heading[i])
+        frac = min(max(fwd / max(pref_speed[i], 1e-6), 0.0), 1.0)
+        out[i, LIMIT_TURN_WALKING] = base[i, LIMIT_TURN_WALKING] * (1.0 - 0.2 * mid)
+        out[i, LIMIT_BACKWARD] = base[i, LIMIT_BACKWARD] * (1.0 - 0.6 * frac)
 
 
 @njit(cache=True, fastmath=True, inline="always")

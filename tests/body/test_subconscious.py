@@ -1,9 +1,9 @@
 """Subconscious actions calibrated to Ashida et al. (issue 11): a neutral standing agent is not fidgety;
 boredom builds over minutes; fear lowers scratching.
 
-The agent model and the scheduler are driven exactly as the body drives them (``actions.boredom_step``,
-``actions.modulated_rates``, ``actions.schedule_kernel`` at the 30 Hz decision tick, the same draws),
-for many agents at once, so the long-run figures are measured rather than computed.
+The agent model and the scheduler are driven exactly as the body drives them
+(``actions.agent_model_kernel`` then ``actions.schedule_kernel`` at the 30 Hz decision tick, the same
+draws), for many agents at once, so the long-run figures are measured rather than computed.
 """
 
 from __future__ import annotations
@@ -31,18 +31,18 @@ def _run(n: int, seconds: float, *, fear: float = 0.0, boredom0: float = 0.15, s
     still = np.full(n, standing)
     restless, bored = [], []
     starts = np.zeros(act.N_ACTIONS, np.int64)
+    started = np.empty((n, act.N_RES), np.bool_)
+    arrive = np.empty((n, act.N_ACTIONS), np.bool_)
     for k in range(round(seconds / ACTION_TICK)):
         t = k * ACTION_TICK
-        boredom = act.boredom_step(boredom, still, ACTION_TICK)
-        rates = act.modulated_rates(tiredness=np.zeros(n), boredom=boredom, fear=np.full(n, fear),
-                                    speaking=np.zeros(n, np.bool_), emotion=emotion)
-        before = run_kind.copy()
-        act.schedule_kernel(t, ACTION_TICK, rates, rng.random((n, act.N_ACTIONS)),
-                            rng.gamma(4.0, act.MEAN_DURATION / 4.0, (n, act.N_ACTIONS)), np.ones(n, np.bool_),
-                            np.zeros(n, np.int64), q_kind, q_prio, q_wait, q_planned, q_dur, run_kind, run_end,
-                            run_mask, act.ALTERNATIVES, itch)
-        new = (run_kind >= 0) & (run_kind != before)
-        starts += np.bincount(run_kind[new], minlength=act.N_ACTIONS)
+        act.agent_model_kernel(t, ACTION_TICK, np.zeros(n), boredom, np.full(n, fear), np.zeros(n, np.bool_),
+                               emotion, still, np.ones(n, np.bool_), rng.random((n, act.N_ACTIONS)), arrive)
+        dur = np.zeros((n, act.N_ACTIONS))
+        dur[arrive] = rng.gamma(4.0, act.MEAN_DURATION / 4.0, int(arrive.sum()))
+        act.schedule_kernel(t, ACTION_TICK, arrive, dur, np.ones(n, np.bool_), np.zeros(n, np.int64), q_kind,
+                            q_prio, q_wait, q_planned, q_dur, run_kind, run_end, run_mask, act.ALTERNATIVES, itch,
+                            started)
+        starts += np.bincount(run_kind[started], minlength=act.N_ACTIONS)
         restless.append(np.isin(run_kind, act.RESTLESS).any(axis=1))
         bored.append(boredom.copy())
     return np.asarray(restless), np.asarray(bored), starts
