@@ -183,6 +183,8 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
     tp = np.empty(3)
     anks = np.empty((2, 3))
     hips = np.empty((2, 3))
+    trig = np.empty((2, 6))
+    reach = np.empty(2)
     goal = np.empty(3)
     reach_active = np.zeros(2, np.bool_)
     reach_target = np.empty((2, 3))
@@ -251,5 +253,5 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
             ps.blend_row(pq, pp, sq, sp, w, masks[c], moves_pelvis[c])
         h_prev[i] = ps.leg_ik_row(dt, root[i, 0], root[i, 1], yaw, offsets[i], foot_ref[i], foot_yaw[i],
                                   foot_pitch[i], foot_lift[i], planted[i], stepping[i], s[i], swing[i],
-                                  h_prev[i], pq, pp, ik_miss[i], q1, q2, anks, hips)
+                                  h_prev[i], pq, pp, ik_miss[i], q1, q2, anks, hips, trig, reach)
         fk_row(parents, offsets[i], pq, root[i, 0], 0.0, root[i, 1], yaw, pp, world_pos[i], world_q[i], nk)

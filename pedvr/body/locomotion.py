@@ -473,13 +473,18 @@ def foot_pose(ref_x, ref_y, yaw, pitch, lift, heel_z, ball_z, ball_h, ankle_h): 
     ψ > 0 rotates about the ball joint (heel up), ψ < 0 about the heel
     contact (toes up). Returns ``(x, y, z)`` of the ankle.
     """
-    fx, fy = math.cos(yaw), math.sin(yaw)
-    if pitch >= 0.0:
+    return foot_pose_cs(ref_x, ref_y, math.cos(yaw), math.sin(yaw), pitch >= 0.0, math.cos(pitch),
+                        math.sin(pitch), lift, heel_z, ball_z, ball_h, ankle_h)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def foot_pose_cs(ref_x, ref_y, cy, sy, heel_up, c, s, lift, heel_z, ball_z, ball_h, ankle_h):  # type: ignore[no-untyped-def]
+    """:func:`foot_pose` from the cosine and sine of the yaw (``cy, sy``) and of the pitch (``c, s``)."""
+    if heel_up:
         pf, pu = ball_z, ball_h  # pivot in the foot's sagittal frame (fwd, up)
     else:
         pf, pu = heel_z, 0.0
     rf, ru = -pf, ankle_h - pu  # ankle relative to the pivot
-    c, s = math.cos(pitch), math.sin(pitch)
     af = pf + rf * c + ru * s
     au = pu - rf * s + ru * c + lift
-    return ref_x + af * fx, au, ref_y + af * fy
+    return ref_x + af * cy, au, ref_y + af * sy

@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 from pedvr.body import skeleton as sk
-from pedvr.body.locomotion import DS, foot_pose
+from pedvr.body.locomotion import DS, foot_pose_cs
 from pedvr.body.quat import euler_yxz4, frame_quat, qmul4, qrot3
 from pedvr.body.style import PA, PB, Pa, Pb, Pp
 
@@ -42,6 +42,8 @@ LEG_REACH = 0.99999  # fraction of thigh + shin the IK may use (the KNEE_MIN rea
 RISE_RATE = 0.6  # m/s: fastest the pelvis rises (it falls as fast as the feet need)
 PELVIS_FLOOR = 0.8  # fraction of the standing pelvis height the reach limit may not go below
 PITCH_MAX = math.radians(60.0)  # the most a heel-up foot rises onto its toes to keep the leg reaching
+PITCH_MAX_COS, PITCH_MAX_SIN = math.cos(PITCH_MAX), math.sin(PITCH_MAX)
+_SQRT_HALF = math.sqrt(0.5)
 
 # Gaze controller (SmartBody-like). Order: lumbar, thorax, neck, head, eyes.
 GAZE_LUMBAR, GAZE_THORAX, GAZE_NECK, GAZE_HEAD, GAZE_EYES = 0, 1, 2, 3, 4
@@ -532,7 +534,7 @@ def toe_rise(df, du, dp, rf, ru, R, pitch):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, fastmath=True, inline="always")
 def leg_ik_row(dt, rx, rz, ry, off, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing,
-               h_prev, pose_q, pose_p, miss, q1, q2, anks, hips):  # type: ignore[no-untyped-def]
+               h_prev, pose_q, pose_p, miss, q1, q2, anks, hips, trig, reach):  # type: ignore[no-untyped-def]
     """One body's final node (see :func:`leg_ik_kernel`); returns the new pelvis height.
 
     ``off (K, 3)``; the foot arrays are the body's ``(2, ...)`` rows (``foot_pitch`` may be raised in
@@ -551,14 +553,22 @@ def leg_ik_row(dt, rx, rz, ry, off, foot_ref, foot_yaw, foot_pitch, foot_lift, p
     ball_h = ankle_h + off[sk.L_TOE, 1]
     for f in range(2):
         hipk = sk.L_HIP if f == 0 else sk.R_HIP
-        ax, ay, az = foot_pose(foot_ref[f, 0], foot_ref[f, 1], foot_yaw[f], foot_pitch[f], foot_lift[f],
-                               heel_z, ball_z, ball_h, ankle_h)
+        # half-angle sines and cosines of each foot's yaw and pitch serve the ankle and the foot's rotation
+        hc, hs = math.cos(0.5 * foot_yaw[f]), math.sin(0.5 * foot_yaw[f])
+        trig[f, 0], trig[f, 1] = hc * hc - hs * hs, 2.0 * hs * hc
+        trig[f, 4], trig[f, 5] = hc, hs
+        pc, ps_ = math.cos(0.5 * foot_pitch[f]), math.sin(0.5 * foot_pitch[f])
+        trig[f, 2], trig[f, 3] = pc * pc - ps_ * ps_, 2.0 * ps_ * pc
+        ax, ay, az = foot_pose_cs(foot_ref[f, 0], foot_ref[f, 1], trig[f, 0], trig[f, 1],
+                                  foot_pitch[f] >= 0.0, trig[f, 2], trig[f, 3], foot_lift[f], heel_z, ball_z,
+                                  ball_h, ankle_h)
         anks[f, 0], anks[f, 1], anks[f, 2] = ax, ay, az
         hx, hy, hz = qrot3(pqx, pqy, pqz, pqw, off[hipk, 0], off[hipk, 1], off[hipk, 2])
         hips[f, 0], hips[f, 1], hips[f, 2] = pelx + hx, hy, pelz + hz
         l1 = -off[hipk + 1, 1]
         l2 = -off[hipk + 2, 1]
         R = math.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * KNEE_MIN_COS)  # knee_reach at KNEE_MIN
+        reach[f] = R
         # how much this foot constrains the pelvis height
         if planted[f]:
             w = 1.0
@@ -573,8 +583,9 @@ def leg_ik_row(dt, rx, rz, ry, off, foot_ref, foot_yaw, foot_pitch, foot_lift, p
             top = ay + math.sqrt(max(R * R - ddx * ddx - ddz * ddz, 0.0)) - hy
             if planted[f] and foot_pitch[f] > 0.0:
                 # the heel may rise further: the leg reaches at least as high as on tiptoe
-                tx_, ty_, tz_ = foot_pose(foot_ref[f, 0], foot_ref[f, 1], foot_yaw[f], PITCH_MAX, 0.0, heel_z,
-                                          ball_z, ball_h, ankle_h)
+                tx_, ty_, tz_ = foot_pose_cs(foot_ref[f, 0], foot_ref[f, 1], trig[f, 0], trig[f, 1], True,
+                                             PITCH_MAX_COS, PITCH_MAX_SIN, 0.0, heel_z, ball_z, ball_h,
+                                             ankle_h)
                 ex = hips[f, 0] - tx_
                 ez = hips[f, 2] - tz_
                 top = max(top, ty_ + math.sqrt(max(R * R - ex * ex - ez * ez, 0.0)) - hy)
@@ -590,30 +601,31 @@ def leg_ik_row(dt, rx, rz, ry, off, foot_ref, foot_yaw, foot_pitch, foot_lift, p
         l1 = -off[hipk + 1, 1]
         l2 = -off[hipk + 2, 1]
         hx, hy, hz = hips[f, 0], hips[f, 1] + h, hips[f, 2]
-        fy = foot_yaw[f]
+        cy, sy = trig[f, 0], trig[f, 1]
         if planted[f] and foot_pitch[f] > 0.0:
-            cy, sy = math.cos(fy), math.sin(fy)
             bx = foot_ref[f, 0] + ball_z * cy  # the ball, the pivot of a heel-up foot
             bz = foot_ref[f, 1] + ball_z * sy
-            R = math.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * KNEE_MIN_COS)
             p = toe_rise((hx - bx) * cy + (hz - bz) * sy, hy - ball_h, (hz - bz) * cy - (hx - bx) * sy,
-                         -ball_z, ankle_h - ball_h, R, foot_pitch[f])
+                         -ball_z, ankle_h - ball_h, reach[f], foot_pitch[f])
             if p != foot_pitch[f]:
                 foot_pitch[f] = p
-                ax, ay, az = foot_pose(foot_ref[f, 0], foot_ref[f, 1], fy, p, 0.0, heel_z, ball_z, ball_h,
-                                       ankle_h)
+                pc, ps_ = math.cos(0.5 * p), math.sin(0.5 * p)
+                trig[f, 2], trig[f, 3] = pc * pc - ps_ * ps_, 2.0 * ps_ * pc
+                ax, ay, az = foot_pose_cs(foot_ref[f, 0], foot_ref[f, 1], cy, sy, True, trig[f, 2],
+                                          trig[f, 3], 0.0, heel_z, ball_z, ball_h, ankle_h)
                 anks[f, 0], anks[f, 1], anks[f, 2] = ax, ay, az
-        px, pz = math.cos(fy), math.sin(fy)  # knee points along the foot
-        miss[f] = two_bone(hx, hy, hz, anks[f, 0], anks[f, 1], anks[f, 2], px, 0.0, pz, l1, l2, LEG_REACH,
+        # knee points along the foot
+        miss[f] = two_bone(hx, hy, hz, anks[f, 0], anks[f, 1], anks[f, 2], cy, 0.0, sy, l1, l2, LEG_REACH,
                            False, q1, q2)
         # hip world rotation q1 -> local to the pelvis
         _put(pose_q, hipk, _qinv_mul(pqx, pqy, pqz, pqw, q1[0], q1[1], q1[2], q1[3]))
         _put(pose_q, hipk + 1, (q2[0], q2[1], q2[2], q2[3]))
         kx, ky, kz, kw = qmul4(q1[0], q1[1], q1[2], q1[3], q2[0], q2[1], q2[2], q2[3])
-        # foot world rotation: yaw about +Y (3D angle π/2 − yaw), then pitch about X
-        phi = 0.5 * math.pi - fy
+        # foot world rotation: yaw about +Y (3D angle φ = π/2 − yaw), then pitch about X;
+        # half-angles: cos(φ/2) = (cos(yaw/2) + sin(yaw/2)) / √2, sin(φ/2) = (cos − sin) / √2
+        hc, hs = trig[f, 4], trig[f, 5]
         pitch = foot_pitch[f]
-        fx_, fy_, fz_, fw_ = qmul4(0.0, math.sin(0.5 * phi), 0.0, math.cos(0.5 * phi),
+        fx_, fy_, fz_, fw_ = qmul4(0.0, (hc - hs) * _SQRT_HALF, 0.0, (hc + hs) * _SQRT_HALF,
                                    math.sin(0.5 * pitch), 0.0, 0.0, math.cos(0.5 * pitch))
         _put(pose_q, hipk + 2, _qinv_mul(kx, ky, kz, kw, fx_, fy_, fz_, fw_))
         tp = -pitch if pitch > 0.0 else 0.0  # toes stay flat while the heel is up
@@ -642,10 +654,13 @@ def leg_ik_kernel(dt, root, root_yaw, offsets, foot_ref, foot_yaw, foot_pitch, f
     q2 = np.empty(4)
     anks = np.empty((2, 3))
     hips = np.empty((2, 3))
+    trig = np.empty((2, 6))
+    reach = np.empty(2)
     for i in range(root.shape[0]):
         h_prev[i] = leg_ik_row(dt, root[i, 0], root[i, 1], root_yaw[i], offsets[i], foot_ref[i],
                                foot_yaw[i], foot_pitch[i], foot_lift[i], planted[i], stepping[i], s[i],
-                               swing[i], h_prev[i], pose_q[i], pose_p[i], miss[i], q1, q2, anks, hips)
+                               swing[i], h_prev[i], pose_q[i], pose_p[i], miss[i], q1, q2, anks, hips, trig,
+                               reach)
 
 
 @njit(cache=True, fastmath=True, inline="always")
@@ -763,9 +778,16 @@ def reach_kernel(active, target, world_pos, world_q, offsets, in_q, out_q):  # t
 
 @njit(cache=True, fastmath=True, inline="always")
 def blend_joint(pose_q, shadow_q, j, w):  # type: ignore[no-untyped-def]
-    """``pose_q[j] ← normalize((1−w)·pose + w·shadow)``, both put in the hemisphere ``w ≥ 0``."""
-    sa = 1.0 if pose_q[j, 3] >= 0.0 else -1.0
+    """``pose_q[j] ← normalize((1−w)·pose + w·shadow)``, both put in the hemisphere ``w ≥ 0``.
+
+    At full weight that is the shadow's (unit) rotation in that hemisphere, copied as it is.
+    """
     sb = 1.0 if shadow_q[j, 3] >= 0.0 else -1.0
+    if w >= 1.0:
+        for k in range(4):
+            pose_q[j, k] = sb * shadow_q[j, k]
+        return
+    sa = 1.0 if pose_q[j, 3] >= 0.0 else -1.0
     nn = 0.0
     for k in range(4):
         v = (1.0 - w) * sa * pose_q[j, k] + w * sb * shadow_q[j, k]
