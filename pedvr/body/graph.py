@@ -28,7 +28,7 @@ from numba import njit
 from pedvr.body import actions as act
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
-from pedvr.body.quat import fk_row, qrot3
+from pedvr.body.quat import fk_row, qmul4, qrot3
 
 NODE_NAMES = ("locomotion", "sitting", "gesture", "idle", "gaze", "reach")
 LOCOMOTION, SITTING, GESTURE, IDLE, GAZE, REACH = range(6)
@@ -105,6 +105,23 @@ def gaze_targets_kernel(t, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head
             out[i, 2] = np.nan
 
 
+@njit(cache=True, fastmath=True, inline="always")
+def turn_shoulders(pose_q, turn):  # type: ignore[no-untyped-def]
+    """Turn the upper torso by ``turn`` rad about the vertical relative to the pelvis (a body squeezing
+    past someone shoulder first): half at Spine2, half at Spine3, so the chest and both shoulders
+    follow; the neck turns back by as much, so the head keeps facing where it did (the walker still
+    looks where it goes, and the gaze controller's work is kept). Pre-multiplied, as the gaze's
+    rotations are: a turn about the parent's vertical."""
+    half = math.sin(0.25 * turn), math.cos(0.25 * turn)
+    back = math.sin(-0.5 * turn), math.cos(-0.5 * turn)
+    for j, (sy, cy) in ((sk.SPINE2, half), (sk.SPINE3, half), (sk.NECK, back)):
+        x, y, z, w = qmul4(0.0, sy, 0.0, cy, pose_q[j, 0], pose_q[j, 1], pose_q[j, 2], pose_q[j, 3])
+        pose_q[j, 0] = x
+        pose_q[j, 1] = y
+        pose_q[j, 2] = z
+        pose_q[j, 3] = w
+
+
 @njit(cache=True, fastmath=True)
 def gaze_rule_kernel(pos, vel, heading, is_user, u, d1, d2, cos_fov, out):  # type: ignore[no-untyped-def]
     """PedVR §4.2 eqs. 1–3 but visibility: ``out (N,)`` True where agent i is within ``d1`` of the
@@ -159,7 +176,8 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
                       share, yaw_lim, pitch_lim, speed, tau,
                       run_kind, run_mask, run_start, reach_on, reach_pt, arm_goals,
                       root, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing, h_prev,
-                      ik_miss, heads, fresh, parents, local_q, pelvis, world_pos, world_q):  # type: ignore[no-untyped-def]
+                      ik_miss, heads, fresh, shoulder_turn, parents, local_q, pelvis, world_pos,
+                      world_q):  # type: ignore[no-untyped-def]
     """Pose every body: the coordinator's graph, the leg-IK node and forward kinematics.
 
     Graph: ``order (C, 2) int64`` rows of (node id, weight column) in blending order, ``weights
@@ -169,9 +187,10 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
     playing or fading (0 none), ``idle_w`` the idle noise's strength, ``gaze_row`` the row of a
     gazed-at agent, ``running`` the locomotion's message. ``heads (N,3)`` are the head positions
     after the last frame (``fresh`` where no forward kinematics has run yet: the eyes cannot close
-    the loop there). Outputs: ``local_q (N,J,4)``, ``pelvis (N,3)`` the final pose, ``world_pos
-    (N,K,3)``, ``world_q (N,K,4)`` its forward kinematics; the gaze state ``ang``, the pelvis
-    height ``h_prev``, ``foot_pitch`` (heel rise) and ``ik_miss`` are updated.
+    the loop there). ``shoulder_turn (N,)`` rad turns the upper torso about the vertical relative
+    to the pelvis (:func:`turn_shoulders`). Outputs: ``local_q (N,J,4)``, ``pelvis (N,3)`` the
+    final pose, ``world_pos (N,K,3)``, ``world_q (N,K,4)`` its forward kinematics; the gaze state
+    ``ang``, the pelvis height ``h_prev``, ``foot_pitch`` (heel rise) and ``ik_miss`` are updated.
     """
     n = local_q.shape[0]
     nk = parents.shape[0]
@@ -251,6 +270,8 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
                 ps.reach_row(reach_active, reach_target, wq[sk.SPINE3], wp[sk.SPINE3], offsets[i], pq, sq, q1,
                              q2)
             ps.blend_row(pq, pp, sq, sp, w, masks[c], moves_pelvis[c])
+        if shoulder_turn[i] != 0.0:
+            turn_shoulders(pq, shoulder_turn[i])
         h_prev[i] = ps.leg_ik_row(dt, root[i, 0], root[i, 1], yaw, offsets[i], foot_ref[i], foot_yaw[i],
                                   foot_pitch[i], foot_lift[i], planted[i], stepping[i], s[i], swing[i],
                                   h_prev[i], pq, pp, ik_miss[i], q1, q2, anks, hips, trig, reach)

@@ -120,6 +120,7 @@ class BodyState:
     ik_miss: np.ndarray  # (N,2) m, ankle left short of its target
     land: np.ndarray  # (N,3) the swing foot's committed landing: x, y m, yaw rad
     first: np.ndarray  # (N,) bool: the current step began from standing
+    shoulder_turn: np.ndarray  # (N,) rad: upper-torso yaw relative to the pelvis, set by the simulation
     gaze_ang: np.ndarray  # (N,5,2) lumbar, thorax, neck, head, eyes × (yaw, pitch)
     gaze_kind: np.ndarray  # (N,) int64 GAZE_*
     gaze_point: np.ndarray  # (N,3) world target of GAZE_POINT
@@ -164,7 +165,7 @@ class BodyState:
             foot_yaw=z((n, 2)), foot_pitch=z((n, 2)), foot_lift=z((n, 2)), since_land=np.full((n, 2), 10.0),
             lift_ref=z((n, 2)), lift_yaw=z(n), lift_pitch=z(n), trail_pitch0=z(n), roll=z(n), phase=z(n),
             amp=z(n), planted=np.ones((n, 2), np.int8), h_prev=z(n), ik_miss=z((n, 2)), land=z((n, 3)),
-            first=z(n, np.bool_),
+            first=z(n, np.bool_), shoulder_turn=z(n),
             gaze_ang=z((n, 5, 2)), gaze_kind=z(n, np.int64), gaze_point=z((n, 3)),
             gaze_agent=np.full(n, -1, np.int64), gaze_rule=z(n, np.bool_),
             g_kind=z(n, np.int64), g_start=z(n), g_dur=z(n), g_next=z(n), sitting=z(n, np.bool_),
@@ -435,7 +436,8 @@ class FullBody:
             ps.GAZE_SHARE, ps.GAZE_YAW_LIMIT, ps.GAZE_PITCH_LIMIT, ps.GAZE_SPEED, ps.GAZE_TAU,
             b.run_kind, b.run_mask, b.run_start, b.reach_on, b.reach_pt, ARM_GOALS,
             b.root, b.foot_ref, b.foot_yaw, b.foot_pitch, b.foot_lift, b.planted, b.stepping, b.s, b.swing,
-            b.h_prev, b.ik_miss, heads, fresh, sk.PARENTS, b.local_q, b.pelvis, b.world_pos, b.world_q)
+            b.h_prev, b.ik_miss, heads, fresh, b.shoulder_turn, sk.PARENTS, b.local_q, b.pelvis, b.world_pos,
+            b.world_q)
 
     def _heads(self) -> tuple[np.ndarray, np.ndarray]:
         """Head positions after the last frame ``(N, 3)`` (a copy) and where no FK has run yet."""
