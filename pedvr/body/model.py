@@ -443,7 +443,7 @@ class FullBody:
         """Head positions after the last frame ``(N, 3)`` (a copy) and where no FK has run yet."""
         b = self.state
         hp = b.world_pos[:, sk.HEAD].copy()
-        fresh = ~hp.any(axis=1)
+        fresh = np.logical_not(hp.any(axis=1))
         if fresh.any():  # before the first FK: the standing head height
             hp[fresh] = np.stack([b.root[fresh, 0], b.offsets[fresh, sk.PELVIS, 1] + 0.62 * b.dims[fresh, 3],
                                   b.root[fresh, 1]], 1)
