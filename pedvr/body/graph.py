@@ -169,6 +169,61 @@ def _arm_busy(i, side, run_kind, run_mask, arm_goals):  # type: ignore[no-untype
 
 
 @njit(cache=True, fastmath=True)
+def _sit_node(sc, pelvis_rest, w, mask, moves_pelvis, pq, pp, sq, sp):  # type: ignore[no-untyped-def]
+    ps.sit_row(sc, pelvis_rest, sq, sp)
+    ps.blend_row(pq, pp, sq, sp, w, mask, moves_pelvis)
+
+
+@njit(cache=True, fastmath=True)
+def _gesture_node(t, g, start, duration, off, w, clip_masks, mask, pq, sq, sp, q1, q2, tq, tp):  # type: ignore[no-untyped-def]
+    """The clip's shadow, blended only on the joints the clip drives (and the node's mask)."""
+    ps.gesture_row(t, g, start, duration, off, sq, sp, q1, q2, tq, tp)
+    for j in range(pq.shape[0]):
+        if clip_masks[g, j] and mask[j]:
+            ps.blend_joint(pq, sq, j, w)
+
+
+@njit(cache=True, fastmath=True)
+def _idle_node(t, seed, strength, sc, perm, w, mask, moves_pelvis, pq, pp, sq, sp):  # type: ignore[no-untyped-def]
+    ps.idle_row(t, seed, strength, sc, perm, pq, pp, sq, sp)
+    ps.blend_row(pq, pp, sq, sp, w, mask, moves_pelvis)
+
+
+@njit(cache=True, fastmath=True)
+def _gaze_node(dt, w, mask, has, goal, head, yaw, running, share, yaw_lim, pitch_lim, speed, alpha, ang,
+               eye_l, eye_r, head_q, closed, pq, pp, sq, sp):  # type: ignore[no-untyped-def]
+    ps.gaze_row(dt, has, goal, head, yaw, running, share, yaw_lim, pitch_lim, speed, alpha, ang, pq, sq,
+                eye_l, eye_r, head_q, closed)
+    ps.blend_row(pq, pp, sq, sp, w, mask, False)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def _reach_needed(i, run_kind, run_mask, reach_on, arm_goals):  # type: ignore[no-untyped-def]
+    for side in range(2):
+        if reach_on[i, side] or _arm_busy(i, side, run_kind, run_mask, arm_goals) >= 0:
+            return True
+    return False
+
+
+@njit(cache=True, fastmath=True)
+def _reach_node(i, t, w, mask, run_kind, run_mask, reach_on, reach_pt, arm_goals, scale, seed, parents,
+                offsets, root, yaw, pq, pp, sq, sp, wp, wq, active, target, q1, q2):  # type: ignore[no-untyped-def]
+    # the thorax and the head where the blend has put them so far
+    fk_row(parents, offsets[i], pq, root[i, 0], 0.0, root[i, 1], yaw, pp, wp, wq, sk.HEAD + 1)
+    for side in range(2):
+        active[side] = reach_on[i, side]
+        for k in range(3):
+            target[side, k] = reach_pt[i, side, k]
+        if not reach_on[i, side]:
+            a = _arm_busy(i, side, run_kind, run_mask, arm_goals)
+            if a >= 0:
+                _arm_goal(i, a, side, t, scale, seed, arm_goals, wp, wq, target[side])
+                active[side] = True
+    ps.reach_row(active, target, wq[sk.SPINE3], wp[sk.SPINE3], offsets[i], pq, sq, q1, q2)
+    ps.blend_row(pq, pp, sq, sp, w, mask, False)
+
+
+@njit(cache=True, fastmath=True)
 def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
                       phase, amp, style, scale, pelvis_rest, offsets,
                       g_kind, g_start, g_dur, noise_seed, idle_w, perm,
@@ -211,6 +266,11 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
     wq = np.empty((nk, 4))
     alpha = np.empty(tau.shape[0])
     ps.gaze_alpha(dt, tau, alpha)
+    whole = np.zeros(order.shape[0], np.bool_)  # positions whose node drives every joint and the pelvis
+    for c in range(order.shape[0]):
+        whole[c] = moves_pelvis[c]
+        for j in range(masks.shape[1]):
+            whole[c] = whole[c] and masks[c, j]
     for i in range(n):
         pq = local_q[i]
         pp = pelvis[i]
@@ -225,51 +285,38 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
             if w <= 0.0:
                 continue  # a zero-weight blend leaves the pose as it is
             if node == LOCOMOTION:
-                ps.loco_row(phase[i], amp[i], style[i], scale[i], pelvis_rest[i], sq, sp)
+                if w >= 1.0 and whole[c]:
+                    # a full-weight blend of a shadow over every joint and the pelvis is the shadow:
+                    # posed straight into the pose (also measurably faster than through the scratch)
+                    ps.loco_row(phase[i], amp[i], style[i], scale[i], pelvis_rest[i], pq, pp)
+                else:
+                    ps.loco_row(phase[i], amp[i], style[i], scale[i], pelvis_rest[i], sq, sp)
+                    ps.blend_row(pq, pp, sq, sp, w, masks[c], moves_pelvis[c])
+            # The other nodes are separate functions, called: most bodies skip them, and keeping
+            # their code out of this loop keeps the per-body path small (inlined, it ran 50 % slower).
             elif node == SITTING:
-                ps.sit_row(scale[i], pelvis_rest[i], sq, sp)
+                _sit_node(scale[i], pelvis_rest[i], w, masks[c], moves_pelvis[c], pq, pp, sq, sp)
             elif node == GESTURE:
-                g = g_kind[i]
-                if g == 0:
-                    continue
-                ps.gesture_row(t, g, g_start[i], g_dur[i], offsets[i], sq, sp, q1, q2, tq, tp)
-                for j in range(pq.shape[0]):
-                    if clip_masks[g, j] and masks[c, j]:
-                        ps.blend_joint(pq, sq, j, w)
-                continue
+                if g_kind[i] != 0:
+                    _gesture_node(t, g_kind[i], g_start[i], g_dur[i], offsets[i], w, clip_masks, masks[c], pq,
+                                  sq, sp, q1, q2, tq, tp)
             elif node == IDLE:
-                if idle_w[i] <= 0.0:
-                    continue
-                ps.idle_row(t, noise_seed[i], idle_w[i], scale[i], perm, pq, pp, sq, sp)
+                if idle_w[i] > 0.0:
+                    _idle_node(t, noise_seed[i], idle_w[i], scale[i], perm, w, masks[c], moves_pelvis[c], pq,
+                               pp, sq, sp)
             elif node == GAZE:
                 has, _ = gaze_target_row(i, t, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head,
                                          has_user, heads, run_kind, run_start, heading, root, goal)
-                if ps.gaze_at_rest(has, ang[i]):
-                    continue  # nothing to look at and nothing left to undo: the shadow is the pose
-                ps.gaze_row(dt, has, goal, heads[i], yaw, running[i], share, yaw_lim, pitch_lim, speed, alpha,
-                            ang[i], pq, sq, world_pos[i, sk.L_EYE], world_pos[i, sk.R_EYE],
-                            world_q[i, sk.HEAD], not fresh[i])
+                # at rest, with nothing to look at, the gaze's shadow is the pose itself
+                if not ps.gaze_at_rest(has, ang[i]):
+                    _gaze_node(dt, w, masks[c], has, goal, heads[i], yaw, running[i], share, yaw_lim,
+                               pitch_lim, speed, alpha, ang[i], world_pos[i, sk.L_EYE],
+                               world_pos[i, sk.R_EYE], world_q[i, sk.HEAD], not fresh[i], pq, pp, sq, sp)
             elif node == REACH:
-                need = False
-                for side in range(2):
-                    if reach_on[i, side] or _arm_busy(i, side, run_kind, run_mask, arm_goals) >= 0:
-                        need = True
-                if not need:
-                    continue  # no arm to move: the shadow would be the pose itself
-                # the thorax and the head where the blend has put them so far
-                fk_row(parents, offsets[i], pq, root[i, 0], 0.0, root[i, 1], yaw, pp, wp, wq, sk.HEAD + 1)
-                for side in range(2):
-                    reach_active[side] = reach_on[i, side]
-                    for k in range(3):
-                        reach_target[side, k] = reach_pt[i, side, k]
-                    if not reach_on[i, side]:
-                        a = _arm_busy(i, side, run_kind, run_mask, arm_goals)
-                        if a >= 0:
-                            _arm_goal(i, a, side, t, scale, noise_seed, arm_goals, wp, wq, reach_target[side])
-                            reach_active[side] = True
-                ps.reach_row(reach_active, reach_target, wq[sk.SPINE3], wp[sk.SPINE3], offsets[i], pq, sq, q1,
-                             q2)
-            ps.blend_row(pq, pp, sq, sp, w, masks[c], moves_pelvis[c])
+                if _reach_needed(i, run_kind, run_mask, reach_on, arm_goals):  # else no arm to move
+                    _reach_node(i, t, w, masks[c], run_kind, run_mask, reach_on, reach_pt, arm_goals, scale,
+                                noise_seed, parents, offsets, root, yaw, pq, pp, sq, sp, wp, wq, reach_active,
+                                reach_target, q1, q2)
         if shoulder_turn[i] != 0.0:
             turn_shoulders(pq, shoulder_turn[i])
         h_prev[i] = ps.leg_ik_row(dt, root[i, 0], root[i, 1], yaw, offsets[i], foot_ref[i], foot_yaw[i],
