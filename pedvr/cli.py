@@ -6,6 +6,7 @@
 ``pedvr bench steering``       ORCA step time against RVO2
 ``pedvr bench behavior``       behavior scheduler tick time (trees, events)
 ``pedvr sweep SPEC.toml``      many headless runs on Dask (:mod:`pedvr.sweep`)
+``pedvr bench sim``            a whole simulation step with full bodies (``--load K`` beside it)
 
 Errors a user can cause print as ``pedvr: error: ...`` lines and a non-zero
 exit code, never a traceback.
@@ -161,6 +162,14 @@ def build_parser() -> argparse.ArgumentParser:
     bh.add_argument("--events", type=int, default=20, help="conversations kept running (default 20)")
     bh.add_argument("--seconds", type=_positive(float), default=20.0, help="simulated seconds timed")
     bh.add_argument("--json", action="store_true")
+    sb = bsub.add_parser("sim", help="whole Simulation.step() with full bodies on a generated plaza")
+    sb.add_argument("--agents", type=_positive(int), action="append", default=None,
+                    help="agents on the plaza (repeatable; default 100 and 1000)")
+    sb.add_argument("--steps", type=_positive(int), default=450, help="timed steps (default: %(default)s)")
+    sb.add_argument("--warmup", type=int, default=180, help="untimed steps first (default: %(default)s)")
+    sb.add_argument("--load", type=int, default=0,
+                    help="busy processes run beside the timed steps (default: %(default)s)")
+    sb.add_argument("--json", action="store_true")
     rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
     rb.add_argument("--agents", type=_positive(int), action="extend", nargs="+", default=None)
     rb.add_argument("--width", type=_positive(int), default=1280)
@@ -344,6 +353,12 @@ def _bench(args: argparse.Namespace) -> int:
             raise UsageError(f"--events {args.events}: expected 0 to 70 (conversations that fit the plaza)")
         _print_results([run_behavior_bench(n, events=args.events, seconds=args.seconds)
                         for n in args.agents or [200]], args.json)
+        return 0
+    if args.bench_command == "sim":
+        from pedvr.bench_sim import run_sim_bench
+
+        _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=args.load)
+                        for n in args.agents or [100, 1000]], args.json)
         return 0
     if args.bench_command == "body":
         from pedvr.body.bench import run_body_bench

@@ -25,6 +25,7 @@ from pedvr.behavior.scheduler import Scheduler
 from pedvr.body import FullBody
 from pedvr.body.model import GestureSets
 from pedvr.crowd.encounter import UserEncounters
+from pedvr.crowd.footprint import shoulder_twist
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
@@ -432,6 +433,9 @@ class Simulation:
         if len(self.doors):
             self._root = self._move_doors(self._root)
         self._root_heading = heading
+        if len(self.body.state) == len(self.crowd):  # the footprint's shoulder turn, shown by the body
+            self.body.state.shoulder_turn[:] = np.where(
+                self.crowd.is_user, 0.0, shoulder_twist(self.crowd.turn, self.crowd.torso, heading))
         self.body.compose(self.crowd, self._root, heading, dt=self.dt, t=self.t + self.dt,
                           coupled=self.coupled,
                           state_names=np.asarray(self.bfsm.names + ("",))[self.behavior.state])

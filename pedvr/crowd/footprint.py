@@ -162,6 +162,19 @@ def wall_distance_kernel(pos, rows, radius, vertices, nxt, origin, cell, nx, ny,
             out[i] = math.sqrt(dsq[0])
 
 
+SHOULDER_TWIST_LIMIT = math.radians(60.0)  # the most the chest turns against the pelvis when drawn
+
+
+def shoulder_twist(turn: np.ndarray, torso: np.ndarray, heading: np.ndarray) -> np.ndarray:
+    """The body's upper-torso yaw relative to the pelvis (rad) for turned footprints: the
+    shortest twist that brings the chest to face ``torso`` or its opposite (the footprint
+    is the same either way), scaled by ``τ`` and capped at 60° (people squeezing past
+    twist the chest about that much and side-step the rest)."""
+    delta = (torso - heading + np.pi) % (2.0 * np.pi) - np.pi
+    delta = np.where(delta > 0.5 * np.pi, delta - np.pi, np.where(delta < -0.5 * np.pi, delta + np.pi, delta))
+    return np.clip(turn * delta, -SHOULDER_TWIST_LIMIT, SHOULDER_TWIST_LIMIT)
+
+
 def footprint_arrays(radius: np.ndarray, turn: np.ndarray,
                      torso: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``depth (N,)`` (the ellipse's ``b``, m) and ``facing (N, 2)`` (unit ``f``) for the kernels."""
