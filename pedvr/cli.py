@@ -152,6 +152,8 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--agents", type=_positive(int), action="append", default=None)
     st.add_argument("--vs", choices=("rvo2",), default=None)
     st.add_argument("--steps", type=_positive(int), default=None)
+    st.add_argument("--load", type=int, action="append", default=None, metavar="K",
+                    help="busy processes beside the timed steps (repeatable: one run per value; default 0)")
     st.add_argument("--json", action="store_true")
     bd = bsub.add_parser("body", help="full-body layer ms per step beside the steering step")
     bd.add_argument("--agents", type=_positive(int), action="append", default=None)
@@ -365,14 +367,17 @@ def _bench(args: argparse.Namespace) -> int:
 
         _print_results([run_body_bench(n, steps=args.steps) for n in args.agents or [100, 1000]], args.json)
         return 0
+    from pedvr.benchload import check_load
     from pedvr.crowd.bench import run_steering_bench
 
+    loads = [check_load(k) for k in args.load or [0]]
     results = []
     for n in args.agents or [1000, 4000]:
-        kw = {"steps": args.steps} if args.steps else {}
-        t0 = time.perf_counter()
-        r = run_steering_bench(n, vs_rvo2=args.vs == "rvo2", **kw)
-        r["wall_s"] = round(time.perf_counter() - t0, 3)
-        results.append(r)
+        for k in loads:
+            kw = {"steps": args.steps} if args.steps else {}
+            t0 = time.perf_counter()
+            r = run_steering_bench(n, vs_rvo2=args.vs == "rvo2", load=k, **kw)
+            r["wall_s"] = round(time.perf_counter() - t0, 3)
+            results.append(r)
     _print_results(results, args.json)
     return 0

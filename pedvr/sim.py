@@ -462,7 +462,16 @@ class Simulation:
         """The 2D agent takes the position and heading of its body's root (the body is the truth)."""
         crowd = self.crowd
         virt = ~crowd.is_user
-        vel = np.where(virt[:, None], self._new_vel, crowd.vel)
+        if self.coupled:
+            # The body's commanded velocity, inside its motion limits; a contact push moves
+            # the body but is not a step it chose to take.
+            vel = np.where(virt[:, None], self._new_vel, crowd.vel)
+        else:
+            # Decoupled (plain ORCA and a contact pass: position-based dynamics): the
+            # velocity is the disc's actual motion, so where contacts pushed an agent the
+            # next step's ORCA sees a blocked neighbour as blocked (in a jam the contact
+            # pass then needs a few iterations instead of a hundred).
+            vel = np.where(virt[:, None], (self._root - crowd.pos) / self.dt, crowd.vel)
         crowd.pos = np.where(virt[:, None], self._root, crowd.pos)
         crowd.vel = vel
         crowd.heading = self._root_heading

@@ -38,10 +38,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from pedvr.crowd.neighbors import obstacle_neighbors_of
-from pedvr.kernels import parallel_kernel
 
 DEPTH_RATIO = 0.52  # front-to-back half depth / shoulder half width
 SQUEEZE_GAP = 0.15  # m: a passing neighbour's disc this close (surface to surface) makes the agent turn
@@ -65,7 +64,7 @@ def depth_of(radius, turn):
     return radius * (1.0 - turn * (1.0 - DEPTH_RATIO))
 
 
-@parallel_kernel()
+@njit(cache=True)  # O(N) and cheap: a parallel region would cost more than it saves (pedvr.kernels)
 def turn_kernel(pos, vel, radius, is_user, turn, torso, nbr_idx, nbr_count, short_of_room,
                 room_dir, wall_dist, dt, out_turn, out_torso):
     """New ``τ`` and torso facing per row (compute, then the caller commits).
@@ -77,7 +76,7 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, nbr_idx, nbr_count, shor
     distance to the nearest obstacle edge); otherwise it holds its turn. User rows
     never turn.
     """
-    for i in prange(pos.shape[0]):
+    for i in range(pos.shape[0]):
         out_turn[i] = 0.0
         out_torso[i] = torso[i]
         if is_user[i]:
