@@ -30,7 +30,8 @@ from __future__ import annotations
 import math
 import time
 import types
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numba
@@ -43,6 +44,23 @@ EXPLORE_MAX = 2048
 ALPHA = 0.25  # weight of the newest measurement in the running cost
 
 
+CHOOSERS: list[Chooser] = []  # every chooser made, for benchmarks that warm both twins up
+
+
+@contextmanager
+def forcing(parallel: bool) -> Iterator[None]:
+    """Pin every chooser to one twin inside the block (benchmarks warm both twins up
+    before timing, so loading a twin's compiled code is not timed)."""
+    saved = [c.forced for c in CHOOSERS]
+    for c in CHOOSERS:
+        c.forced = parallel
+    try:
+        yield
+    finally:
+        for c, f in zip(CHOOSERS, saved, strict=True):
+            c.forced = f
+
+
 class Chooser:
     """Serial or parallel for the next call, from measured cost (see the module docstring)."""
 
@@ -51,6 +69,7 @@ class Chooser:
     def __init__(self, min_rows: int = PARALLEL_MIN_ROWS) -> None:
         self.min_rows = min_rows
         self.forced: bool | None = None  # pin a twin (tests, experiments); None: measure
+        CHOOSERS.append(self)
         self.cost = [math.nan, math.nan]  # seconds per row: [serial, parallel]
         self.gap = EXPLORE_FIRST
         self.count = 0
