@@ -56,6 +56,8 @@ import math
 import numpy as np
 from numba import njit
 
+from pedvr.body.quat import FASTMATH
+
 ACTIONS = ("head_touch", "body_touch", "head_scratch", "body_scratch", "yawn", "look_around",
            "look_down", "gesture_talk", "gesture_shrug")
 N_ACTIONS = len(ACTIONS)
@@ -95,14 +97,14 @@ PLANNED_PRIORITY = 100.0
 EMPTY = -1
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def _bored(boredom, standing, dt):  # type: ignore[no-untyped-def]
     if standing:
         return boredom + (1.0 - boredom) * (1.0 - math.exp(-dt / BOREDOM_RISE))
     return boredom * math.exp(-dt / BOREDOM_FALL)
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _boredom_kernel(boredom, standing, dt, out):  # type: ignore[no-untyped-def]
     for i in range(boredom.shape[0]):
         out[i] = _bored(boredom[i], standing[i], dt)
@@ -117,13 +119,13 @@ def boredom_step(boredom: np.ndarray, standing: np.ndarray, dt: float) -> np.nda
     return out
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def arrival_probability(rate, dt):  # type: ignore[no-untyped-def]
     """Probability that a Poisson event of ``rate`` per second arrives within ``dt``."""
     return 1.0 - math.exp(-rate * dt)
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def rates_row(i, tiredness, boredom, fear, speaking, emotion, base, out):  # type: ignore[no-untyped-def]
     """Body ``i``'s per-second rates ``out (A,)`` (see :func:`modulated_rates`)."""
     for a in range(base.shape[0]):
@@ -142,7 +144,7 @@ def rates_row(i, tiredness, boredom, fear, speaking, emotion, base, out):  # typ
         out[A_SHRUG] *= 5.0
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def rates_kernel(tiredness, boredom, fear, speaking, emotion, base, out):  # type: ignore[no-untyped-def]
     for i in range(out.shape[0]):
         rates_row(i, tiredness[i], boredom[i], fear[i], speaking[i], emotion, base, out[i])
@@ -159,7 +161,7 @@ def modulated_rates(*, tiredness: np.ndarray, boredom: np.ndarray, fear: np.ndar
     return out
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def arrivals(rates, u, dt, out):  # type: ignore[no-untyped-def]
     """``out (N,A)``: which Poisson events of ``rates (N,A)`` per second arrive within ``dt``, from
     uniforms ``u (N,A)``."""
@@ -168,7 +170,7 @@ def arrivals(rates, u, dt, out):  # type: ignore[no-untyped-def]
             out[i, a] = u[i, a] < arrival_probability(rates[i, a], dt)
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def agent_model_kernel(t, dt, tiredness0, boredom, fear, speaking, emotion, standing, measured, u,
                        arrive):  # type: ignore[no-untyped-def]
     """One decision tick of the agent model for every body: boredom (:func:`boredom_step`), tiredness

@@ -23,12 +23,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from pedvr.body import actions as act
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
-from pedvr.body.quat import fk_row, qmul4, qrot3
+from pedvr.body.quat import FASTMATH, fk_row, qmul4, qrot3
 
 NODE_NAMES = ("locomotion", "sitting", "gesture", "idle", "gaze", "reach")
 LOCOMOTION, SITTING, GESTURE, IDLE, GAZE, REACH = range(6)
@@ -50,7 +50,7 @@ LOOK_AROUND_REACH = 3.0  # m: a look around aims this far out, sweeping ±1 rad 
 LOOK_DOWN_REACH = 1.2  # m: a look down aims at the floor this far ahead
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def gaze_target_row(i, t, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head, has_user, heads, run_kind,
                     run_start, heading, root, out):  # type: ignore[no-untyped-def]
     """What body ``i`` attends to: returns ``(has, deliberate)`` and writes the point to ``out (3,)``.
@@ -91,7 +91,7 @@ def gaze_target_row(i, t, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head,
     return False, False
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def gaze_targets_kernel(t, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head, has_user, heads, run_kind,
                         run_start, heading, root, out, deliberate):  # type: ignore[no-untyped-def]
     """:func:`gaze_target_row` for every body: ``out (N,3)`` NaN where none; ``deliberate (N,)``."""
@@ -105,7 +105,7 @@ def gaze_targets_kernel(t, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head
             out[i, 2] = np.nan
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def turn_shoulders(pose_q, turn):  # type: ignore[no-untyped-def]
     """Turn the upper torso by ``turn`` rad about the vertical relative to the pelvis (a body squeezing
     past someone shoulder first): half at Spine2, half at Spine3, so the chest and both shoulders
@@ -122,7 +122,7 @@ def turn_shoulders(pose_q, turn):  # type: ignore[no-untyped-def]
         pose_q[j, 3] = w
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def gaze_rule_kernel(pos, vel, heading, is_user, u, d1, d2, cos_fov, out):  # type: ignore[no-untyped-def]
     """PedVR §4.2 eqs. 1–3 but visibility: ``out (N,)`` True where agent i is within ``d1`` of the
     user (row ``u``), closing on it at ``0 < w < d2`` with ``w = (v_i − v_u)·(p_u − p_i)/|p_u − p_i|``,
@@ -143,7 +143,7 @@ def gaze_rule_kernel(pos, vel, heading, is_user, u, d1, d2, cos_fov, out):  # ty
             out[i] = True
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def _arm_goal(i, a, side, t, scale, seed, arm_goals, wp, wq, out):  # type: ignore[no-untyped-def]
     seg = int(arm_goals[a, 0])
     sc = scale[i]
@@ -157,7 +157,7 @@ def _arm_goal(i, a, side, t, scale, seed, arm_goals, wp, wq, out):  # type: igno
     out[2] = wp[seg, 2] + z
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def _arm_busy(i, side, run_kind, run_mask, arm_goals):  # type: ignore[no-untyped-def]
     """The running subconscious arm action on this arm, or -1."""
     bit = act.LEFT_ARM if side == 0 else act.RIGHT_ARM
@@ -168,13 +168,13 @@ def _arm_busy(i, side, run_kind, run_mask, arm_goals):  # type: ignore[no-untype
     return -1
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _sit_node(sc, pelvis_rest, w, mask, moves_pelvis, pq, pp, sq, sp):  # type: ignore[no-untyped-def]
     ps.sit_row(sc, pelvis_rest, sq, sp)
     ps.blend_row(pq, pp, sq, sp, w, mask, moves_pelvis)
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _gesture_node(t, g, start, duration, off, w, clip_masks, mask, pq, sq, sp, q1, q2, tq, tp):  # type: ignore[no-untyped-def]
     """The clip's shadow, blended only on the joints the clip drives (and the node's mask)."""
     ps.gesture_row(t, g, start, duration, off, sq, sp, q1, q2, tq, tp)
@@ -183,13 +183,13 @@ def _gesture_node(t, g, start, duration, off, w, clip_masks, mask, pq, sq, sp, q
             ps.blend_joint(pq, sq, j, w)
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _idle_node(t, seed, strength, sc, perm, w, mask, moves_pelvis, pq, pp, sq, sp):  # type: ignore[no-untyped-def]
     ps.idle_row(t, seed, strength, sc, perm, pq, pp, sq, sp)
     ps.blend_row(pq, pp, sq, sp, w, mask, moves_pelvis)
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _gaze_node(dt, w, mask, has, goal, head, yaw, running, share, yaw_lim, pitch_lim, speed, alpha, ang,
                eye_l, eye_r, head_q, closed, pq, pp, sq, sp):  # type: ignore[no-untyped-def]
     ps.gaze_row(dt, has, goal, head, yaw, running, share, yaw_lim, pitch_lim, speed, alpha, ang, pq, sq,
@@ -197,7 +197,7 @@ def _gaze_node(dt, w, mask, has, goal, head, yaw, running, share, yaw_lim, pitch
     ps.blend_row(pq, pp, sq, sp, w, mask, False)
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def _reach_needed(i, run_kind, run_mask, reach_on, arm_goals):  # type: ignore[no-untyped-def]
     for side in range(2):
         if reach_on[i, side] or _arm_busy(i, side, run_kind, run_mask, arm_goals) >= 0:
@@ -205,7 +205,7 @@ def _reach_needed(i, run_kind, run_mask, reach_on, arm_goals):  # type: ignore[n
     return False
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _reach_node(i, t, w, mask, run_kind, run_mask, reach_on, reach_pt, arm_goals, scale, seed, parents,
                 offsets, root, yaw, pq, pp, sq, sp, wp, wq, active, target, q1, q2):  # type: ignore[no-untyped-def]
     # the thorax and the head where the blend has put them so far
@@ -223,31 +223,14 @@ def _reach_node(i, t, w, mask, run_kind, run_mask, reach_on, reach_pt, arm_goals
     ps.blend_row(pq, pp, sq, sp, w, mask, False)
 
 
-@njit(cache=True, fastmath=True)
-def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
-                      phase, amp, style, scale, pelvis_rest, offsets,
-                      g_kind, g_start, g_dur, noise_seed, idle_w, perm,
-                      gaze_kind, gaze_point, gaze_row, gaze_rule, user_head, has_user, running, heading, ang,
-                      share, yaw_lim, pitch_lim, speed, tau,
-                      run_kind, run_mask, run_start, reach_on, reach_pt, arm_goals,
-                      root, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing, h_prev,
-                      ik_miss, heads, fresh, shoulder_turn, parents, local_q, pelvis, world_pos,
-                      world_q):  # type: ignore[no-untyped-def]
-    """Pose every body: the coordinator's graph, the leg-IK node and forward kinematics.
-
-    Graph: ``order (C, 2) int64`` rows of (node id, weight column) in blending order, ``weights
-    (N, W)``, ``masks (C, J)`` and ``moves_pelvis (C,)`` per position in ``order``; ``clip_masks
-    (G, J)`` the joints each gesture clip drives (a gesture node blends only those). Node inputs
-    are the body state's arrays (:class:`pedvr.body.model.BodyState`); ``g_kind`` is the clip
-    playing or fading (0 none), ``idle_w`` the idle noise's strength, ``gaze_row`` the row of a
-    gazed-at agent, ``running`` the locomotion's message. ``heads (N,3)`` are the head positions
-    after the last frame (``fresh`` where no forward kinematics has run yet: the eyes cannot close
-    the loop there). ``shoulder_turn (N,)`` rad turns the upper torso about the vertical relative
-    to the pelvis (:func:`turn_shoulders`). Outputs: ``local_q (N,J,4)``, ``pelvis (N,3)`` the
-    final pose, ``world_pos (N,K,3)``, ``world_q (N,K,4)`` its forward kinematics; the gaze state
-    ``ang``, the pelvis height ``h_prev``, ``foot_pitch`` (heel rise) and ``ik_miss`` are updated.
-    """
-    n = local_q.shape[0]
+@njit(cache=True, fastmath=FASTMATH)
+def _pose_rows(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp, style, scale,
+               pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind, gaze_point,
+               gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share, yaw_lim, pitch_lim,
+               speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt, arm_goals, root, foot_ref,
+               foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing, h_prev, ik_miss, heads, fresh,
+               shoulder_turn, parents, local_q, pelvis, world_pos, world_q):  # type: ignore[no-untyped-def]
+    """Bodies ``lo`` to ``hi - 1`` of :func:`pose_graph_kernel`, with their own scratch."""
     nk = parents.shape[0]
     sq = np.empty((local_q.shape[1], 4))
     sp = np.empty(3)
@@ -271,7 +254,7 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
         whole[c] = moves_pelvis[c]
         for j in range(masks.shape[1]):
             whole[c] = whole[c] and masks[c, j]
-    for i in range(n):
+    for i in range(lo, hi):
         pq = local_q[i]
         pp = pelvis[i]
         ps.rest_pose(pq)
@@ -323,3 +306,66 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
                                   foot_pitch[i], foot_lift[i], planted[i], stepping[i], s[i], swing[i],
                                   h_prev[i], pq, pp, ik_miss[i], q1, q2, anks, hips, trig, reach)
         fk_row(parents, offsets[i], pq, root[i, 0], 0.0, root[i, 1], yaw, pp, world_pos[i], world_q[i], nk)
+
+
+@njit(cache=True, fastmath=FASTMATH, parallel=True)
+def _pose_chunks(chunks, dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp, style, scale,
+                  pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind,
+                  gaze_point, gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share,
+                  yaw_lim, pitch_lim, speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt,
+                  arm_goals, root, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing,
+                  h_prev, ik_miss, heads, fresh, shoulder_turn, parents, local_q, pelvis, world_pos, world_q):  # type: ignore[no-untyped-def]
+    """:func:`_pose_rows` over chunks of bodies in parallel (a few chunks per thread)."""
+    n = local_q.shape[0]
+    for c in prange(chunks):
+        _pose_rows(c * n // chunks, (c + 1) * n // chunks, dt, t, order, weights, masks, moves_pelvis,
+                   clip_masks, phase, amp, style, scale, pelvis_rest, offsets, g_kind, g_start, g_dur,
+                   noise_seed, idle_w, perm, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head, has_user,
+                   running, heading, ang, share, yaw_lim, pitch_lim, speed, tau, run_kind, run_mask,
+                   run_start, reach_on, reach_pt, arm_goals, root, foot_ref, foot_yaw, foot_pitch, foot_lift,
+                   planted, stepping, s, swing, h_prev, ik_miss, heads, fresh, shoulder_turn, parents,
+                   local_q, pelvis, world_pos, world_q)
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
+                      phase, amp, style, scale, pelvis_rest, offsets,
+                      g_kind, g_start, g_dur, noise_seed, idle_w, perm,
+                      gaze_kind, gaze_point, gaze_row, gaze_rule, user_head, has_user, running, heading, ang,
+                      share, yaw_lim, pitch_lim, speed, tau,
+                      run_kind, run_mask, run_start, reach_on, reach_pt, arm_goals,
+                      root, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing, h_prev,
+                      ik_miss, heads, fresh, shoulder_turn, parents, local_q, pelvis, world_pos,
+                      world_q, chunks=0):  # type: ignore[no-untyped-def]
+    """Pose every body: the coordinator's graph, the leg-IK node and forward kinematics.
+
+    Graph: ``order (C, 2) int64`` rows of (node id, weight column) in blending order, ``weights
+    (N, W)``, ``masks (C, J)`` and ``moves_pelvis (C,)`` per position in ``order``; ``clip_masks
+    (G, J)`` the joints each gesture clip drives (a gesture node blends only those). Node inputs
+    are the body state's arrays (:class:`pedvr.body.model.BodyState`); ``g_kind`` is the clip
+    playing or fading (0 none), ``idle_w`` the idle noise's strength, ``gaze_row`` the row of a
+    gazed-at agent, ``running`` the locomotion's message. ``heads (N,3)`` are the head positions
+    after the last frame (``fresh`` where no forward kinematics has run yet: the eyes cannot close
+    the loop there). ``shoulder_turn (N,)`` rad turns the upper torso about the vertical relative
+    to the pelvis (:func:`turn_shoulders`). Outputs: ``local_q (N,J,4)``, ``pelvis (N,3)`` the
+    final pose, ``world_pos (N,K,3)``, ``world_q (N,K,4)`` its forward kinematics; the gaze state
+    ``ang``, the pelvis height ``h_prev``, ``foot_pitch`` (heel rise) and ``ik_miss`` are updated.
+    ``chunks > 0`` runs the bodies in that many chunks in parallel, 0 in one serial loop (the
+    same bytes either way: bodies are independent).
+    """
+    if chunks > 0:
+        _pose_chunks(min(chunks, local_q.shape[0]), dt, t, order, weights, masks, moves_pelvis, clip_masks,
+                     phase, amp, style, scale,
+                     pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind,
+                     gaze_point, gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share,
+                     yaw_lim, pitch_lim, speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt,
+                     arm_goals, root, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing,
+                     h_prev, ik_miss, heads, fresh, shoulder_turn, parents, local_q, pelvis, world_pos,
+                     world_q)
+    else:
+        _pose_rows(0, local_q.shape[0], dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp,
+                   style, scale, pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm,
+                   gaze_kind, gaze_point, gaze_row, gaze_rule, user_head, has_user, running, heading, ang,
+                   share, yaw_lim, pitch_lim, speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt,
+                   arm_goals, root, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing,
+                   h_prev, ik_miss, heads, fresh, shoulder_turn, parents, local_q, pelvis, world_pos, world_q)

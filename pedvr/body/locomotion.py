@@ -63,6 +63,7 @@ import math
 
 from numba import njit
 
+from pedvr.body.quat import FASTMATH
 from pedvr.crowd.state import LIMIT_BACKWARD, LIMIT_TURN_WALKING
 
 F0 = 1.93  # steps/s at V_REF for the 1.75 m reference adult
@@ -105,7 +106,7 @@ COMMIT_FROM, COMMIT_TO = 0.7, 0.95  # fractions of the swing over which the land
 LEFT, RIGHT = 0, 1
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def cadence(speed, scale):  # type: ignore[no-untyped-def]
     """Forward walking, steps/s: ``F0 (v / V_REF)^k scale^-0.35``, ``k = K_SLOW`` below V_REF,
     ``K_FAST`` above, clamped to ``[F_MIN, F_MAX]``."""
@@ -115,7 +116,7 @@ def cadence(speed, scale):  # type: ignore[no-untyped-def]
     return min(max(f, F_MIN), F_MAX)
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def step_rate(fwd, lat, speed, scale):  # type: ignore[no-untyped-def]
     """Steps/s for a body moving ``fwd`` m/s along its facing and ``lat`` m/s to its left.
 
@@ -133,18 +134,18 @@ def step_rate(fwd, lat, speed, scale):  # type: ignore[no-untyped-def]
     return f
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def wrap(a):  # type: ignore[no-untyped-def]
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def ease(u):  # type: ignore[no-untyped-def]
     u = min(max(u, 0.0), 1.0)
     return u * u * (3.0 - 2.0 * u)
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def lift_curve(u):  # type: ignore[no-untyped-def]
     """Swing height profile in [0, 1], peak at ``PEAK_AT`` of the swing."""
     u = min(max(u, 0.0), 1.0)
@@ -152,7 +153,7 @@ def lift_curve(u):  # type: ignore[no-untyped-def]
     return math.sin(math.pi * u ** g)
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def stand_ref(rx, ry, heading, side, half_width):  # type: ignore[no-untyped-def]
     """Where a foot stands: beside the root, anatomical left is 2D heading − π/2."""
     lx, ly = math.sin(heading), -math.cos(heading)
@@ -160,12 +161,12 @@ def stand_ref(rx, ry, heading, side, half_width):  # type: ignore[no-untyped-def
     return rx + sgn * half_width * lx, ry + sgn * half_width * ly
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def foot_yaw_for(heading, side):  # type: ignore[no-untyped-def]
     return heading - TOE_OUT if side == LEFT else heading + TOE_OUT
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_width,
                 vel_s, stepping, s, swing, foot_ref, foot_yaw, foot_pitch, foot_lift,
                 since_land, lift_ref, lift_yaw, lift_pitch, trail_pitch0, roll, phase, amp, planted,
@@ -447,7 +448,7 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
     return ne
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def limits_kernel(base, stepping, s, vel, heading, pref_speed, is_user, out):  # type: ignore[no-untyped-def]
     """Motion limits ``out (N,6)`` for this step from the profile's ``base (N,6)`` (see
     :meth:`pedvr.body.model.FullBody.fill_limits`): the walking turn rate 80 % mid-swing, stepping
@@ -466,7 +467,7 @@ def limits_kernel(base, stepping, s, vel, heading, pref_speed, is_user, out):  #
         out[i, LIMIT_BACKWARD] = base[i, LIMIT_BACKWARD] * (1.0 - 0.6 * frac)
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def foot_pose(ref_x, ref_y, yaw, pitch, lift, heel_z, ball_z, ball_h, ankle_h):  # type: ignore[no-untyped-def]
     """Ankle position (3D, Y up) of a foot given reference, yaw, pitch and lift.
 
@@ -477,7 +478,7 @@ def foot_pose(ref_x, ref_y, yaw, pitch, lift, heel_z, ball_z, ball_h, ankle_h): 
                         math.sin(pitch), lift, heel_z, ball_z, ball_h, ankle_h)
 
 
-@njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def foot_pose_cs(ref_x, ref_y, cy, sy, heel_up, c, s, lift, heel_z, ball_z, ball_h, ankle_h):  # type: ignore[no-untyped-def]
     """:func:`foot_pose` from the cosine and sine of the yaw (``cy, sy``) and of the pitch (``c, s``)."""
     if heel_up:

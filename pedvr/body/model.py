@@ -17,11 +17,13 @@ See :mod:`pedvr.body` for the pose API the renderer reads.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from enum import Enum
 from typing import Any, cast
 
+import numba
 import numpy as np
 
 from pedvr.body import actions as act
@@ -48,11 +50,15 @@ from pedvr.crowd.state import (
     CrowdState,
 )
 from pedvr.errors import UsageError
+from pedvr.kernels import Chooser
 
 FOV_HALF = math.radians(100.0)  # half field of view for the gaze rule (human ≈ 200° horizontal)
 STEP_EVENT_CAP = 4096
 RUNNING_SPEED = 2.2  # m/s: above this the "running" message is posted
 ACTION_TICK = 1.0 / 30.0  # s: the subconscious scheduler runs at the decision rate
+# The pose graph runs serial or over chunks of bodies in parallel, as measured (pedvr.kernels):
+# bodies are independent, so the bytes are the same either way (tests/body/test_threads.py).
+_POSE_CHOOSER = Chooser()
 BODY_ORDER = ("locomotion", "sitting", "gesture", "idle", "gaze", "reach")
 
 
@@ -427,6 +433,8 @@ class FullBody:
         order, masks, moves_pelvis = co.graph()
         heads, fresh = self._heads()
         has_user, user_head = self._user_head(crowd, heads)
+        par = _POSE_CHOOSER.choose(len(b))
+        t0 = time.perf_counter()
         pose_graph_kernel(
             dt, t, order, co.weights, masks, moves_pelvis, ps.GESTURE_MASKS,
             b.phase, b.amp, b.style, b.dims[:, sk.DIM_SCALE].copy(), b.pelvis_rest, b.offsets,
@@ -437,7 +445,8 @@ class FullBody:
             b.run_kind, b.run_mask, b.run_start, b.reach_on, b.reach_pt, ARM_GOALS,
             b.root, b.foot_ref, b.foot_yaw, b.foot_pitch, b.foot_lift, b.planted, b.stepping, b.s, b.swing,
             b.h_prev, b.ik_miss, heads, fresh, b.shoulder_turn, sk.PARENTS, b.local_q, b.pelvis, b.world_pos,
-            b.world_q)
+            b.world_q, 4 * numba.get_num_threads() if par else 0)
+        _POSE_CHOOSER.record(par, len(b), time.perf_counter() - t0)
 
     def _heads(self) -> tuple[np.ndarray, np.ndarray]:
         """Head positions after the last frame ``(N, 3)`` (a copy) and where no FK has run yet."""

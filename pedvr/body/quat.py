@@ -23,7 +23,12 @@ import math
 import numpy as np
 from numba import njit
 
-_FM = True
+# LLVM fast-math flags for every body kernel: fast, but without "reassoc" and "contract", which
+# let the compiler reorder sums and fuse multiply-adds differently wherever a function is inlined;
+# without them a body's pose is the same bytes whether the pose graph runs it from the serial loop
+# or from a parallel chunk (tests/body/test_threads.py).
+FASTMATH = {"nnan", "ninf", "nsz", "arcp", "afn"}
+_FM = FASTMATH
 
 
 @njit(cache=True, fastmath=_FM, inline="always")

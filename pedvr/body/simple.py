@@ -17,6 +17,7 @@ from typing import Protocol
 import numpy as np
 from numba import njit
 
+from pedvr.body.quat import FASTMATH
 from pedvr.crowd.state import LIMIT_TURN_STANDING, LIMIT_TURN_WALKING, CrowdState
 
 MOVING = 0.05  # m/s: below this the facing follows the preferred facing instead
@@ -57,7 +58,7 @@ class SimpleBody:
         return root, heading
 
 
-@njit(cache=True, fastmath=True)
+@njit(cache=True, fastmath=FASTMATH)
 def root_motion_kernel(pos, vel, heading, pref_heading, pref_speed, limits, is_user, dt, coupled, root_out,
                        heading_out):  # type: ignore[no-untyped-def]
     """:meth:`SimpleBody.animate` for every agent: the root follows the commanded velocity; the
