@@ -64,10 +64,11 @@ def forcing(parallel: bool) -> Iterator[None]:
 class Chooser:
     """Serial or parallel for the next call, from measured cost (see the module docstring)."""
 
-    __slots__ = ("min_rows", "cost", "gap", "count", "exploring", "calls", "forced")
+    __slots__ = ("min_rows", "serial_rows", "cost", "gap", "count", "exploring", "calls", "forced")
 
-    def __init__(self, min_rows: int = PARALLEL_MIN_ROWS) -> None:
+    def __init__(self, min_rows: int = PARALLEL_MIN_ROWS, serial_rows: int = SERIAL_ROWS) -> None:
         self.min_rows = min_rows
+        self.serial_rows = serial_rows  # below this many rows, never parallel
         self.forced: bool | None = None  # pin a twin (tests, experiments); None: measure
         CHOOSERS.append(self)
         self.cost = [math.nan, math.nan]  # seconds per row: [serial, parallel]
@@ -81,7 +82,7 @@ class Chooser:
         if self.forced is not None:
             self.exploring = False
             return self.forced
-        if n < SERIAL_ROWS or numba.get_num_threads() < 2:
+        if n < self.serial_rows or numba.get_num_threads() < 2:
             self.exploring = False
             return False
         serial, par = self.cost
@@ -101,7 +102,7 @@ class Chooser:
         return best
 
     def record(self, parallel: bool, n: int, seconds: float) -> None:
-        if n < SERIAL_ROWS or n == 0:
+        if n < self.serial_rows or n == 0:
             return
         k = int(parallel)
         self.calls[k] += 1
