@@ -169,8 +169,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="agents on the plaza (repeatable; default 100 and 1000)")
     sb.add_argument("--steps", type=_positive(int), default=450, help="timed steps (default: %(default)s)")
     sb.add_argument("--warmup", type=int, default=180, help="untimed steps first (default: %(default)s)")
-    sb.add_argument("--load", type=int, default=0,
-                    help="busy processes run beside the timed steps (default: %(default)s)")
+    sb.add_argument("--load", type=int, action="append", default=None, metavar="K",
+                    help="busy processes beside the timed steps (repeatable: one run per value; default 0)")
     sb.add_argument("--json", action="store_true")
     rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
     rb.add_argument("--agents", type=_positive(int), action="extend", nargs="+", default=None)
@@ -359,8 +359,8 @@ def _bench(args: argparse.Namespace) -> int:
     if args.bench_command == "sim":
         from pedvr.bench_sim import run_sim_bench
 
-        _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=args.load)
-                        for n in args.agents or [100, 1000]], args.json)
+        _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=k)
+                        for n in args.agents or [100, 1000] for k in args.load or [0]], args.json)
         return 0
     if args.bench_command == "body":
         from pedvr.body.bench import run_body_bench

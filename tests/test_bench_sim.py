@@ -61,6 +61,10 @@ def test_cli_bench_sim_json_and_bad_flags(capsys: pytest.CaptureFixture[str]) ->
     assert main(["bench", "sim", "--agents", "8", "--steps", "3", "--warmup", "1", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["agents"] == 8 and out["load_processes"] == 0
+    # --load repeats like bench steering's: one run per value, quiet and loaded side by side
+    assert main(["bench", "sim", "--agents", "8", "--steps", "2", "--warmup", "1", "--load", "0", "--load", "1",
+                 "--json"]) == 0
+    assert [r["load_processes"] for r in json.loads(capsys.readouterr().out)] == [0, 1]
     assert main(["bench", "sim", "--agents", "8", "--load", "-1"]) == 2
     assert capsys.readouterr().err.strip() == (
         "pedvr: error: --load -1: expected a whole number of busy processes from 0 to 64")
