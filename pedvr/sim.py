@@ -135,11 +135,12 @@ class Simulation:
             crowd=self.crowd, behavior=self.behavior, body=self.body, visibility=self.visibility,
             walkable=self.goal_mesh, rng=self.rng, goal_sets=scene.behavior.goal_sets,
             objects=make_objects(scene.behavior.objects),
-            user=None if self.user is None else int(self.crowd.ids[0])), bfsm=self.bfsm)
+            user=None if self.user is None else int(self.crowd.ids[0]), world=scene.world), bfsm=self.bfsm)
 
         seg_a, seg_b = edges(scene.world)
         self.metrics = Metrics(seg_a=seg_a, seg_b=seg_b, inside=self._inside_obstacle,
                                personal_space=self.personal_space)
+        self.scheduler.ctx.gaze_events = self.metrics.gaze_events  # behaviors' gaze events (demonstrations)
         self.recording = Recording() if record else None
         self._face_unset()
         if self.recording is not None:

@@ -28,11 +28,12 @@ from pedvr.body import actions as act
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
 from pedvr.body.coordinator import Coordinator, default_choreographers
-from pedvr.body.locomotion import DS, V_WALK, gait_kernel
+from pedvr.body.directed import HandPaths, HeadCaps
+from pedvr.body.locomotion import DS, T_INPLACE, V_WALK, cadence, gait_kernel
 from pedvr.body.metrics import SkateMeter
 from pedvr.body.quat import fk_kernel, matrices_kernel
 from pedvr.body.simple import SimpleBody
-from pedvr.body.style import N_EMOTIONS, blend_style, draw_emotions, speed_factor
+from pedvr.body.style import N_EMOTIONS, PA, Pa, Pb, blend_style, draw_emotions, speed_factor
 from pedvr.crowd.state import (
     LIMIT_ACCEL,
     LIMIT_BACKWARD,
@@ -247,6 +248,8 @@ class FullBody:
         self._t = 0.0
         self.hmd_position: np.ndarray | None = None
         self.state_names: tuple[str, ...] = ()
+        self.hand_paths = HandPaths()  # reach_along: timed hand paths (pedvr.body.directed)
+        self.head_caps = HeadCaps()  # gaze_limit: per-agent caps on the gaze chain's yaw
 
     # -- rows ------------------------------------------------------------------------------
 
@@ -455,12 +458,25 @@ class FullBody:
                 running = co.has("running")
                 # Eyes close the loop on last step's head once a forward kinematics has run.
                 closed = ~np.all(b.world_pos[:, sk.HEAD] == 0.0, axis=1)
-                ps.gaze_kernel(dt, has, target, self._head_pos(), self._root_yaw(), running, ps.GAZE_SHARE,
-                               ps.GAZE_YAW_LIMIT, ps.GAZE_PITCH_LIMIT, ps.GAZE_SPEED, ps.GAZE_TAU,
-                               b.gaze_ang, pose_q, sq, np.ascontiguousarray(b.world_pos[:, sk.L_EYE]),
-                               np.ascontiguousarray(b.world_pos[:, sk.R_EYE]),
-                               np.ascontiguousarray(b.world_q[:, sk.HEAD]), closed)
+                capped, caps = self.head_caps.rows(self.ids)
+                saved = b.gaze_ang[capped].copy()
+                head_pos, root_yaw = self._head_pos(), self._root_yaw()
+                wp = b.world_pos
+                eye_l, eye_r = np.ascontiguousarray(wp[:, sk.L_EYE]), np.ascontiguousarray(wp[:, sk.R_EYE])
+                head_q = np.ascontiguousarray(b.world_q[:, sk.HEAD])
+                ps.gaze_kernel(dt, has, target, head_pos, root_yaw, running, ps.GAZE_SHARE, ps.GAZE_YAW_LIMIT,
+                               ps.GAZE_PITCH_LIMIT, ps.GAZE_SPEED, ps.GAZE_TAU, b.gaze_ang, pose_q, sq, eye_l,
+                               eye_r, head_q, closed)
+                for r, cap, ang in zip(capped.tolist(), caps.tolist(), saved, strict=True):
+                    # the capped rows again, from their own state, with the chain's yaw limited (gaze_limit)
+                    b.gaze_ang[r] = ang
+                    k = slice(r, r + 1)
+                    ps.gaze_kernel(dt, has[k], target[k], head_pos[k], root_yaw[k], running[k], ps.GAZE_SHARE,
+                                   HeadCaps.limits(ps.GAZE_YAW_LIMIT, cap), ps.GAZE_PITCH_LIMIT,
+                                   ps.GAZE_SPEED, ps.GAZE_TAU, b.gaze_ang[k], pose_q[k], sq[k], eye_l[k],
+                                   eye_r[k], head_q[k], closed[k])
             elif name == "reach":
+                self.hand_paths.apply(self.ids, b.reach_on, b.reach_pt, t)
                 wp, wq = self._fk_of(pose_q, pose_p)
                 active, target = self._reach_targets(wp, wq, t)
                 ps.reach_kernel(active, target, wp, wq, b.offsets, pose_q, sq)
@@ -754,6 +770,43 @@ class FullBody:
             self.state.reach_on[row, s] = True
             self.state.reach_pt[row, s] = np.asarray(target, np.float64)
         return hd
+
+    def reach_along(self, agent_id: int, points: np.ndarray, times: np.ndarray, *,
+                    side: str = "right") -> Handle:
+        """Move the hand along a timed path: ``points (M, 3)`` world, ``times (M,)`` s (simulation
+        time, not decreasing). The reach target follows the path, interpolated at every step; before
+        the first time it is the first point, after the last the last point, held until released
+        with ``reach_for(agent, None)``. The handle is ``reach_for``'s for the last point (success
+        when the hand is there, failure if it is not 2 s after the path's end)."""
+        pts = np.asarray(points, np.float64).reshape(-1, 3)
+        ts = np.asarray(times, np.float64).reshape(-1)
+        hd = self.reach_for(agent_id, (float(pts[-1, 0]), float(pts[-1, 1]), float(pts[-1, 2])), side=side)
+        s = 1 if side == "right" else 0
+        self.hand_paths.set(agent_id, s, ts, pts)
+        self.state.reach_pt[self._row(agent_id), s] = pts[0]
+        hd.started = max(hd.started, float(ts[-1]))
+        return hd
+
+    def gaze_limit(self, agent_id: int, yaw: float | None) -> None:
+        """Cap the yaw (rad) the gaze chain's body joints (lumbar, thorax, neck, head) may turn toward
+        a gaze target, the eyes doing the rest within their own limit; None lifts the cap."""
+        self._row(agent_id)
+        self.head_caps.set(agent_id, yaw)
+
+    def arm_swing(self, agent_id: int, side: str = "right") -> tuple[float, float]:
+        """``(psi, rate)``: the walk's swing of one arm now. The locomotion's shoulder flexion of
+        that arm goes as ``sin(psi)`` (forward positive), ``psi`` advancing at ``rate`` rad/s at
+        the current step's pace (0 when the feet are still): the arm swings forward while ``cos(psi) > 0``."""
+        r = self._row(agent_id)
+        b = self.state
+        st = b.style[r, 1]  # the shoulder flexion DOF of the Ashida style table (pose.loco_shadow_kernel)
+        ts = b.phase[r] + (math.pi if side == "right" else 0.0)
+        psi = st[Pa] * ts + st[Pb] + (math.pi if st[PA] < 0.0 else 0.0)
+        speed = float(np.hypot(*b.vel_s[r]))
+        if not b.stepping[r]:
+            return float(psi), 0.0
+        step = 1.0 / cadence(speed, b.dims[r, sk.DIM_SCALE]) if speed > V_WALK else T_INPLACE
+        return float(psi), float(st[Pa] * math.pi / step)
 
     def gesture(self, agent_id: int, name: str | None, *, duration: float = 2.5) -> Handle:
         """Play a gesture clip (``pose.GESTURES``); None stops the current one."""

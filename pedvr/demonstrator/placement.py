@@ -229,7 +229,7 @@ class PlacementSearch:
     def _evaluate(self, zetas: np.ndarray) -> None:
         act, obs = self.action, self.observer
         tx, ty = act.target
-        alpha = local_angle(zetas, math.atan2(obs.pos[1] - ty, obs.pos[0] - tx))
+        alpha = np.asarray(local_angle(zetas, math.atan2(obs.pos[1] - ty, obs.pos[0] - tx)))
         beta, theta, phi = placement_model_array(np.asarray(alpha))
         k = len(zetas)
         variants = [(1.0, 0.0), *PERTURB]

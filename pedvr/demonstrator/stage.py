@@ -87,7 +87,8 @@ class Stage:
 
     # -- queries over candidates ----------------------------------------------------------------
 
-    def occluded(self, a: np.ndarray, ha: np.ndarray, b: np.ndarray, hb: np.ndarray) -> np.ndarray:
+    def occluded(self, a: np.ndarray, ha: np.ndarray | float, b: np.ndarray,
+                 hb: np.ndarray | float) -> np.ndarray:
         """``e_vis (M,)``: how much of the sight line a→b (ground points, heights) obstacles hide."""
         a = np.ascontiguousarray(a, np.float64).reshape(-1, 2)
         b = np.ascontiguousarray(b, np.float64).reshape(-1, 2)

@@ -16,6 +16,7 @@ from typing import Any
 
 from shapely.geometry import Point, Polygon, box
 
+import pedvr.demonstrator  # noqa: F401  (registers the exhibit smart object and the demonstrate node)
 from pedvr.behavior.declare import Interactions
 from pedvr.behavior.goals import selectors, validate_params
 from pedvr.errors import SceneError
