@@ -10,11 +10,13 @@ demonstrator through PLACE:
    slice of candidates per tick (:data:`PLAN_BUDGET` frame orientations), so
    no frame waits for a whole plan.
 2. **Walk** (§5) along the navigation mesh to the placement, looking at the
-   floor ahead (§8). When the demonstrator comes from elsewhere the last leg
-   runs along the placement's orientation from a point :data:`APPROACH` m
-   behind it, so the body arrives facing θ after a sharp turn a couple of
-   steps out, as the paper's subjects did; it then turns on the spot for the
-   rest (within 10°).
+   floor ahead (§8). When the placement's orientation θ points roughly the
+   way the demonstrator comes (within :data:`APPROACH_CONE`), the last leg
+   runs along θ from a point :data:`APPROACH` m behind the placement, so the
+   body arrives facing θ after a sharp turn a couple of steps out, as the
+   paper's subjects did; otherwise (θ back toward where it came from) it walks
+   straight in and turns on the spot, never past the placement and back. It
+   then turns on the spot for the rest (within 10°).
 3. **Act** (§6–7): the pointing (or touching) arm starts :data:`TRANSITION`
    s before the feet stop, matched to the arm swing
    (:mod:`pedvr.demonstrator.coordination`), and follows the planned hand
@@ -41,7 +43,11 @@ demonstrator through PLACE:
    arm retracted on the way and pointing again on arrival; the talk goes on
    for the time that was left.
 
-The node succeeds when the talk is done and the arm is back; it fails (and
+The node succeeds when the talk is done and the arm is back, or early when
+the observer walks away (farther than :data:`LEAVE_DIST` from the exhibit for
+:data:`LEAVE_AFTER` s: a guide does not go on talking to nobody; logged with
+outcome ``left``; the node succeeds, so an event ends normally, but the
+exhibit does not count a use); it fails (and
 the exhibit counts the reason) with ``no observer``, ``no placement`` (no
 valid candidate), ``blocked`` (every ranked placement unreachable when
 walked to) or ``timeout``. Stopped, it ends everything it started. While it
@@ -83,6 +89,7 @@ PLAN_BUDGET = 24  # frame orientations evaluated per behavior tick (72 in all: t
 ARRIVE = 0.1  # m: the placement is reached within this
 APPROACH = 0.6  # m: the last leg runs along the placement's orientation from this far behind it
 SWITCH = 0.5  # m from the approach point where the walk turns onto the last leg
+APPROACH_CONE = math.radians(75.0)  # the last leg is straightened only for placements roughly ahead
 FACE_TOL = math.radians(10.0)
 QUIET = 0.3  # s without a step after which the feet have stopped (a last squaring step may follow a stop)
 T_PREP = 1.0  # s from the action's start to its stroke point
@@ -98,6 +105,8 @@ SETTLED = 0.5  # m/s: an observer walking faster is waited for (unless it can no
 REPOSITION_SPEED = 0.6  # scale of the preferred speed for a short reposition
 SHORT = 2.0  # m: a reposition this short is a few steps at reduced speed
 TIMEOUT = 90.0  # s: a demonstration that has not finished by then fails
+LEAVE_DIST = 7.0  # m from the exhibit: an observer this far away has left ...
+LEAVE_AFTER = 1.5  # s: ... when it stays away this long; the demonstration ends early
 TRANSITION = co.TRANSITION
 
 PLAN, WALK, SETTLE, STAND, RETREAT = "plan", "walk", "settle", "stand", "retreat"
@@ -206,6 +215,7 @@ class Demonstrate(Behaviour):
         self.next_check = 0.0
         self.pending: PlacementSearch | None = None
         self.entry: dict[str, Any] = {}
+        self.away_since = math.inf
 
     # -- set-up ---------------------------------------------------------------------------------
 
@@ -274,6 +284,9 @@ class Demonstrate(Behaviour):
             return self._fail("timeout")
         if self.observer is None or ctx.find(self.observer) is None:
             return self._fail("no observer")
+        if self._left(ctx):
+            self.why = "observer left"
+            return SUCCESS
         self.wake = 0.0
         if self.phase == PLAN:
             assert self.search is not None
@@ -305,6 +318,16 @@ class Demonstrate(Behaviour):
             self.wake = 0.0  # planning, walking, settling: every tick
         return RUNNING
 
+    def _left(self, ctx: Context) -> bool:
+        """The observer has been farther than :data:`LEAVE_DIST` from the exhibit for
+        :data:`LEAVE_AFTER` s."""
+        assert self.observer is not None
+        if math.dist(ctx.pos(self.observer), self.exhibit.at) <= LEAVE_DIST:
+            self.away_since = math.inf
+            return False
+        self.away_since = min(self.away_since, ctx.t)
+        return ctx.t - self.away_since >= LEAVE_AFTER
+
     # -- walking --------------------------------------------------------------------------------
 
     def _go(self, ctx: Context, p: Placement, *, short: bool) -> None:
@@ -320,7 +343,9 @@ class Demonstrate(Behaviour):
         here = ctx.pos(self.agent)
         self.pre = None
         far = math.dist(here, p.pos) > APPROACH + SWITCH + 0.2
-        if far and not short:
+        toward = math.atan2(p.pos[1] - here[1], p.pos[0] - here[0])
+        ahead = abs((toward - p.heading + math.pi) % (2 * math.pi) - math.pi) < APPROACH_CONE
+        if far and ahead and not short:
             pre = (p.pos[0] - APPROACH * math.cos(p.heading), p.pos[1] - APPROACH * math.sin(p.heading))
             mesh = ctx.walkable
             if mesh.contains(pre) and mesh.same_component(pre, p.pos) and \
@@ -667,7 +692,8 @@ class Demonstrate(Behaviour):
         self.exhibit.active.pop(a, None)
         if self.entry:
             self.entry["t_end"] = round(ctx.t, 6)
-            self.entry["outcome"] = {SUCCESS: "success", FAILURE: "failure", INVALID: "stopped"}[new_status]
+            self.entry["outcome"] = ("left" if self.why == "observer left" else
+                                     {SUCCESS: "success", FAILURE: "failure", INVALID: "stopped"}[new_status])
             self.entry["why"] = self.why
             self.exhibit.log.append(self.entry)
             self.entry = {}
