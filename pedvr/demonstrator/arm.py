@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pedvr.demonstrator import kernels as kn
 from pedvr.demonstrator.stage import Figure, Stage
 
 ACTIONS = ("point", "touch")
@@ -143,12 +144,6 @@ def collision_potential(points: np.ndarray, spheres: np.ndarray) -> np.ndarray:
     return np.where(near.any(axis=1), np.exp(-(surf * near).sum(axis=1)), 0.0)
 
 
-def _clearance(p: np.ndarray, spheres: np.ndarray) -> float:
-    if len(spheres) == 0:
-        return math.inf
-    return float((np.linalg.norm(spheres[:, :3] - p, axis=1) - spheres[:, 3]).min())
-
-
 def hand_path(stage: Stage, figure: Figure, *, pos: tuple[float, float], heading: float,
               stroke: tuple[float, float, float]) -> tuple[np.ndarray, int]:
     """The hand's path ``(K, 3)`` from rest to the stroke point, and how many frames were adjusted.
@@ -170,31 +165,8 @@ def hand_path(stage: Stage, figure: Figure, *, pos: tuple[float, float], heading
     spheres = stage.spheres(shoulder, figure.arm + NEAR)
     adjusted = 0
     if len(spheres):
-        for j in range(1, n - 1):
-            e = path[j].copy()
-            moved = False
-            for _ in range(MAX_STEPS):
-                if _clearance(e, spheres) >= CLEARANCE:
-                    break
-                d = e[None, :] - spheres[:, :3]
-                dn = np.linalg.norm(d, axis=1)
-                near = dn <= NEAR
-                # -grad P_c = P_c · Σ unit(E − c_i): away from the nearby spheres
-                g = (d[near] / np.maximum(dn[near], 1e-9)[:, None]).sum(axis=0)
-                gn = float(np.linalg.norm(g))
-                if gn < 1e-9:
-                    g, gn = np.array([0.0, 1.0, 0.0]), 1.0
-                e = e + STEP * g / gn
-                moved = True
-            if moved:
-                adjusted += 1
-                delta = e - path[j]
-                path[j] = e
-                for m in range(1, WINDOW):
-                    w = 1.0 - m / WINDOW
-                    for q in (j - m, j + m):
-                        if 0 < q < n - 1:
-                            path[q] = path[q] + w * delta
+        adjusted = int(kn.avoid_kernel(path, np.ascontiguousarray(spheres), CLEARANCE, NEAR, STEP, MAX_STEPS,
+                                       WINDOW))
     return path, adjusted
 
 

@@ -110,3 +110,67 @@ def segment_distance_kernel(a, b, p, out):  # type: ignore[no-untyped-def]
         ll = dx * dx + dy * dy
         t = 0.0 if ll < 1e-18 else min(max((wx * dx + wy * dy) / ll, 0.0), 1.0)
         out[k] = math.hypot(wx - t * dx, wy - t * dy)
+
+
+@njit(cache=True)
+def in_polygon_kernel(p, verts, s, e, out):  # type: ignore[no-untyped-def]
+    """``out[k]``: ground point ``p[k]`` lies inside the polygon ``verts[s:e]``."""
+    for k in range(p.shape[0]):
+        out[k] = _inside(p[k, 0], p[k, 1], verts, s, e)
+
+
+@njit(cache=True)
+def _clearance(ex, ey, ez, spheres):  # type: ignore[no-untyped-def]
+    best = math.inf
+    for i in range(spheres.shape[0]):
+        d = math.sqrt((ex - spheres[i, 0]) ** 2 + (ey - spheres[i, 1]) ** 2 + (ez - spheres[i, 2]) ** 2)
+        best = min(best, d - spheres[i, 3])
+    return best
+
+
+@njit(cache=True)
+def avoid_kernel(path, spheres, clearance, near, step, max_steps, window):  # type: ignore[no-untyped-def]
+    """§6's single pass over the end effector's frames ``path (K, 3)``, in place; returns how many
+    frames were moved.
+
+    A frame closer than ``clearance`` to a sphere's surface descends the collision potential
+    ``P_c = exp(−Σ distance(E, S_i))`` over the spheres within ``near``: ``−∇P_c`` points along
+    ``Σ (E − c_i)/|E − c_i|``, so the frame takes steps of ``step`` m that way until it is clear (at
+    most ``max_steps``); its correction is spread over ``window`` frames on each side with linearly
+    falling weights. The first and last frames are never moved.
+    """
+    n = path.shape[0]
+    moved = 0
+    for j in range(1, n - 1):
+        ex, ey, ez = path[j, 0], path[j, 1], path[j, 2]
+        went = False
+        for _ in range(max_steps):
+            if _clearance(ex, ey, ez, spheres) >= clearance:
+                break
+            gx = gy = gz = 0.0
+            for i in range(spheres.shape[0]):
+                dx, dy, dz = ex - spheres[i, 0], ey - spheres[i, 1], ez - spheres[i, 2]
+                d = math.sqrt(dx * dx + dy * dy + dz * dz)
+                if d <= near and d > 1e-9:
+                    gx += dx / d
+                    gy += dy / d
+                    gz += dz / d
+            g = math.sqrt(gx * gx + gy * gy + gz * gz)
+            if g < 1e-9:
+                gx, gy, gz, g = 0.0, 1.0, 0.0, 1.0
+            ex += step * gx / g
+            ey += step * gy / g
+            ez += step * gz / g
+            went = True
+        if went:
+            moved += 1
+            dx, dy, dz = ex - path[j, 0], ey - path[j, 1], ez - path[j, 2]
+            path[j, 0], path[j, 1], path[j, 2] = ex, ey, ez
+            for m in range(1, window):
+                w = 1.0 - m / window
+                for q in (j - m, j + m):
+                    if 0 < q < n - 1:
+                        path[q, 0] += w * dx
+                        path[q, 1] += w * dy
+                        path[q, 2] += w * dz
+    return moved

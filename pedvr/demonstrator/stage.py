@@ -132,8 +132,9 @@ class Stage:
             g = np.stack([gx.ravel(), gy.ravel()], 1)
             g = g[np.hypot(g[:, 0] - c[0], g[:, 1] - c[2]) <= reach]
             if g.size:
-                keep = np.fromiter((_in_polygon((float(q[0]), float(q[1])), poly) for q in g), np.bool_,
-                                   len(g))
+                keep = np.empty(len(g), np.bool_)
+                kn.in_polygon_kernel(np.ascontiguousarray(g), self.verts, self.starts[i], self.starts[i + 1],
+                                     keep)
                 g = g[keep]
                 out.append(np.column_stack([g[:, 0], np.full(len(g), h - s / 2), g[:, 1]]))
             # sides: along each edge, at heights below the top
