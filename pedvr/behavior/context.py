@@ -79,6 +79,9 @@ class Context:
         # Gaze events behaviors record, in the PedVR gaze rule's form ({"agent", "t", "event": "start" |
         # "end", "target"}); the simulation shares its metrics' list here, so studies record them too.
         self.gaze_events: list[dict[str, object]] = []
+        # Events behaviors record as they happen, each a dict with "kind" and "t" (a demonstration's
+        # start, stroke and end: pedvr.demonstrator); the study records them with its samples.
+        self.events: list[dict[str, object]] = []
         # Agents a running node drives *for* the user (a demonstration to the user): the user-encounter
         # model leaves them alone, as it does the agents of events in which the user has a role.
         self.engaged: set[int] = set()

@@ -216,6 +216,7 @@ class Demonstrate(Behaviour):
         self.pending: PlacementSearch | None = None
         self.entry: dict[str, Any] = {}
         self.away_since = math.inf
+        self.demo_id = -1  # numbered once it starts (ctx.events)
 
     # -- set-up ---------------------------------------------------------------------------------
 
@@ -249,6 +250,9 @@ class Demonstrate(Behaviour):
                                                 d_pref=ex.d_pref))
         for ch in ("walk", "gaze", "face", "reach_right"):
             ctx.claim(self.agent, ch, self)
+        starts = [e for e in ctx.events if e.get("kind") == "demonstration" and e["event"] == "start"]
+        self.demo_id = len(starts)
+        self._event(ctx, "start")
         if self.observer == ctx.user:
             ctx.engaged.add(self.agent)
         ctx.body.go_to(self.agent, None)
@@ -563,7 +567,14 @@ class Demonstrate(Behaviour):
         self.wake = nxt if self.phase != STAND else min(nxt, self.next_check)
         return False
 
+    def _event(self, ctx: Context, what: str, **extra: object) -> None:
+        """A demonstration event for recorders (``ctx.events``): start, stroke, end."""
+        ctx.events.append({"kind": "demonstration", "event": what, "id": self.demo_id, "t": round(ctx.t, 6),
+                           "agent": self.agent, "object": self.exhibit.name, "x": self.exhibit.at[0],
+                           "y": self.exhibit.at[1], "observer": self.entry.get("observer"), **extra})
+
     def _stroke(self, ctx: Context) -> None:
+        self._event(ctx, "stroke")
         self.entry["t_stroke"].append(round(ctx.t, 6))
         self.entry["eye_contact_deg"].append(round(self.eye_contact_error(ctx), 3))
         self.t_hold_end = ctx.t + self.talk_left
@@ -690,10 +701,13 @@ class Demonstrate(Behaviour):
         self.gazing = ""
         ctx.engaged.discard(a)
         self.exhibit.active.pop(a, None)
+        outcome = ("left" if self.why == "observer left" else
+                   {SUCCESS: "success", FAILURE: "failure", INVALID: "stopped"}[new_status])
+        if self.entry and self.demo_id >= 0:
+            self._event(ctx, "end", outcome=outcome)
         if self.entry:
             self.entry["t_end"] = round(ctx.t, 6)
-            self.entry["outcome"] = ("left" if self.why == "observer left" else
-                                     {SUCCESS: "success", FAILURE: "failure", INVALID: "stopped"}[new_status])
+            self.entry["outcome"] = outcome
             self.entry["why"] = self.why
             self.exhibit.log.append(self.entry)
             self.entry = {}
