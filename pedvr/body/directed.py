@@ -77,6 +77,16 @@ class HeadCaps:
         keys = sorted(self.caps)
         return (np.asarray([rows[a] for a in keys], np.int64), np.asarray([self.caps[a] for a in keys]))
 
+    def table(self, ids: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """``(N, 5)`` yaw limits per row for the pose graph: ``base`` everywhere, :meth:`limits` where
+        an agent's gaze is capped."""
+        out = np.tile(np.asarray(base, np.float64), (len(ids), 1))
+        if self.caps:
+            rows, caps = self.rows(ids)
+            for r, cap in zip(rows.tolist(), caps.tolist(), strict=True):
+                out[r] = self.limits(base, cap)
+        return out
+
     @staticmethod
     def limits(base: np.ndarray, cap: float) -> np.ndarray:
         """Yaw limits ``(5,)`` (lumbar, thorax, neck, head, eyes) whose body joints sum to at most ``cap``:
