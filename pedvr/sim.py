@@ -484,7 +484,8 @@ class Simulation:
         goal = self.behavior.goal
         wants = ~self.crowd.is_user & (np.hypot(*(goal - self.crowd.pos).T) > STALL_GOAL_DIST)  # NaN: no goal
         self.metrics.observe_progress(self.crowd.ids, self.crowd.pos, wants, self.t)
-        self.metrics.observe_body(self.crowd, pelvis=self.body.state.world_pos[:, 0])
+        self.metrics.observe_body(self.crowd, pelvis=self.body.state.world_pos[:, 0],
+                                  seated=self.body.state.sitting)
         if self.recording is not None:
             self.recording.add(self.t, self.crowd, self.doors.angle)
 
