@@ -6,6 +6,10 @@ step, interpolated in time, so the arm IK follows a trajectory planned at the
 decision rate without 30 Hz jumps. :class:`HeadCaps` caps, per agent, how far
 the gaze chain (lumbar, thorax, neck and head) may turn in yaw, the eyes doing
 the rest within their own limit: Appendix A's maximum head rotation φ.
+:class:`HeldFacings` keeps an agent facing a given way while it moves (a
+short side step or back step to a new placement, §5) instead of turning to
+face its motion: the facing turns toward the held heading at the standing
+turn rate.
 
 Both are per-agent entries keyed by the agent's id (stable across row
 changes), so they survive agents being added and removed; an entry whose
@@ -96,3 +100,33 @@ class HeadCaps:
         if cap < total:
             out[:4] *= cap / max(total, 1e-9)
         return out
+
+
+class HeldFacings:
+    """Per-agent headings (rad) held while moving; applied after the root motion (coupled only)."""
+
+    def __init__(self) -> None:
+        self.held: dict[int, float] = {}
+
+    def set(self, agent: int, heading: float | None) -> None:
+        if heading is None:
+            self.held.pop(int(agent), None)
+        else:
+            self.held[int(agent)] = float(heading)
+
+    def apply(self, ids: np.ndarray, current: np.ndarray, heading: np.ndarray, rate: np.ndarray,
+              dt: float) -> None:
+        """``heading (N,)`` (the root motion's proposal) of every held row replaced by ``current``
+        turned toward the held heading, at most ``rate[row]`` rad/s; gone agents are dropped."""
+        if not self.held:
+            return
+        rows = {int(a): r for r, a in enumerate(ids.tolist())}
+        for agent in list(self.held):
+            r = rows.get(agent)
+            if r is None:
+                del self.held[agent]
+                continue
+            delta = (self.held[agent] - float(current[r]) + np.pi) % (2.0 * np.pi) - np.pi
+            lim = float(rate[r]) * dt
+            h = float(current[r]) + min(max(delta, -lim), lim)
+            heading[r] = (h + np.pi) % (2.0 * np.pi) - np.pi

@@ -28,7 +28,7 @@ from pedvr.body import actions as act
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
 from pedvr.body.coordinator import Coordinator, default_choreographers
-from pedvr.body.directed import HandPaths, HeadCaps
+from pedvr.body.directed import HandPaths, HeadCaps, HeldFacings
 from pedvr.body.graph import (
     ARM_ACTIONS,
     ARM_GOALS,
@@ -46,6 +46,7 @@ from pedvr.body.quat import matrices_kernel
 from pedvr.body.simple import SimpleBody
 from pedvr.body.style import N_EMOTIONS, PA, Pa, Pb, blend_style, draw_emotions, speed_factor
 from pedvr.crowd.state import (
+    LIMIT_TURN_STANDING,
     CrowdState,
 )
 from pedvr.errors import UsageError
@@ -266,6 +267,7 @@ class FullBody:
         self.state_names: tuple[str, ...] = ()
         self.hand_paths = HandPaths()  # reach_along: timed hand paths (pedvr.body.directed)
         self.head_caps = HeadCaps()  # gaze_limit: per-agent caps on the gaze chain's yaw
+        self.held_facings = HeldFacings()  # hold_facing: a facing kept while moving
 
     # -- rows ------------------------------------------------------------------------------
 
@@ -376,9 +378,13 @@ class FullBody:
         if len(self.state) == len(crowd):
             crowd.limits = self.state.base_limits  # turn rates: the profile's, as the heading rule expects
         try:
-            return self._simple.animate(crowd, new_vel, dt, coupled=coupled)
+            root, heading = self._simple.animate(crowd, new_vel, dt, coupled=coupled)
         finally:
             crowd.limits = saved
+        if coupled and self.held_facings.held and len(self.state) == len(crowd):
+            self.held_facings.apply(self.ids, crowd.heading, heading,
+                                    self.state.base_limits[:, LIMIT_TURN_STANDING], dt)
+        return root, heading
 
     def compose(self, crowd: CrowdState, root: np.ndarray, heading: np.ndarray, *, dt: float, t: float,
                 coupled: bool, state_names: np.ndarray | None = None) -> None:
@@ -683,6 +689,13 @@ class FullBody:
         a gaze target, the eyes doing the rest within their own limit; None lifts the cap."""
         self._row(agent_id)
         self.head_caps.set(agent_id, yaw)
+
+    def hold_facing(self, agent_id: int, heading: float | None) -> None:
+        """Keep facing ``heading`` (rad) while moving, turning toward it at the standing turn rate,
+        instead of turning to face the motion (coupled bodies): a short side or back step. None
+        lets the facing follow the motion again."""
+        self._row(agent_id)
+        self.held_facings.set(agent_id, heading)
 
     def arm_swing(self, agent_id: int, side: str = "right") -> tuple[float, float]:
         """``(psi, rate)``: the walk's swing of one arm now. The locomotion's shoulder flexion of

@@ -39,7 +39,8 @@ demonstrator through PLACE:
    :data:`MIN_MOVE` m away), or if the current one became invalid (the
    observer stands too close, or cannot be seen), and not within
    :data:`DWELL` s of arriving: the demonstrator never dances. A reposition
-   is a short walk at reduced speed (2–4 steps over a metre or so), with the
+   is a short walk at reduced speed (2–4 steps over a metre or so; within
+   :data:`SIDESTEP` m side or back steps that keep facing the new θ), with the
    arm retracted on the way and pointing again on arrival; the talk goes on
    for the time that was left.
 
@@ -104,6 +105,7 @@ DWELL = 2.0  # s at a placement before the demonstrator may move again
 SETTLED = 0.5  # m/s: an observer walking faster is waited for (unless it can no longer be shown to)
 REPOSITION_SPEED = 0.6  # scale of the preferred speed for a short reposition
 SHORT = 2.0  # m: a reposition this short is a few steps at reduced speed
+SIDESTEP = 1.2  # m: a reposition this short is stepped facing the new orientation (side / back steps)
 TIMEOUT = 90.0  # s: a demonstration that has not finished by then fails
 LEAVE_DIST = 7.0  # m from the exhibit: an observer this far away has left ...
 LEAVE_AFTER = 1.5  # s: ... when it stays away this long; the demonstration ends early
@@ -358,6 +360,9 @@ class Demonstrate(Behaviour):
         r = ctx.row(self.agent)
         ctx.behavior.face[r] = np.nan
         self.cruise = REPOSITION_SPEED if short and math.dist(here, p.pos) < SHORT else 1.0
+        # §5's short-range repositioning: a few side or back steps, turning toward θ on the way,
+        # as people shift their stance, not a turn to walk and a turn back
+        ctx.body.hold_facing(self.agent, p.heading if short and math.dist(here, p.pos) < SIDESTEP else None)
         ctx.behavior.speed_scale[r] = self.cruise
         goal = self.pre if self.pre is not None else p.pos
         self.walk = ctx.body.go_to(self.agent, goal, arrive_dist=ARRIVE if self.pre is None else SWITCH,
@@ -399,6 +404,7 @@ class Demonstrate(Behaviour):
             self.t_arrived = ctx.t
             self.walk = None
             ctx.body.go_to(self.agent, None)
+            ctx.body.hold_facing(self.agent, None)
             ctx.behavior.speed_scale[ctx.row(self.agent)] = 1.0
         return RUNNING
 
@@ -692,6 +698,7 @@ class Demonstrate(Behaviour):
             if ctx.release(a, "gaze", self):
                 ctx.body.gaze_at(a, None)
             ctx.body.gaze_limit(a, None)
+            ctx.body.hold_facing(a, None)
             if ctx.release(a, "reach_right", self):
                 ctx.body.reach_for(a, None, side="right")
             r = ctx.row(a)
