@@ -5,6 +5,7 @@
 ``pedvr scene list``           the shipped scenes
 ``pedvr bench steering``       ORCA step time against RVO2
 ``pedvr bench behavior``       behavior scheduler tick time (trees, events)
+``pedvr bench place``          PLACE planning time per demonstration; step times with and without
 ``pedvr sweep SPEC.toml``      many headless runs on Dask (:mod:`pedvr.sweep`)
 ``pedvr bench sim``            a whole simulation step with full bodies (``--load K`` beside it)
 
@@ -164,6 +165,11 @@ def build_parser() -> argparse.ArgumentParser:
     bh.add_argument("--events", type=int, default=20, help="conversations kept running (default 20)")
     bh.add_argument("--seconds", type=_positive(float), default=20.0, help="simulated seconds timed")
     bh.add_argument("--json", action="store_true")
+    bp = bsub.add_parser("place", help="PLACE: planning time per demonstration; step times meanwhile")
+    bp.add_argument("--scene", choices=("place_table", "gallery"), action="append", default=None)
+    bp.add_argument("--queries", type=_positive(int), default=200, help="plans timed per scene (default 200)")
+    bp.add_argument("--seconds", type=_positive(float), default=30.0, help="simulated seconds of each run")
+    bp.add_argument("--json", action="store_true")
     sb = bsub.add_parser("sim", help="whole Simulation.step() with full bodies on a generated plaza")
     sb.add_argument("--agents", type=_positive(int), action="append", default=None,
                     help="agents on the plaza (repeatable; default 100 and 1000)")
@@ -355,6 +361,12 @@ def _bench(args: argparse.Namespace) -> int:
             raise UsageError(f"--events {args.events}: expected 0 to 70 (conversations that fit the plaza)")
         _print_results([run_behavior_bench(n, events=args.events, seconds=args.seconds)
                         for n in args.agents or [200]], args.json)
+        return 0
+    if args.bench_command == "place":
+        from pedvr.demonstrator.bench import SCENES, run_place_bench
+
+        _print_results([run_place_bench(s, queries=args.queries, seconds=args.seconds)
+                        for s in args.scene or SCENES], args.json)
         return 0
     if args.bench_command == "sim":
         from pedvr.bench_sim import run_sim_bench

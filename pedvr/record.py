@@ -63,10 +63,15 @@ class Metrics:
     _anchor_t: np.ndarray = field(default_factory=lambda: np.zeros(0))  # by id, s
     _stalled_now: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # ids
 
-    def observe_body(self, crowd: CrowdState, *, pelvis: np.ndarray) -> None:
+    def observe_body(self, crowd: CrowdState, *, pelvis: np.ndarray,
+                     seated: np.ndarray | None = None) -> None:
         """Pelvis ``(N,3)`` (3D, Y up) against the committed 2D agents: the largest
-        horizontal distance (virtual agents; it includes the pelvis's deliberate sway)."""
+        horizontal distance (virtual agents; it includes the pelvis's deliberate sway). Seated
+        bodies (``seated (N,)``) are left out: a chair's sitting pose puts the pelvis 0.3 m behind
+        the agent by design (pedvr.behavior.objects.Chair)."""
         virt = ~crowd.is_user
+        if seated is not None and seated.shape[0] == len(crowd):
+            virt = virt & ~seated
         if virt.any() and pelvis.shape[0] == len(crowd):
             d = np.hypot(pelvis[virt, 0] - crowd.pos[virt, 0], pelvis[virt, 2] - crowd.pos[virt, 1])
             self.root_sync_error = max(self.root_sync_error, float(d.max()))

@@ -136,11 +136,12 @@ class Simulation:
             crowd=self.crowd, behavior=self.behavior, body=self.body, visibility=self.visibility,
             walkable=self.goal_mesh, rng=self.rng, goal_sets=scene.behavior.goal_sets,
             objects=make_objects(scene.behavior.objects),
-            user=None if self.user is None else int(self.crowd.ids[0])), bfsm=self.bfsm)
+            user=None if self.user is None else int(self.crowd.ids[0]), world=scene.world), bfsm=self.bfsm)
 
         seg_a, seg_b = edges(scene.world)
         self.metrics = Metrics(seg_a=seg_a, seg_b=seg_b, inside=self._inside_obstacle,
                                personal_space=self.personal_space)
+        self.scheduler.ctx.gaze_events = self.metrics.gaze_events  # behaviors' gaze events (demonstrations)
         self.recording = Recording() if record else None
         self._face_unset()
         if self.recording is not None:
@@ -483,7 +484,8 @@ class Simulation:
         goal = self.behavior.goal
         wants = ~self.crowd.is_user & (np.hypot(*(goal - self.crowd.pos).T) > STALL_GOAL_DIST)  # NaN: no goal
         self.metrics.observe_progress(self.crowd.ids, self.crowd.pos, wants, self.t)
-        self.metrics.observe_body(self.crowd, pelvis=self.body.state.world_pos[:, 0])
+        self.metrics.observe_body(self.crowd, pelvis=self.body.state.world_pos[:, 0],
+                                  seated=self.body.state.sitting)
         if self.recording is not None:
             self.recording.add(self.t, self.crowd, self.doors.angle)
 

@@ -31,6 +31,7 @@ import numpy as np
 from pedvr.behavior.bfsm import BehaviorState
 from pedvr.body.model import FullBody
 from pedvr.crowd.state import CrowdState
+from pedvr.scene.config import WorldConfig
 
 if TYPE_CHECKING:
     from pedvr.behavior.objects import SmartObject
@@ -61,7 +62,8 @@ class Context:
 
     def __init__(self, *, crowd: CrowdState, behavior: BehaviorState, body: FullBody, visibility: Any,
                  walkable: Any, rng: np.random.Generator, goal_sets: dict[str, Any] | None = None,
-                 objects: dict[str, SmartObject] | None = None, user: int | None = None) -> None:
+                 objects: dict[str, SmartObject] | None = None, user: int | None = None,
+                 world: WorldConfig | None = None) -> None:
         self.t = 0.0
         self.wake = math.inf
         self.rng = rng
@@ -73,6 +75,16 @@ class Context:
         self.goal_sets = goal_sets or {}
         self.objects: dict[str, SmartObject] = objects or {}
         self.user = user
+        self.world = world  # the static world (obstacle heights, occluders): for planners that need 3D
+        # Gaze events behaviors record, in the PedVR gaze rule's form ({"agent", "t", "event": "start" |
+        # "end", "target"}); the simulation shares its metrics' list here, so studies record them too.
+        self.gaze_events: list[dict[str, object]] = []
+        # Events behaviors record as they happen, each a dict with "kind" and "t" (a demonstration's
+        # start, stroke and end: pedvr.demonstrator); the study records them with its samples.
+        self.events: list[dict[str, object]] = []
+        # Agents a running node drives *for* the user (a demonstration to the user): the user-encounter
+        # model leaves them alone, as it does the agents of events in which the user has a role.
+        self.engaged: set[int] = set()
         self.run: Run = Run()  # the tree being ticked (the scheduler sets it)
         self.owners: dict[tuple[int, str], object] = {}
         self._ids: np.ndarray | None = None

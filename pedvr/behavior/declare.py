@@ -78,7 +78,7 @@ class Interactions:
             at = _point(o.get("at", MISSING))
             if at is None:
                 c.bad(f"{path}.at", o.get("at", MISSING), "required [x, y] in metres")
-            elif blocked is not None and blocked.contains(Point(at)):
+            elif blocked is not None and blocked.contains(Point(at)) and not (cls and cls.ON_OBSTACLES):
                 c.bad(f"{path}.at", list(at), "lies outside the walkable area")
                 at = None
             facing = c.number(o, "facing_deg", f"{path}.facing_deg", required=False, default=0.0)

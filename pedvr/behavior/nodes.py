@@ -60,12 +60,15 @@ class Env:
 @dataclass(frozen=True)
 class NodeType:
     """``main``: the kind of the type key's value (``children``, ``child``, or a value kind);
-    ``attrs``: the other keys; ``build``: spec + bindings -> node."""
+    ``attrs``: the other keys; ``build``: spec + bindings -> node; ``affords``: ``(attribute,
+    affordance)`` when the node invokes that affordance of the object its attribute names (checked
+    like ``use``'s: the object's kind must have it, and a tree's object parameter records it)."""
 
     main: str
     attrs: dict[str, Attr]
     build: Callable[[NodeSpec, Bindings], bt.Behaviour]
     doc: str = ""
+    affords: tuple[str, str] | None = None
 
 
 node_types: Registry[NodeType] = Registry("node type")
@@ -318,6 +321,17 @@ def _extra_check(kind: str, main: Any, attrs: dict[str, Any], env: Env) -> tuple
                                   f"{', '.join(object_kinds[okind].AFFORDANCES)}")
         if obj.kind == "param":
             env.uses.setdefault(obj.value, set()).add(aff)
+    affords = node_types[kind].affords
+    if affords is not None:
+        attr, aff = affords
+        ref: Ref = attrs[attr]
+        okind = (env.objects.get(ref.value) if ref.kind == "object" else
+                 ref.value if ref.kind == "nearest" else None)
+        if okind is not None and okind in object_kinds and aff not in object_kinds[okind].AFFORDANCES:
+            return attr, (f"a {okind} has no affordance {aff!r}; kinds that have it: "
+                          f"{', '.join(k for k in object_kinds if aff in object_kinds[k].AFFORDANCES)}")
+        if ref.kind == "param":
+            env.uses.setdefault(ref.value, set()).add(aff)
     return None
 
 

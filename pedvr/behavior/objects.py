@@ -40,6 +40,7 @@ class SmartObject:
 
     AFFORDANCES: ClassVar[tuple[str, ...]] = ()
     PARAMS: ClassVar[dict[str, Param]] = {}
+    ON_OBSTACLES: ClassVar[bool] = False  # ``at`` may lie on an obstacle (an exhibit on a table)
 
     def __init__(self, decl: ObjectDef) -> None:
         self.name = decl.name
@@ -50,6 +51,7 @@ class SmartObject:
         # what happened here, for the run's metrics: uses that succeeded and failures by reason
         self.uses: dict[str, int] = {}
         self.failures: dict[str, int] = {}
+        self.log: list[dict[str, Any]] = []  # one entry per use worth reporting (the run's metrics)
 
     def count(self, affordance: str) -> None:
         """Count a successful use of ``affordance``."""

@@ -216,8 +216,9 @@ class Scheduler:
 
     def engaged_with_user(self) -> np.ndarray:
         """``(N,)`` rows driven by a running event in which the user has a role (holding a
-        gate for the user, demonstrating to the user): the user encounter model
-        (:mod:`pedvr.crowd.encounter`) leaves them alone, since they move *for* the user,
+        gate for the user, demonstrating to the user), or by a running node that drives them for
+        the user (``ctx.engaged``: a demonstration from a BFSM state's tree): the user encounter
+        model (:mod:`pedvr.crowd.encounter`) leaves them alone, since they move *for* the user,
         not out of the user's way; ORCA's late safety step still applies."""
         crowd = self.ctx.crowd
         out = np.zeros(len(crowd), np.bool_)
@@ -227,6 +228,8 @@ class Scheduler:
         for run in self.live:
             if run.phase == ACTIVE and user in run.actors:
                 out |= np.isin(crowd.ids, run.agents)
+        if self.ctx.engaged:
+            out |= np.isin(crowd.ids, sorted(self.ctx.engaged))
         return out
 
     def summary(self) -> dict[str, object]:
@@ -242,6 +245,7 @@ class Scheduler:
         out["affordance_uses"] = uses
         out["affordance_failures"] = fails
         out["event_log"] = list(self.log)  # every ended event: name, agents, times, outcome, why
+        out["object_log"] = [e for o in self.objects.values() for e in o.log]  # demonstrations, ...
         return out
 
     # -- the tick -------------------------------------------------------------------------------

@@ -292,7 +292,7 @@ def _pose_rows(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, p
                                          has_user, heads, run_kind, run_start, heading, root, goal)
                 # at rest, with nothing to look at, the gaze's shadow is the pose itself
                 if not ps.gaze_at_rest(has, ang[i]):
-                    _gaze_node(dt, w, masks[c], has, goal, heads[i], yaw, running[i], share, yaw_lim,
+                    _gaze_node(dt, w, masks[c], has, goal, heads[i], yaw, running[i], share, yaw_lim[i],
                                pitch_lim, speed, alpha, ang[i], world_pos[i, sk.L_EYE],
                                world_pos[i, sk.R_EYE], world_q[i, sk.HEAD], not fresh[i], pq, pp, sq, sp)
             elif node == REACH:
@@ -350,8 +350,9 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
     to the pelvis (:func:`turn_shoulders`). Outputs: ``local_q (N,J,4)``, ``pelvis (N,3)`` the
     final pose, ``world_pos (N,K,3)``, ``world_q (N,K,4)`` its forward kinematics; the gaze state
     ``ang``, the pelvis height ``h_prev``, ``foot_pitch`` (heel rise) and ``ik_miss`` are updated.
-    ``chunks > 0`` runs the bodies in that many chunks in parallel, 0 in one serial loop (the
-    same bytes either way: bodies are independent).
+    ``yaw_lim (N, 5)`` is per body (a gaze capped by ``FullBody.gaze_limit``), the other gaze
+    parameters are shared. ``chunks > 0`` runs the bodies in that many chunks in parallel, 0 in
+    one serial loop (the same bytes either way: bodies are independent).
     """
     if chunks > 0:
         _pose_chunks(min(chunks, local_q.shape[0]), dt, t, order, weights, masks, moves_pelvis, clip_masks,

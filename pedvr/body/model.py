@@ -30,6 +30,7 @@ from pedvr.body import actions as act
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
 from pedvr.body.coordinator import Coordinator, default_choreographers
+from pedvr.body.directed import HandPaths, HeadCaps, HeldFacings
 from pedvr.body.graph import (
     ARM_ACTIONS,
     ARM_GOALS,
@@ -41,12 +42,13 @@ from pedvr.body.graph import (
     gaze_targets_kernel,
     pose_graph_kernel,
 )
-from pedvr.body.locomotion import V_WALK, gait_kernel, limits_kernel
+from pedvr.body.locomotion import T_INPLACE, V_WALK, cadence, gait_kernel, limits_kernel
 from pedvr.body.metrics import SkateMeter
 from pedvr.body.quat import matrices_kernel
 from pedvr.body.simple import SimpleBody
-from pedvr.body.style import N_EMOTIONS, blend_style, draw_emotions, speed_factor
+from pedvr.body.style import N_EMOTIONS, PA, Pa, Pb, blend_style, draw_emotions, speed_factor
 from pedvr.crowd.state import (
+    LIMIT_TURN_STANDING,
     CrowdState,
 )
 from pedvr.errors import UsageError
@@ -271,6 +273,9 @@ class FullBody:
         self._t = 0.0
         self.hmd_position: np.ndarray | None = None
         self.state_names: tuple[str, ...] = ()
+        self.hand_paths = HandPaths()  # reach_along: timed hand paths (pedvr.body.directed)
+        self.head_caps = HeadCaps()  # gaze_limit: per-agent caps on the gaze chain's yaw
+        self.held_facings = HeldFacings()  # hold_facing: a facing kept while moving
 
     # -- rows ------------------------------------------------------------------------------
 
@@ -381,9 +386,13 @@ class FullBody:
         if len(self.state) == len(crowd):
             crowd.limits = self.state.base_limits  # turn rates: the profile's, as the heading rule expects
         try:
-            return self._simple.animate(crowd, new_vel, dt, coupled=coupled)
+            root, heading = self._simple.animate(crowd, new_vel, dt, coupled=coupled)
         finally:
             crowd.limits = saved
+        if coupled and self.held_facings.held and len(self.state) == len(crowd):
+            self.held_facings.apply(self.ids, crowd.heading, heading,
+                                    self.state.base_limits[:, LIMIT_TURN_STANDING], dt)
+        return root, heading
 
     def compose(self, crowd: CrowdState, root: np.ndarray, heading: np.ndarray, *, dt: float, t: float,
                 coupled: bool, state_names: np.ndarray | None = None) -> None:
@@ -433,6 +442,7 @@ class FullBody:
         kind = np.where(g_active | fading, b.g_kind, 0)
         idle_w = np.clip(1.0 - speed / 0.3, 0.0, 1.0) * ~b.sitting
         order, masks, moves_pelvis = co.graph()
+        self.hand_paths.apply(self.ids, b.reach_on, b.reach_pt, t)  # reach_along's paths, at t
         heads, fresh = self._heads()
         has_user, user_head = self._user_head(crowd, heads)
         par = _POSE_CHOOSER.choose(len(b))
@@ -443,7 +453,8 @@ class FullBody:
             kind, b.g_start, b.g_dur, b.noise_seed, idle_w, ps.PERM,
             b.gaze_kind, b.gaze_point, self._gaze_rows(), b.gaze_rule, user_head, has_user,
             co.has("running"), b.heading, b.gaze_ang,
-            ps.GAZE_SHARE, ps.GAZE_YAW_LIMIT, ps.GAZE_PITCH_LIMIT, ps.GAZE_SPEED, ps.GAZE_TAU,
+            ps.GAZE_SHARE, self.head_caps.table(self.ids, ps.GAZE_YAW_LIMIT), ps.GAZE_PITCH_LIMIT,
+            ps.GAZE_SPEED, ps.GAZE_TAU,
             b.run_kind, b.run_mask, b.run_start, b.reach_on, b.reach_pt, ARM_GOALS,
             b.root, b.foot_ref, b.foot_yaw, b.foot_pitch, b.foot_lift, b.planted, b.stepping, b.s, b.swing,
             b.h_prev, b.ik_miss, heads, fresh, b.shoulder_turn, sk.PARENTS, b.local_q, b.pelvis, b.world_pos,
@@ -667,6 +678,50 @@ class FullBody:
             self.state.reach_on[row, s] = True
             self.state.reach_pt[row, s] = point
         return hd
+
+    def reach_along(self, agent_id: int, points: np.ndarray, times: np.ndarray, *,
+                    side: str = "right") -> Handle:
+        """Move the hand along a timed path: ``points (M, 3)`` world, ``times (M,)`` s (simulation
+        time, not decreasing). The reach target follows the path, interpolated at every step; before
+        the first time it is the first point, after the last the last point, held until released
+        with ``reach_for(agent, None)``. The handle is ``reach_for``'s for the last point (success
+        when the hand is there, failure if it is not 2 s after the path's end)."""
+        pts = np.asarray(points, np.float64).reshape(-1, 3)
+        ts = np.asarray(times, np.float64).reshape(-1)
+        hd = self.reach_for(agent_id, (float(pts[-1, 0]), float(pts[-1, 1]), float(pts[-1, 2])), side=side)
+        s = 1 if side == "right" else 0
+        self.hand_paths.set(agent_id, s, ts, pts)
+        self.state.reach_pt[self._row(agent_id), s] = pts[0]
+        hd.started = max(hd.started, float(ts[-1]))
+        return hd
+
+    def gaze_limit(self, agent_id: int, yaw: float | None) -> None:
+        """Cap the yaw (rad) the gaze chain's body joints (lumbar, thorax, neck, head) may turn toward
+        a gaze target, the eyes doing the rest within their own limit; None lifts the cap."""
+        self._row(agent_id)
+        self.head_caps.set(agent_id, yaw)
+
+    def hold_facing(self, agent_id: int, heading: float | None) -> None:
+        """Keep facing ``heading`` (rad) while moving, turning toward it at the standing turn rate,
+        instead of turning to face the motion (coupled bodies): a short side or back step. None
+        lets the facing follow the motion again."""
+        self._row(agent_id)
+        self.held_facings.set(agent_id, heading)
+
+    def arm_swing(self, agent_id: int, side: str = "right") -> tuple[float, float]:
+        """``(psi, rate)``: the walk's swing of one arm now. The locomotion's shoulder flexion of
+        that arm goes as ``sin(psi)`` (forward positive), ``psi`` advancing at ``rate`` rad/s at
+        the current step's pace (0 when the feet are still): the arm swings forward while ``cos(psi) > 0``."""
+        r = self._row(agent_id)
+        b = self.state
+        st = b.style[r, 1]  # the shoulder flexion DOF of the Ashida style table (pose.loco_shadow_kernel)
+        ts = b.phase[r] + (math.pi if side == "right" else 0.0)
+        psi = st[Pa] * ts + st[Pb] + (math.pi if st[PA] < 0.0 else 0.0)
+        speed = float(np.hypot(*b.vel_s[r]))
+        if not b.stepping[r]:
+            return float(psi), 0.0
+        step = 1.0 / cadence(speed, b.dims[r, sk.DIM_SCALE]) if speed > V_WALK else T_INPLACE
+        return float(psi), float(st[Pa] * math.pi / step)
 
     def gesture(self, agent_id: int, name: str | None, *, duration: float = 2.5) -> Handle:
         """Play a gesture clip (``pose.GESTURES``) for ``duration`` s; None stops the current one.

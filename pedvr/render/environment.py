@@ -7,7 +7,10 @@ every obstacle extruded from its counter-clockwise polygon to its height,
 shaped by ``kind``: walls and pillars full height; tables a top slab on a
 leg; counters solid; booths a counter at 1.05 m with a banner panel up to
 their height (so aisles stay visible, issue 16); shops a glazed front under a
-coloured fascia; buildings a façade with windows. Vertices are
+coloured fascia; buildings a façade with windows; plants a pot under
+stacked foliage (PLACE's partial occluder). Exhibits (the demonstrators'
+smart objects, :mod:`pedvr.demonstrator`) stand on whatever they are on as
+small glazed vases, or on a slim stand in the open. Vertices are
 ``(position, normal, linear RGB colour, uv, material)`` in world space (ground
 ``(x, y)`` → ``(x, 0, y)``, :mod:`pedvr.render.math3d`); the environment
 shader draws each material's procedural texture from ``uv`` (metres).
@@ -16,11 +19,13 @@ shader draws each material's procedural texture from ``uv`` (metres).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 
+from pedvr.behavior.spec import ObjectDef
 from pedvr.scene.config import Door, Obstacle, WorldConfig
 
 ENV_DTYPE = np.dtype([("pos", "<f4", 3), ("normal", "<f4", 3), ("color", "<f4", 3), ("uv", "<f4", 2),
@@ -49,7 +54,10 @@ _COLOURS = {  # sRGB, converted to linear below
     "boundary": (0.55, 0.53, 0.50),
     "door": (0.56, 0.40, 0.26),
     "door_frame": (0.35, 0.33, 0.32),
+    "plant": (0.22, 0.42, 0.18),
+    "pot": (0.62, 0.33, 0.22),
 }
+POT_HEIGHT = 0.35  # m, a plant's pot
 FLOOR_COLOUR = (0.62, 0.61, 0.58)
 GLASS = (0.20, 0.28, 0.32)
 LEAF_THICKNESS = 0.045  # m
@@ -226,6 +234,16 @@ def obstacle_vertices(ob: Obstacle) -> np.ndarray:
             panel = _ccw(np.array([c - d - nrm, c + d - nrm, c + d + nrm, c - d + nrm]))
             _prism(panel, top, h - 0.45, linear((0.9, 0.9, 0.88)), out, material=FABRIC, top=False)
             _prism(panel, h - 0.45, h, fabric, out, material=FABRIC)
+    elif ob.kind == "plant":
+        c = poly.mean(axis=0)
+        pot = min(POT_HEIGHT, 0.3 * h)
+        _prism(c + 0.6 * (poly - c), 0.0, pot, kind_colour("pot"), out, material=PAINT)
+        # foliage: three tiers, widest in the middle, each a little turned
+        for k, (lo, hi, w) in enumerate(((pot, 0.55 * h, 0.85), (0.45 * h, 0.8 * h, 1.0), (0.7 * h, h, 0.6))):
+            a = 0.4 * k
+            rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+            tier = c + ((poly - c) @ rot.T) * w
+            _prism(_ccw(tier), lo, hi, colour * (0.85 + 0.15 * k), out, material=FABRIC)
     elif ob.kind == "shop" and h > GLAZING[1]:
         _prism(poly, 0.0, h, colour, out, material=PLASTER, band=GLAZING)
         # The fascia: a coloured sign band above the glazing.
@@ -354,11 +372,69 @@ def _ccw(poly: np.ndarray) -> np.ndarray:
     return poly if area > 0 else poly[::-1]
 
 
-def environment_mesh(world: WorldConfig) -> EnvironmentMesh:
+@dataclass(frozen=True)
+class ExhibitShape:
+    """An exhibit as drawn: ground point, the height it stands on, its top, its width (m)."""
+
+    at: tuple[float, float]
+    base: float
+    top: float
+    size: float
+
+
+def exhibit_shapes(world: WorldConfig, objects: Sequence[ObjectDef]) -> list[ExhibitShape]:
+    """The scene's exhibits (smart objects of kind ``exhibit``) as drawn: on the obstacle under
+    them (a table, a pedestal) up to their ``height`` (default 0.1 m above it, as the demonstrator
+    plans), or in the open on a stand."""
+    out = []
+    for o in objects:
+        if o.kind != "exhibit":
+            continue
+        size = float(o.params.get("size", 0.1))
+        p = shapely.Point(o.at)
+        under = [ob.height for ob in world.obstacles if shapely.Polygon(ob.vertices).contains(p)]
+        base = under[0] if under else 0.0
+        top = float(o.params.get("height", base + 0.1 if under else 1.0))
+        if not under:
+            base = max(top - max(size, 0.1), 0.0)
+        out.append(ExhibitShape(at=o.at, base=base, top=max(top, base + 0.02), size=size))
+    return out
+
+
+def exhibit_vertices(ex: ExhibitShape) -> np.ndarray:
+    """A small glazed vase (octagonal, waisted) from ``base`` to ``top``, coloured by its place; in
+    the open, a slim dark stand below it."""
+    out = _Parts()
+    c = np.asarray(ex.at, np.float64)
+    r = 0.5 * max(ex.size, 0.04)
+    ring = np.array([[math.cos(2 * math.pi * (k + 0.5) / 8), math.sin(2 * math.pi * (k + 0.5) / 8)]
+                     for k in range(8)])
+    colour = _hash_colour(float(c[0]), float(c[1]))
+    h = ex.top - ex.base
+    for lo, hi, w in ((0.0, 0.55, 1.0), (0.55, 0.8, 0.55), (0.8, 1.0, 0.75)):
+        _prism(c + ring * r * w, ex.base + lo * h, ex.base + hi * h, colour, out, material=PAINT)
+    return out.verts()
+
+
+def stand_vertices(ex: ExhibitShape) -> np.ndarray:
+    """A slim stand from the floor to an exhibit's base (exhibits shown in the open)."""
+    out = _Parts()
+    c = np.asarray(ex.at, np.float64)
+    sq = np.array([[-0.04, -0.04], [0.04, -0.04], [0.04, 0.04], [-0.04, 0.04]])
+    _prism(c + sq, 0.0, ex.base, linear((0.2, 0.2, 0.22)), out, material=METAL)
+    plate = np.array([[-0.12, -0.12], [0.12, -0.12], [0.12, 0.12], [-0.12, 0.12]])
+    _prism(c + plate, max(ex.base - 0.02, 0.0), ex.base, linear((0.2, 0.2, 0.22)), out, material=METAL)
+    return out.verts()
+
+
+def environment_mesh(world: WorldConfig, exhibits: Sequence[ExhibitShape] = ()) -> EnvironmentMesh:
     """Everything static in ``world``: the floor, and the boundary, every obstacle and every
-    door frame (the leaves move: :func:`place_leaves`)."""
+    door frame (the leaves move: :func:`place_leaves`), and the exhibits."""
+    on_floor = [e for e in exhibits if not any(shapely.Polygon(o.vertices).contains(shapely.Point(e.at))
+                                               for o in world.obstacles)]
     parts = ([boundary_vertices(world)] + [obstacle_vertices(o) for o in world.obstacles]
-             + [door_frame_vertices(d, world) for d in world.doors])
+             + [door_frame_vertices(d, world) for d in world.doors]
+             + [exhibit_vertices(e) for e in exhibits] + [stand_vertices(e) for e in on_floor])
     return EnvironmentMesh(floor=floor_vertices(world), solids=np.concatenate(parts),
                            ceiling=ceiling_vertices(world))
 

@@ -53,8 +53,10 @@ from pedvr.render.environment import (
     ENV_DTYPE,
     ENV_FORMAT,
     FLOOR_PATTERNS,
+    ExhibitShape,
     door_leaf_vertices,
     environment_mesh,
+    exhibit_shapes,
     place_leaves,
     sphere_vertices,
 )
@@ -176,6 +178,7 @@ class Renderer:
         shadow_map_size: int = SHADOW_MAP_SIZE,
         characters: Sequence[CharacterMesh] | None = None,
         profile_characters: Sequence[Sequence[int]] = (),
+        exhibits: Sequence[ExhibitShape] = (),
     ) -> None:
         self.ctx = ctx
         self.world = world
@@ -223,7 +226,7 @@ class Renderer:
         self._white = ctx.texture((1, 1), 4, bytes([255, 255, 255, 255]))
         self.crowd_vertices = self.characters[0].vertex_counts[0]
 
-        env = environment_mesh(world)
+        env = environment_mesh(world, exhibits)
         self._floor_vbo = ctx.buffer(env.floor.tobytes())
         self._solid_vbo = ctx.buffer(env.solids.tobytes())
         fmt = ENV_FORMAT
@@ -323,7 +326,9 @@ class Renderer:
                     chars.append(load_avatar(name, bone_map=scene.bone_map))
                 picks.append(index[name])
             table.append(tuple(picks))
-        return cls(ctx, world=scene.world, characters=chars, profile_characters=table, **kw)  # type: ignore[arg-type]
+        exhibits = exhibit_shapes(scene.world, scene.behavior.objects)
+        return cls(ctx, world=scene.world, characters=chars, profile_characters=table, exhibits=exhibits,
+                   **kw)  # type: ignore[arg-type]
 
     def _by_profile(self, ids: np.ndarray, profile: np.ndarray) -> np.ndarray:
         """Each agent's character: one of its profile's, picked by its stable id (0 for the user)."""

@@ -29,13 +29,16 @@ class Obstacle:
     """A static obstacle: a simple polygon, vertices counter-clockwise.
 
     ``kind`` says what it is for the renderer (``wall``, ``box``, ``table``,
-    ``booth``, ``shop``, ``pillar``, ``polygon``); the simulation treats all
+    ``booth``, ``shop``, ``pillar``, ``plant``, ``polygon``); the simulation treats all
     kinds alike. ``height`` is only for drawing and occlusion in 3D.
+    ``occlusion`` in (0, 1] is how much of what lies behind the obstacle it
+    hides from view (1: opaque; a house plant 0.5, PLACE §4's partial occluder).
     """
 
     vertices: tuple[Vec2, ...]
     kind: str = "polygon"
     height: float = 1.0
+    occlusion: float = 1.0
 
 
 DOOR_KINDS = ("single", "double")

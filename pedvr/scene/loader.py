@@ -16,6 +16,7 @@ from typing import Any
 
 from shapely.geometry import Point, Polygon, box
 
+import pedvr.demonstrator  # noqa: F401  (registers the exhibit smart object and the demonstrate node)
 from pedvr.behavior.declare import Interactions
 from pedvr.behavior.goals import selectors, validate_params
 from pedvr.errors import SceneError
@@ -45,7 +46,8 @@ from pedvr.scene.config import (
 )
 from pedvr.validation import MISSING, Checker, is_num
 
-OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter", "building")
+OBSTACLE_KINDS = ("polygon", "box", "wall", "table", "booth", "shop", "pillar", "counter", "building",
+                  "plant")
 # success / failure: the state's behavior tree ended so (pedvr.behavior.scheduler)
 TRANSITION_EVENTS = ("arrival", "timer", "probability", "success", "failure")
 
@@ -325,7 +327,7 @@ def _doors(c: _Checker, raw: object, bounds: tuple[Vec2, Vec2] | None,
 
 def _obstacle(c: _Checker, o: dict[str, Any], path: str) -> Obstacle | None:
     shapes = ("box", "polygon", "wall", "circle")
-    c.known(o, path, ("kind", "height", "thickness", *shapes))
+    c.known(o, path, ("kind", "height", "thickness", "occlusion", *shapes))
     given = [s for s in shapes if s in o]
     if len(given) != 1:
         c.bad(path, "{...}", f"expected exactly one shape key of {', '.join(shapes)}")
@@ -334,6 +336,8 @@ def _obstacle(c: _Checker, o: dict[str, Any], path: str) -> Obstacle | None:
                     OBSTACLE_KINDS else "polygon", choices=OBSTACLE_KINDS)
     height = c.number(o, "height", f"{path}.height", required=False, default=1.0,
                       check=lambda x: x > 0, expect="> 0 m")
+    occlusion = c.number(o, "occlusion", f"{path}.occlusion", required=False, default=1.0,
+                         check=lambda x: 0 < x <= 1, expect="in (0, 1]: the share of the view it hides")
     shape = given[0]
     verts: list[Vec2] | None = None
     if shape == "box":
@@ -375,9 +379,9 @@ def _obstacle(c: _Checker, o: dict[str, Any], path: str) -> Obstacle | None:
                 r = v[2] / math.cos(math.pi / 16)
                 verts = [(v[0] + r * math.cos(2 * math.pi * (k + 0.5) / 16),
                           v[1] + r * math.sin(2 * math.pi * (k + 0.5) / 16)) for k in range(16)]
-    if verts is None or kind is None or height is None:
+    if verts is None or kind is None or height is None or occlusion is None:
         return None
-    return Obstacle(vertices=tuple(verts), kind=kind, height=height)
+    return Obstacle(vertices=tuple(verts), kind=kind, height=height, occlusion=occlusion)
 
 
 def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:

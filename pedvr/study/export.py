@@ -49,6 +49,7 @@ TABLE_FILES = (
     "events",
     "gaze_events",
     "contacts",
+    "demonstrations",
 )
 # Trials whose samples are superseded by a rerun (see the module docstring).
 RERUN_OUTCOMES = ("interrupted", "aborted")
@@ -86,6 +87,7 @@ def read_table(store: StudyStore, table: str) -> pd.DataFrame:
         "answers": "answer_id",
         "events": "event_id",
         "gaze_events": "trial_id, frame, agent_id",
+        "demonstrations": "trial_id, frame, demo_id",
         "contacts": "trial_id, frame, agent_a, agent_b",
         "agent_samples": "trial_id, frame, agent_id",
     }[table]

@@ -10,9 +10,8 @@ questionnaire scores, the report tables them, and the export writes them
     @register_measure("doors_held_for_user", unit="count", label="doors held for the participant")
     def _doors_held(r: TrialRecord) -> float | None: ...
 
-(door etiquette and demonstrators will add theirs once they record events;
-``doors held for the participant`` and ``demonstrations watched`` are not
-measured yet).
+(door etiquette will add its own once it records events; ``doors held for the
+participant`` is not measured yet).
 
 Definitions (choices where the issue leaves room, stated once here):
 
@@ -41,14 +40,24 @@ Definitions (choices where the issue leaves room, stated once here):
                       apart): how much the participant looks around while walking, not how much
                       the route turns. None with fewer than 2 such frames.
 ``gaze_events_received``  PedVR gaze-rule gazes at the participant that started in the trial
-                      (``gaze_events`` rows ``start`` with target ``user``; 0 outside PedVR+G).
+                      (``gaze_events`` rows ``start`` with target ``user`` and source ``rule``; 0
+                      outside PedVR+G).
+``demonstration_gazes``  gazes at the participant by demonstrators (PLACE §8: the demonstrator
+                      looks the observer in the eyes at the stroke point and again during the
+                      talk): ``gaze_events`` rows ``start`` with source ``demonstration``.
+``demonstrations_watched``  demonstrations to the participant (``demonstrations`` rows) that the
+                      participant watched: at one of its stroke points (the first frame at or after
+                      it) the participant was within :data:`WATCH_DISTANCE_M` of the exhibit and the
+                      exhibit was within :data:`WATCH_HALF_FOV_DEG` of the head's yaw (about a
+                      headset's horizontal field of view, 100–110°). Each demonstration counts once.
+                      0 when the trial had no demonstration.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -60,6 +69,8 @@ CONTACT_MIN_OVERLAP_M = 1e-4  # m: overlaps below this are rounding, not contact
 CONTACT_GAP_S = 0.25  # s: a pair touching again within this is the same contact
 MOVING_MPS = 0.3  # m/s: slower frames say little about the direction of travel
 DIRECTION_WINDOW_S = 0.2  # s between the positions that give the direction of travel
+WATCH_DISTANCE_M = 7.0  # m: farther from the exhibit, the participant did not watch its demonstration
+WATCH_HALF_FOV_DEG = 55.0  # deg either side of the head's yaw: the exhibit was in view
 COMPLETE_OUTCOMES = ("reached_last_sphere", "time_limit")
 
 
@@ -73,7 +84,9 @@ class TrialRecord:
     reached so far (NaN where not recorded); ``user_contacts`` ``(C, 4)``
     rows ``frame, agent_a, agent_b, overlap_m`` of frames where the
     participant's disc overlapped an agent's; ``gaze_starts`` the number of
-    gaze-rule gazes that started at the participant.
+    gaze-rule gazes that started at the participant; ``demo_gaze_starts`` the demonstrators';
+    ``strokes`` ``(S, 4)`` rows ``frame, demo_id, x, y`` of the stroke points of demonstrations to the
+    participant (``x, y`` the exhibit).
     """
 
     trial_id: int
@@ -86,6 +99,8 @@ class TrialRecord:
     spheres: np.ndarray
     user_contacts: np.ndarray
     gaze_starts: int
+    demo_gaze_starts: int = 0
+    strokes: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
 
 
 @dataclass(frozen=True)
@@ -207,6 +222,23 @@ def _gaze(r: TrialRecord) -> float | None:
     return float(r.gaze_starts)
 
 
+@register_measure("demonstration_gazes", unit="count", label="gazes received from demonstrators")
+def _demo_gaze(r: TrialRecord) -> float | None:
+    return float(r.demo_gaze_starts)
+
+
+@register_measure("demonstrations_watched", unit="count", label="demonstrations watched")
+def _watched(r: TrialRecord) -> float | None:
+    if len(r.strokes) == 0 or len(r.t) == 0:
+        return 0.0
+    k = np.clip(r.strokes[:, 0].astype(np.int64), 0, len(r.t) - 1)  # samples are numbered 0, 1, ...
+    d = r.strokes[:, 2:4] - r.head_xy[k]
+    near = np.hypot(d[:, 0], d[:, 1]) <= WATCH_DISTANCE_M
+    off = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - r.head_yaw[k])))
+    seen = near & (np.abs(off) <= math.radians(WATCH_HALF_FOV_DEG))
+    return float(len(set(r.strokes[seen, 1].astype(np.int64).tolist())))
+
+
 def yaw_of(qw: np.ndarray, qx: np.ndarray, qy: np.ndarray, qz: np.ndarray) -> np.ndarray:
     """Yaw (rad) of orientation quaternions about the world's z axis (the head's forward is +x)."""
     return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
@@ -223,7 +255,13 @@ def load_trials(store: StudyStore, trial_ids: list[int] | None = None) -> Iterat
     gaze = dict(
         store.db.execute(
             "SELECT trial_id, COUNT(*) FROM gaze_events WHERE event = 'start' AND target = 'user' "
-            "GROUP BY trial_id"
+            "AND source = 'rule' GROUP BY trial_id"
+        ).fetchall()
+    )
+    demo_gaze = dict(
+        store.db.execute(
+            "SELECT trial_id, COUNT(*) FROM gaze_events WHERE event = 'start' AND target = 'user' "
+            "AND source = 'demonstration' GROUP BY trial_id"
         ).fetchall()
     )
     for tid, outcome, sim_time_s in trials.fetchall():
@@ -243,6 +281,14 @@ def load_trials(store: StudyStore, trial_ids: list[int] | None = None) -> Iterat
             ).fetchall(),
             dtype=float,
         ).reshape(-1, 4)
+        strokes = np.asarray(
+            store.db.execute(
+                "SELECT frame, demo_id, x, y FROM demonstrations WHERE trial_id = ? AND event = 'stroke' "
+                "ORDER BY frame",
+                (tid,),
+            ).fetchall(),
+            dtype=float,
+        ).reshape(-1, 4)
         yield TrialRecord(
             trial_id=int(tid),
             outcome=None if outcome is None else str(outcome),
@@ -254,6 +300,8 @@ def load_trials(store: StudyStore, trial_ids: list[int] | None = None) -> Iterat
             spheres=x[:, 8],
             user_contacts=contacts,
             gaze_starts=int(gaze.get(tid, 0)),
+            demo_gaze_starts=int(demo_gaze.get(tid, 0)),
+            strokes=strokes,
         )
 
 

@@ -509,11 +509,14 @@ class _SampleRecorder:
         self.contact_count = 0
         self.gaze_count = 0
         self._gaze_seen = 0
+        self.demonstrations: list[tuple[Any, ...]] = []
+        self._demo_seen = 0
 
     def add(self, sim: Any, *, frame: int, head: Any) -> None:
         crowd = sim.crowd
-        # The PedVR gaze rule's start/end events since the last frame (Simulation.metrics.gaze_events,
-        # from BodyModel.gaze_rule: agent id, simulation time, "start"/"end", target), at this frame.
+        # Gaze start/end events since the last frame (Simulation.metrics.gaze_events: the PedVR gaze
+        # rule's, from BodyModel.gaze_rule, and demonstrators' eye contact, source "demonstration":
+        # agent id, simulation time, "start"/"end", target), at this frame.
         events = sim.metrics.gaze_events
         for ev in events[self._gaze_seen :]:
             self.gaze.append(
@@ -524,10 +527,20 @@ class _SampleRecorder:
                     int(ev["agent"]),
                     str(ev["event"]),
                     str(ev.get("target", "user")),
+                    str(ev.get("source", "rule")),
                 )
             )
         self._gaze_seen = len(events)
         self.gaze_count = self._gaze_seen
+        # Demonstrations to the participant (pedvr.demonstrator): start, each stroke point, end.
+        demos = sim.scheduler.ctx.events
+        for ev in demos[self._demo_seen :]:
+            if ev.get("kind") == "demonstration" and ev.get("observer") == "user":
+                self.demonstrations.append(
+                    (self.trial_id, frame, float(ev["t"]), int(ev["id"]), int(ev["agent"]), str(ev["object"]),
+                     str(ev["event"]), float(ev["x"]), float(ev["y"]), ev.get("outcome"))
+                )
+        self._demo_seen = len(demos)
         pos, rad, ids, is_user = crowd.pos, crowd.radius, crowd.ids, crowd.is_user
         nearest = None
         user = np.flatnonzero(is_user)
@@ -572,9 +585,11 @@ class _SampleRecorder:
         """Commit the buffered rows. The buffers are emptied first, so a flush cut short by a signal
         loses at most this chunk and a second flush never writes a row twice."""
         samples, agents, contacts, gaze = self.samples, self.agents, self.contacts, self.gaze
-        self.samples, self.agents, self.contacts, self.gaze = [], [], [], []
-        if samples or agents or contacts or gaze:
-            self.store.write_samples(samples=samples, agents=agents, contacts=contacts, gaze=gaze)
+        demos = self.demonstrations
+        self.samples, self.agents, self.contacts, self.gaze, self.demonstrations = [], [], [], [], []
+        if samples or agents or contacts or gaze or demos:
+            self.store.write_samples(samples=samples, agents=agents, contacts=contacts, gaze=gaze,
+                                     demonstrations=demos)
 
 
 MAX_DIFFERENCES = 12  # lines of a plan mismatch message before "... and N more"

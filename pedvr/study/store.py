@@ -6,9 +6,12 @@ participant's plan and how far it got), ``trials`` (scene, condition, label,
 order, seed, outcome), ``samples`` (one row per frame: monotonic time, frame
 index, head position and orientation quaternion, distance to the nearest
 agent), ``agent_samples`` (every agent's position and heading per frame),
-``gaze_events``, ``contacts``, ``answers`` (raw as shown and recoded to the
+``gaze_events`` (the PedVR gaze rule's and demonstrators' gazes at the participant, by
+``source``), ``contacts``, ``answers`` (raw as shown and recoded to the
 fixed orientation, with the response time from the item shown to the answer
-confirmed) and ``events`` (the experimenter's pauses, skips, aborts, signals).
+confirmed), ``events`` (the experimenter's pauses, skips, aborts, signals) and
+``demonstrations`` (a demonstrator's start, stroke points and end, for demonstrations to the
+participant: pedvr.demonstrator).
 
 Durability: the database runs in WAL mode with ``synchronous = FULL``. Every
 answer, every step status and every trial start and end is its own
@@ -38,8 +41,10 @@ from typing import Any
 from pedvr.study.errors import ParticipantExistsError, StudyStoreError
 
 # 2: gaze_events.target (1 is migrated on open: its gaze table was always empty);
-# 3: answers.response_time_s, samples.spheres (the red spheres reached so far)
-SCHEMA_VERSION = "3"
+# 3: answers.response_time_s, samples.spheres (the red spheres reached so far);
+# 4: gaze_events.source ('rule': the PedVR gaze rule; 'demonstration': a demonstrator looking the
+#    participant in the eyes) and the demonstrations table (pedvr.demonstrator)
+SCHEMA_VERSION = "4"
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -74,7 +79,7 @@ CREATE TABLE IF NOT EXISTS agent_samples (
     PRIMARY KEY (trial_id, frame, agent_id)) WITHOUT ROWID;
 CREATE TABLE IF NOT EXISTS gaze_events (
     trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, agent_id INTEGER NOT NULL,
-    event TEXT NOT NULL, target TEXT NOT NULL DEFAULT 'user');
+    event TEXT NOT NULL, target TEXT NOT NULL DEFAULT 'user', source TEXT NOT NULL DEFAULT 'rule');
 CREATE TABLE IF NOT EXISTS contacts (
     trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, agent_a INTEGER NOT NULL,
     agent_b INTEGER NOT NULL, with_user INTEGER NOT NULL, overlap_m REAL NOT NULL);
@@ -91,7 +96,15 @@ CREATE UNIQUE INDEX IF NOT EXISTS answers_once
 CREATE TABLE IF NOT EXISTS events (
     event_id INTEGER PRIMARY KEY, session_id INTEGER NOT NULL, participant TEXT NOT NULL,
     step_index INTEGER, utc TEXT NOT NULL, kind TEXT NOT NULL, detail TEXT);
+""" + """
+CREATE TABLE IF NOT EXISTS demonstrations (
+    trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, demo_id INTEGER NOT NULL,
+    agent_id INTEGER NOT NULL, exhibit TEXT NOT NULL, event TEXT NOT NULL, x REAL NOT NULL, y REAL NOT NULL,
+    outcome TEXT);
 """
+# Tables added by each schema version (created by the migration; an older file read read-only gets an
+# empty temporary one).
+ADDED_TABLES = {"4": ("demonstrations",)}
 
 # Columns added by each schema version: (table, column, SQL type and default, value read from older files).
 ADDED_COLUMNS = {
@@ -100,6 +113,7 @@ ADDED_COLUMNS = {
         ("answers", "response_time_s", "REAL", "NULL"),
         ("samples", "spheres", "INTEGER", "NULL"),
     ),
+    "4": (("gaze_events", "source", "TEXT NOT NULL DEFAULT 'rule'", "'rule'"),),
 }
 
 TABLES = (
@@ -113,7 +127,14 @@ TABLES = (
     "contacts",
     "answers",
     "events",
+    "demonstrations",
 )
+
+
+def _create_statement(table: str) -> str:
+    """The ``CREATE TABLE IF NOT EXISTS`` statement of ``table`` in :data:`SCHEMA`."""
+    start = SCHEMA.index(f"CREATE TABLE IF NOT EXISTS {table} (")
+    return SCHEMA[start:SCHEMA.index(";", start)]
 
 
 def utc_now() -> str:
@@ -235,6 +256,8 @@ class StudyStore:
         with self.transaction():
             for table, column, decl, _ in self._added_since(version):
                 self.db.execute(f"ALTER TABLE {table} ADD COLUMN {column} {decl}")
+            for table in self._tables_since(version):
+                self.db.execute(_create_statement(table))
             self.db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (SCHEMA_VERSION,))
 
     def _view_as_current(self, version: str) -> None:
@@ -244,6 +267,12 @@ class StudyStore:
             by_table.setdefault(table, []).append(f"{value} AS {column}")
         for table, extra in by_table.items():
             self.db.execute(f"CREATE TEMP VIEW {table} AS SELECT *, {', '.join(extra)} FROM main.{table}")
+        for table in self._tables_since(version):
+            temp = _create_statement(table).replace("CREATE TABLE IF NOT EXISTS", "CREATE TEMP TABLE")
+            self.db.execute(temp)
+
+    def _tables_since(self, version: str) -> list[str]:
+        return [t for v, ts in ADDED_TABLES.items() if int(v) > int(version) for t in ts]
 
     # -- plumbing --------------------------------------------------------------------------
 
@@ -443,13 +472,18 @@ class StudyStore:
         agents: list[tuple[Any, ...]],
         contacts: list[tuple[Any, ...]],
         gaze: list[tuple[Any, ...]],
+        demonstrations: Sequence[tuple[Any, ...]] = (),
     ) -> None:
-        """Commit one chunk of per-frame rows."""
+        """Commit one chunk of per-frame rows. A gaze row without a source (six values) is the gaze rule's."""
+        gaze = [g if len(g) == 7 else (*g, "rule") for g in gaze]
         with self.transaction():
             self.db.executemany("INSERT INTO samples VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", samples)
             self.db.executemany("INSERT INTO agent_samples VALUES (?, ?, ?, ?, ?, ?, ?)", agents)
             self.db.executemany("INSERT INTO contacts VALUES (?, ?, ?, ?, ?, ?, ?)", contacts)
-            self.db.executemany("INSERT INTO gaze_events VALUES (?, ?, ?, ?, ?, ?)", gaze)
+            self.db.executemany("INSERT INTO gaze_events (trial_id, frame, sim_t, agent_id, event, target, "
+                                "source) VALUES (?, ?, ?, ?, ?, ?, ?)", gaze)
+            self.db.executemany("INSERT INTO demonstrations VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                                demonstrations)
 
     def finish_trial(self, trial_id: int, **row: Any) -> None:
         row = dict(row)

@@ -114,7 +114,7 @@ def test_tree_problems_name_the_key(bad: str, line: str) -> None:
 
 @pytest.mark.parametrize("bad,line", [
     ('[behavior.events.e]\ntree = "nope"',
-     "s.toml: behavior.events.e.tree = 'nope': unknown tree; known: conversation, rest_on_chair, wave_at_user"),
+     "s.toml: behavior.events.e.tree = 'nope': unknown tree; known: conversation, demonstrate, rest_on_chair, wave_at_user"),
     ('[behavior.events.e]\ntree = "conversation"\npriority = 0',
      "s.toml: behavior.events.e.priority = 0: must be >= 1 (personal trees and the BFSM are 0)"),
     ('[[behavior.objects]]\nname = "x"\nkind = "sofa"\nat = [0, 0]',
@@ -127,7 +127,7 @@ def test_tree_problems_name_the_key(bad: str, line: str) -> None:
     ('[behavior.states.s]\ngoal = { selector = "stay" }\ntree = "conversation"',
      "s.toml: behavior.states.s.tree = 'conversation': a state's tree takes exactly one parameter, the agent"),
     ('[behavior.states.s]\ngoal = { selector = "stay" }\ntree = "nope"',
-     "s.toml: behavior.states.s.tree = 'nope': unknown tree; known: conversation, rest_on_chair, wave_at_user"),
+     "s.toml: behavior.states.s.tree = 'nope': unknown tree; known: conversation, demonstrate, rest_on_chair, wave_at_user"),
     ('[behavior.states.s]\ngoal = { selector = "stay" }\n[[behavior.states.s.transitions]]\non = "success"\n'
      'to = "walk"', "s.toml: behavior.states.s.transitions[0].on = 'success': only a state with a tree takes"),
 ])

@@ -62,10 +62,13 @@ def test_renderer_pose_api(coupled: Simulation) -> None:
     n = len(coupled.crowd)
     assert m.shape == (n, 26, 4, 4) and m.dtype == np.float32
     assert np.isfinite(m).all()
-    # heads are up, feet are down, bodies stand where their agents are
+    # heads are up, feet are down, bodies stand where their agents are (seated ones: place_sofa's
+    # guest sits from the start, its head lower and its pelvis 0.3 m behind its agent by design)
     wp = body.state.world_pos
-    assert (wp[:, 13, 1] > 1.2).all() and (wp[:, 27:29, 1] < 0.25).all()
-    virt = ~coupled.crowd.is_user
+    up = ~body.state.sitting
+    assert (wp[up, 13, 1] > 1.2).all() and (wp[:, 27:29, 1] < 0.25).all()
+    assert (wp[~up, 13, 1] > 0.9).all()
+    virt = ~coupled.crowd.is_user & up
     d = np.hypot(wp[virt, 0, 0] - coupled.crowd.pos[virt, 0], wp[virt, 0, 2] - coupled.crowd.pos[virt, 1])
     assert d.max() < 0.1
     assert (body.ids == coupled.crowd.ids).all()

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from pedvr.render.environment import exhibit_shapes
 from pedvr.render.math3d import desktop_stereo_eyes, first_person_eye
 from pedvr.render.renderer import OffscreenTarget, Renderer, gl_renderer_name
 from pedvr.render.snapshot import Snapshot
@@ -88,7 +89,8 @@ def test_golden_scene_first_person(ctx: moderngl.Context, scene: str, tmp_path: 
     u = snap.user_row
     assert u is not None
     eye = first_person_eye(pos=snap.pos[u], heading=float(snap.heading[u]), aspect=SW / SH)
-    r = Renderer(ctx, world=config.world, shadow_map_size=1024)
+    r = Renderer(ctx, world=config.world, shadow_map_size=1024,
+                 exhibits=exhibit_shapes(config.world, config.behavior.objects))
     t = OffscreenTarget(ctx, (SW, SH))
     r.update(snap)
     r.draw_scene([eye], framebuffer=t.fbo)

@@ -47,6 +47,8 @@ def test_schema_1_database_is_migrated(tmp_path: Path) -> None:
     StudyStore(db).close()
     with sqlite3.connect(db) as c:  # make it look like a version-1 database
         c.execute("ALTER TABLE gaze_events DROP COLUMN target")
+        c.execute("ALTER TABLE gaze_events DROP COLUMN source")
+        c.execute("DROP TABLE demonstrations")
         c.execute("ALTER TABLE answers DROP COLUMN response_time_s")
         c.execute("ALTER TABLE samples DROP COLUMN spheres")
         c.execute("UPDATE meta SET value = '1' WHERE key = 'schema_version'")

@@ -19,7 +19,8 @@ from pedvr.study.measures import (
 
 def _record(xy: np.ndarray, *, dt: float = 0.1, yaw: np.ndarray | None = None, nearest: np.ndarray | None = None,
             spheres: np.ndarray | None = None, contacts: list[tuple[int, int, int, float]] = (),
-            outcome: str = "time_limit", gaze: int = 0) -> TrialRecord:
+            outcome: str = "time_limit", gaze: int = 0, demo_gaze: int = 0,
+            strokes: list[tuple[int, int, float, float]] = ()) -> TrialRecord:
     n = len(xy)
     t = np.arange(n) * dt
     return TrialRecord(
@@ -27,7 +28,8 @@ def _record(xy: np.ndarray, *, dt: float = 0.1, yaw: np.ndarray | None = None, n
         head_yaw=np.zeros(n) if yaw is None else yaw,
         nearest_agent_m=np.full(n, np.nan) if nearest is None else nearest,
         spheres=np.zeros(n) if spheres is None else spheres,
-        user_contacts=np.asarray(contacts, dtype=float).reshape(-1, 4), gaze_starts=gaze)
+        user_contacts=np.asarray(contacts, dtype=float).reshape(-1, 4), gaze_starts=gaze,
+        demo_gaze_starts=demo_gaze, strokes=np.asarray(strokes, dtype=float).reshape(-1, 4))
 
 
 def _value(name: str, r: TrialRecord) -> float | None:
@@ -96,8 +98,27 @@ def test_yaw_from_quaternion() -> None:
 
 def test_registry_names_the_measures_and_refuses_duplicates() -> None:
     assert measure_names() == ["min_distance_m", "contacts", "max_overlap_m", "time_to_finish_s", "path_length_m",
-                               "path_efficiency", "head_yaw_sd_deg", "gaze_events_received"]
+                               "path_efficiency", "head_yaw_sd_deg", "gaze_events_received", "demonstration_gazes",
+                               "demonstrations_watched"]
     with pytest.raises(ValueError, match="objective measure 'contacts' is already registered"):
         register_measure("contacts", unit="count", label="again")(lambda r: 0.0)
     with pytest.raises(KeyError, match="unknown objective measure 'doors_held'; known: contacts"):
         measures["doors_held"]
+
+
+def test_demonstrations_watched_need_the_exhibit_in_view_and_near() -> None:
+    """A participant standing at the origin, turning its head: 0 rad (east) until frame 10, then north."""
+    yaw = np.where(np.arange(20) < 10, 0.0, math.pi / 2)
+    xy = np.zeros((20, 2))
+    strokes = [
+        (3, 0, 3.0, 1.0),  # demonstration 0: the exhibit 18 deg off east at frame 3 -> watched
+        (5, 1, 0.0, 3.0),  # demonstration 1: exhibit due north while looking east (90 deg off) -> not ...
+        (12, 1, 0.0, 3.0),  # ... but its second stroke finds the head turned north -> watched, once
+        (14, 2, 9.0, 9.0),  # demonstration 2: in view (45 deg off north) but 12.7 m away -> not watched
+        (15, 3, -4.0, -3.0),  # demonstration 3: behind the head (127 deg off north) -> not watched
+    ]
+    r = _record(xy, yaw=yaw, strokes=strokes, demo_gaze=4)
+    assert _value("demonstrations_watched", r) == 2
+    assert _value("demonstration_gazes", r) == 4
+    assert _value("demonstrations_watched", _record(xy)) == 0
+

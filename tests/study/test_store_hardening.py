@@ -172,6 +172,8 @@ def test_an_older_schema_is_migrated_or_read_through_views(interrupted_db: Path,
     db = tmp_path / "v2.sqlite"
     shutil.copy(interrupted_db, db)
     with sqlite3.connect(db) as c:  # what a version-2 database looked like
+        c.execute("ALTER TABLE gaze_events DROP COLUMN source")
+        c.execute("DROP TABLE demonstrations")
         c.execute("ALTER TABLE answers DROP COLUMN response_time_s")
         c.execute("ALTER TABLE samples DROP COLUMN spheres")
         c.execute("UPDATE meta SET value = '2' WHERE key = 'schema_version'")
@@ -179,6 +181,7 @@ def test_an_older_schema_is_migrated_or_read_through_views(interrupted_db: Path,
     with StudyStore(db, read_only=True) as store:
         assert store.query("SELECT COUNT(*) AS n FROM answers WHERE response_time_s IS NULL")[0]["n"] > 0
         assert store.query("SELECT MAX(spheres) AS s FROM samples")[0]["s"] is None
+        assert store.query("SELECT COUNT(*) AS n FROM demonstrations")[0]["n"] == 0  # an empty stand-in
     export_study(db, out=tmp_path / "x")
     assert "response_time_s" in pd.read_csv(tmp_path / "x" / "answers.tsv", sep="\t").columns
     assert hashlib.sha256(db.read_bytes()).hexdigest() == digest  # read-only: not migrated, not touched
@@ -186,6 +189,8 @@ def test_an_older_schema_is_migrated_or_read_through_views(interrupted_db: Path,
         assert store.query("SELECT value FROM meta WHERE key = 'schema_version'")[0]["value"] == SCHEMA_VERSION
         cols = {r["name"] for r in store.query("PRAGMA table_info(samples)")}
         assert "spheres" in cols
+        assert "source" in {r["name"] for r in store.query("PRAGMA table_info(gaze_events)")}
+        assert store.query("SELECT COUNT(*) AS n FROM demonstrations")[0]["n"] == 0
 
 
 def test_resume_of_a_missing_database_says_so_and_creates_nothing(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

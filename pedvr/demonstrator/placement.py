@@ -1,0 +1,351 @@
+"""PLACE's placement search (Huang & Kallmann §4): candidates around the target, validity, ranking.
+
+Given the action (its target and preferred distance ``d_pref``), the observer
+and the demonstrator's body, :class:`PlacementSearch` proposes placements
+from the model (:mod:`pedvr.demonstrator.model`) for frame orientations every
+5° around the target in both directions, starting from the table's Z axis;
+each is tested for validity and, if it collides, tried again a few times with
+a perturbed distance and orientation. The valid placements are ranked by
+
+    f = w_v · e_vis + w_n · e_neck + w_a · e_action
+
+and the sorted list is kept (:class:`Plan`): when motion synthesis fails
+later, the next one is used.
+
+Validity of a candidate (§4; each failure is counted by reason in :class:`Plan`):
+
+``collision``   the demonstrator's disc off the walkable mesh (it would overlap an
+                obstacle), or within reach of the observer's body (personal space
+                :data:`OBSERVER_GAP`) or of a disc to keep clear (another
+                demonstrator's placement).
+``unreachable`` no path with the mesh's clearance from where the demonstrator stands.
+``action``      the arm cannot point at (or reach) the target from there, or the hand or arm
+                would be inside an obstacle at the stroke (:mod:`pedvr.demonstrator.arm`).
+``visibility``  the observer's head is hidden from the demonstrator's by more than
+                :data:`VIS_DISCARD` (2D crossing and 3D check against heights, partial occluders
+                multiply), or the demonstrator would stand in the observer's line of sight to
+                the target (pedvr's addition: the body hides the exhibit).
+``eye_contact`` the rotation needed to look the observer in the eyes exceeds what the head may
+                turn (limited by φ, see below) plus what the eyes can do.
+
+Costs (the paper gives no weights, only that uncomfortable but feasible
+placements beat bad visibility; pedvr's choice):
+
+``e_vis``     the occluded share of the head-to-head sight line, in [0, 1];
+``e_neck``    the rotation (degrees) from the body's orientation to the observer's head
+              (what neck, head and eyes must do for eye contact);
+``e_action``  ``|d_pref − ‖p_d − p_t‖|`` in metres.
+
+``W_VIS = 1000`` per unit of occlusion, ``W_NECK = 1`` per degree, ``W_ACTION = 20``
+per metre: any occluder hiding 20 % or more costs more than the largest neck rotation
+(180°) and any distance error the search makes (perturbations stay within 0.4 m), so
+visibility dominates.
+
+Head rotation (Appendix A: "the maximum head rotation limits the amount of head rotation
+allowed, and the remaining needed rotation for achieving eye contact with the observer is
+performed with eye rotation"): the head may turn relative to the body by ``|φ − θ|`` (at
+least :data:`HEAD_MIN`); the eyes turn at most :data:`EYE_LIMIT` more.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pedvr.demonstrator import kernels as kn
+from pedvr.demonstrator.arm import Action, stroke_points
+from pedvr.demonstrator.model import global_heading, local_angle, placement_model_array
+from pedvr.demonstrator.stage import Figure, Stage
+
+STEP_DEG = 5.0  # rotation increment of the frame around the target (§4: "five degrees in both directions")
+N_DIRECTIONS = 72  # 360 / 5: the exhaustive search
+W_VIS, W_NECK, W_ACTION = 1000.0, 1.0, 20.0
+VIS_DISCARD = 0.6  # occluded share above which a candidate is discarded (a full occluder, two plants)
+HEAD_MIN = 15.0  # deg: the head may always turn this much toward the observer
+HEAD_MAX = 100.0  # deg: the body's gaze chain (lumbar, thorax, neck, head) turns at most about this
+EYE_LIMIT = 30.0  # deg: what the eyes add (the body's eyes turn 35°; 5° kept in reserve)
+OBSERVER_GAP = 0.35  # m between the demonstrator's disc and the observer's (personal space)
+KEEP_CLEAR_GAP = 0.1  # m between the demonstrator's disc and another demonstrator's placement
+VIEW_GAP = 0.05  # m: the body keeps out of the observer's sight line to the target by this
+# Perturbations of a colliding candidate: (distance factor, orientation offset deg), tried in order.
+PERTURB = ((0.85, 0.0), (1.15, 0.0), (0.7, 10.0), (1.3, -10.0), (0.7, -10.0), (1.3, 10.0))
+REASONS = ("collision", "unreachable", "action", "visibility", "eye_contact")
+
+
+@dataclass(frozen=True)
+class Observer:
+    """Who watches: ground position, eye height (m) and disc radius (m)."""
+
+    pos: tuple[float, float]
+    eye_height: float = 1.6
+    radius: float = 0.25
+
+
+@dataclass(frozen=True)
+class Placement:
+    """A valid placement: where the demonstrator stands and faces, the model's angles, its costs.
+
+    ``pos`` ground m; ``heading`` rad (global); ``zeta`` the heading of the frame's Z;
+    ``alpha``/``beta``/``theta``/``phi`` the model's angles (deg) in that frame;
+    ``distance`` to the target (m); ``head`` and ``eyes`` the planned rotations (deg,
+    relative to the body, toward the observer) with ``head_limit`` the head's allowance;
+    ``stroke`` the right hand at the action's stroke point, 3D ``(x, h, y)``.
+    """
+
+    pos: tuple[float, float]
+    heading: float
+    zeta: float
+    alpha: float
+    beta: float
+    theta: float
+    phi: float
+    distance: float
+    e_vis: float
+    e_neck: float
+    e_action: float
+    cost: float
+    head: float
+    eyes: float
+    head_limit: float
+    stroke: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Weights:
+    vis: float = W_VIS
+    neck: float = W_NECK
+    action: float = W_ACTION
+
+
+@dataclass
+class Plan:
+    """The sorted valid placements (best first) and how many candidates failed, by reason."""
+
+    ranked: list[Placement] = field(default_factory=list)
+    rejected: dict[str, int] = field(default_factory=lambda: dict.fromkeys(REASONS, 0))
+    candidates: int = 0
+
+    @property
+    def best(self) -> Placement | None:
+        return self.ranked[0] if self.ranked else None
+
+    def after(self, p: Placement) -> Placement | None:
+        """The next placement in the list after ``p`` (the fallback when motion synthesis fails, §4)."""
+        for k, q in enumerate(self.ranked):
+            if q is p:
+                return self.ranked[k + 1] if k + 1 < len(self.ranked) else None
+        return None
+
+
+def first_frame(stage: Stage, target: tuple[float, float], observer: tuple[float, float], *, d_pref: float,
+                default_zeta: float, radius: float) -> float:
+    """The Z heading of the first candidate (§4).
+
+    Z is orthogonal to the supporting table's closest edge; "if p_t lies
+    between p_o and p_d⁰, the Z axis of the local placement coordinate frame
+    is re-oriented towards p_o", so the initial placement faces the observer.
+    "Between" is read as the target lying within the demonstrator's radius
+    of the segment p_o–p_d⁰, strictly inside it.
+    """
+    zeta = stage.z_axis(target, default_zeta)
+    alpha = float(local_angle(zeta, math.atan2(observer[1] - target[1], observer[0] - target[0])))
+    beta, _, _ = placement_model_array(np.asarray([alpha]))
+    d = zeta + math.pi - math.radians(float(beta[0]))
+    p0 = (target[0] + d_pref * math.cos(d), target[1] + d_pref * math.sin(d))
+    ox, oy = observer
+    sx, sy = p0[0] - ox, p0[1] - oy
+    ll = sx * sx + sy * sy
+    if ll > 1e-12:
+        t = ((target[0] - ox) * sx + (target[1] - oy) * sy) / ll
+        if 0.0 < t < 1.0 and math.hypot(ox + t * sx - target[0], oy + t * sy - target[1]) < radius:
+            zeta = math.atan2(oy - target[1], ox - target[0])
+    return zeta
+
+
+class PlacementSearch:
+    """An exhaustive, resumable placement search (§4), spread over ticks by a work budget.
+
+    ``advance(budget)`` evaluates the next ``budget`` frame orientations (each
+    with its perturbations) and returns True once all :data:`N_DIRECTIONS`
+    are done; :attr:`plan` is then sorted. A budget in units of work, not
+    time, keeps runs deterministic. ``start`` is where the demonstrator
+    stands (for reachability); ``keep_clear`` discs ``(x, y, r)`` other
+    demonstrators stand on.
+    """
+
+    def __init__(self, stage: Stage, figure: Figure, action: Action, observer: Observer, *,
+                 start: tuple[float, float], default_zeta: float = 0.0,
+                 keep_clear: Sequence[tuple[float, float, float]] = (), weights: Weights = Weights()) -> None:
+        self.stage = stage
+        self.figure = figure
+        self.action = action
+        self.observer = observer
+        self.weights = weights
+        self.keep_clear = np.asarray(keep_clear, np.float64).reshape(-1, 3)
+        self.zeta0 = first_frame(stage, action.target, observer.pos, d_pref=action.d_pref,
+                                 default_zeta=default_zeta, radius=figure.radius)
+        # 0, +1, -1, +2, -2, ... +36: every 5 degrees once, nearest the first frame first
+        ks = [0]
+        for k in range(1, N_DIRECTIONS // 2 + 1):
+            ks.append(k)
+            if k < N_DIRECTIONS // 2:
+                ks.append(-k)
+        self._zetas = self.zeta0 + np.radians(STEP_DEG * np.asarray(ks, np.float64))
+        self._next = 0
+        tri = stage.mesh.locate(np.asarray([start], np.float64))[0]
+        if tri < 0:
+            snapped = stage.mesh.nearest_walkable(start)
+            tri = stage.mesh.locate(np.asarray([snapped]))[0]
+        self._component = int(stage.mesh.components[tri]) if tri >= 0 else -1
+        self.plan = Plan()
+        self._found: list[Placement] = []
+
+    @property
+    def done(self) -> bool:
+        return self._next >= len(self._zetas)
+
+    def advance(self, budget: int = N_DIRECTIONS) -> bool:
+        """Evaluate up to ``budget`` more frame orientations; True when the search is complete."""
+        if self.done:
+            return True
+        chunk = self._zetas[self._next:self._next + max(1, int(budget))]
+        self._next += len(chunk)
+        self._evaluate(chunk)
+        if self.done:
+            self._found.sort(key=lambda p: (p.cost, p.pos[0], p.pos[1]))
+            self.plan.ranked = self._found
+        return self.done
+
+    def run(self) -> Plan:
+        """The whole search at once."""
+        self.advance(len(self._zetas))
+        return self.plan
+
+    # -- evaluation ---------------------------------------------------------------------------
+
+    def _evaluate(self, zetas: np.ndarray) -> None:
+        act, obs = self.action, self.observer
+        tx, ty = act.target
+        alpha = np.asarray(local_angle(zetas, math.atan2(obs.pos[1] - ty, obs.pos[0] - tx)))
+        beta, theta, phi = placement_model_array(np.asarray(alpha))
+        k = len(zetas)
+        variants = [(1.0, 0.0), *PERTURB]
+        v = len(variants)
+        factor = np.asarray([f for f, _ in variants])
+        turn = np.asarray([o for _, o in variants])
+        # (k, v) candidates: variant 0 is the model's own; the others are tried when it collides.
+        dist = act.d_pref * np.repeat(factor[None, :], k, 0)
+        pos_dir = (zetas + math.pi)[:, None] - np.radians(beta)[:, None] + np.zeros((1, v))
+        pos = np.stack([tx + dist * np.cos(pos_dir), ty + dist * np.sin(pos_dir)], -1).reshape(-1, 2)
+        th = (theta[:, None] + turn[None, :]).reshape(-1)
+        ph = np.repeat(phi, v)
+        zz = np.repeat(zetas, v)
+        heading = global_heading(zz, th)
+        n = k * v
+        self.plan.candidates += k
+        reason = np.full(n, -1, np.int64)  # -1 valid, else index into REASONS
+        # collision (static: the mesh of the demonstrator's clearance; dynamic: observer, others)
+        tri = self.stage.mesh.locate(pos)
+        hit = tri < 0
+        gap = np.hypot(pos[:, 0] - obs.pos[0], pos[:, 1] - obs.pos[1]) - self.figure.radius - obs.radius
+        hit |= gap < OBSERVER_GAP
+        for cx, cy, cr in self.keep_clear:
+            hit |= np.hypot(pos[:, 0] - cx, pos[:, 1] - cy) < self.figure.radius + cr + KEEP_CLEAR_GAP
+        reason[hit] = 0
+        ok = reason < 0
+        comp = np.where(tri >= 0, self.stage.mesh.components[np.maximum(tri, 0)], -2)
+        unreach = ok & (comp != self._component)
+        reason[unreach] = 1
+        ok = reason < 0
+        # the action from there (arm IK reach / pointing, hand clear of obstacles)
+        stroke = np.full((n, 3), np.nan)
+        if ok.any():
+            idx = np.flatnonzero(ok)
+            feasible, pts = stroke_points(self.stage, self.figure, act, pos[idx], heading[idx])
+            stroke[idx] = pts
+            reason[idx[~feasible]] = 2
+            ok = reason < 0
+        # visibility: head to head, and the body out of the observer's view of the target
+        e_vis = np.full(n, np.nan)
+        if ok.any():
+            idx = np.flatnonzero(ok)
+            e = self.stage.occluded(pos[idx], self.figure.eye_height, np.repeat([obs.pos], len(idx), 0),
+                                    obs.eye_height)
+            e_vis[idx] = e
+            seg_d = np.empty(len(idx))
+            n_i = len(idx)
+            kn.segment_distance_kernel(np.repeat([obs.pos], n_i, 0), np.repeat([act.target], n_i, 0),
+                                       np.ascontiguousarray(pos[idx]), seg_d)
+            bad = (e > VIS_DISCARD) | (seg_d < self.figure.radius + VIEW_GAP)
+            reason[idx[bad]] = 3
+            ok = reason < 0
+        # eye contact within the head's allowance (phi) plus the eyes
+        to_obs = np.arctan2(obs.pos[1] - pos[:, 1], obs.pos[0] - pos[:, 0])
+        need = np.degrees((to_obs - heading + np.pi) % (2 * np.pi) - np.pi)  # + toward pedvr's CCW
+        limit = np.clip(np.abs((ph - th + 180.0) % 360.0 - 180.0), HEAD_MIN, HEAD_MAX)
+        reason[ok & (np.abs(need) > limit + EYE_LIMIT)] = 4
+        # each direction keeps its first valid variant; a direction's model candidate is only
+        # perturbed when it collides (§4)
+        r = reason.reshape(k, v)
+        w = self.weights
+        for i in range(k):
+            row = r[i]
+            choice = 0 if row[0] < 0 else -1
+            if row[0] == 0:  # collides: try the perturbations in order
+                for j in range(1, v):
+                    if row[j] < 0:
+                        choice = j
+                        break
+            if choice < 0:
+                # the furthest check any variant got to (checks run in the order of REASONS)
+                self.plan.rejected[REASONS[int(row.max()) if row[0] == 0 else int(row[0])]] += 1
+                continue
+            c = i * v + choice
+            d = float(np.hypot(pos[c, 0] - tx, pos[c, 1] - ty))
+            e_action = abs(act.d_pref - d)
+            e_neck = abs(float(need[c]))
+            head = math.copysign(min(e_neck, float(limit[c])), float(need[c]))
+            eyes = float(need[c]) - head
+            cost = w.vis * float(e_vis[c]) + w.neck * e_neck + w.action * e_action
+            self._found.append(Placement(
+                pos=(float(pos[c, 0]), float(pos[c, 1])), heading=float(heading[c]), zeta=float(zz[c]),
+                alpha=float(alpha[i]), beta=float(beta[i]), theta=float(th[c]), phi=float(ph[c]), distance=d,
+                e_vis=float(e_vis[c]), e_neck=e_neck, e_action=e_action, cost=cost, head=head, eyes=eyes,
+                head_limit=float(limit[c]),
+                stroke=(float(stroke[c, 0]), float(stroke[c, 1]), float(stroke[c, 2]))))
+
+
+def plan_placement(stage: Stage, figure: Figure, action: Action, observer: Observer, *,
+                   start: tuple[float, float], default_zeta: float = 0.0,
+                   keep_clear: Sequence[tuple[float, float, float]] = (),
+                   weights: Weights = Weights()) -> Plan:
+    """The complete search (:class:`PlacementSearch`) in one call."""
+    return PlacementSearch(stage, figure, action, observer, start=start, default_zeta=default_zeta,
+                           keep_clear=keep_clear, weights=weights).run()
+
+
+def score(stage: Stage, figure: Figure, action: Action, observer: Observer, *, pos: tuple[float, float],
+          heading: float, weights: Weights = Weights(), head_limit: float = HEAD_MAX) -> float:
+    """The ranking cost of standing at ``pos`` facing ``heading`` for ``observer`` (inf if invalid now).
+
+    What the re-planning hysteresis compares a new plan against: the current
+    placement, re-scored for where the observer is now (its action and path
+    were valid when chosen; the observer's move can only change visibility,
+    the neck rotation and the personal-space gap).
+    """
+    gap = math.hypot(pos[0] - observer.pos[0], pos[1] - observer.pos[1]) - figure.radius - observer.radius
+    if gap < OBSERVER_GAP - 0.1:
+        return math.inf
+    e_vis = float(stage.occluded(np.asarray([pos]), figure.eye_height, np.asarray([observer.pos]),
+                                 observer.eye_height)[0])
+    if e_vis > VIS_DISCARD:
+        return math.inf
+    to_obs = math.atan2(observer.pos[1] - pos[1], observer.pos[0] - pos[0])
+    need = abs(math.degrees((to_obs - heading + math.pi) % (2 * math.pi) - math.pi))
+    if need > head_limit + EYE_LIMIT:
+        return math.inf
+    d = math.hypot(pos[0] - action.target[0], pos[1] - action.target[1])
+    return weights.vis * e_vis + weights.neck * need + weights.action * abs(action.d_pref - d)
