@@ -524,11 +524,8 @@ def _measures(doc: _Doc, result: dict[str, Any]) -> None:
         Heading(2, "Objective measures"),
         Para(
             "Per trial from the recorded samples (definitions in pedvr.study.measures), over the trials that "
-            "ran "
-            "to their end; compared across conditions (across responsibility in a sweep) with the same tests "
-            "as "
-            "the questionnaire scores. Doors held for the participant and demonstrations watched are not "
-            "recorded yet."
+            "ran to their end; compared across conditions (across responsibility in a sweep) with the same "
+            "tests as the questionnaire scores."
         ),
     )
     for block, b in m["by_block"].items():
