@@ -539,7 +539,7 @@ def _step_revolvers(centre, radius, sense, first, rotation, omega, push, base, l
                         delta = min(delta, 0.0)  # already touching: it does not turn further into them
             delta = max(delta, 0.0)
         rotation[d] += sg * delta
-        omega[d] = sg * delta / dt if forced == 0.0 else sg * w
+        omega[d] = sg * delta / dt
         for k in range(PANELS):
             angle[first[d] + k] = rotation[d]
 
