@@ -167,7 +167,8 @@ def _last(tgt: np.ndarray, last_foot: np.ndarray, d_tgt: np.ndarray, d_s: np.nda
     return tgt + d1 * (w_step / sin)
 
 
-def _standing_end(p0: np.ndarray, tgt: np.ndarray, start_feet: list[np.ndarray], s: int, steps: list[Footstep],
+def _standing_end(p0: np.ndarray, tgt: np.ndarray, start_feet: list[np.ndarray], s: int,
+                  steps: list[Footstep],
                   facing: float, w_step: float, c_s2: float, aux: bool, face_travel: float) -> StepPlan:
     """Eqs. 10-11: the last two steps regenerated beside the target, square to the target facing
     (with steps in between where a foot would otherwise step farther than ``c_s2``)."""
