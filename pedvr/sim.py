@@ -23,6 +23,7 @@ from pedvr.behavior.context import Context
 from pedvr.behavior.objects import make_objects
 from pedvr.behavior.scheduler import Scheduler
 from pedvr.body import FullBody
+from pedvr.body import skeleton as sk
 from pedvr.body.model import GestureSets
 from pedvr.crowd.encounter import UserEncounters
 from pedvr.crowd.state import N_LIMITS, CrowdState
@@ -30,6 +31,8 @@ from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
 from pedvr.errors import NavigationError, SceneError, UsageError
 from pedvr.etiquette.doors import CLOSED, DoorLeaves
+from pedvr.etiquette.objects import DOOR_HOLD_EVENT
+from pedvr.etiquette.system import DoorEtiquette
 from pedvr.record import Metrics, Recording
 from pedvr.scene.config import CONDITIONS, USER_WALKS, AgentProfile, SceneConfig, SequenceGoal, Spawn
 from pedvr.world import NavMesh, Visibility, edges, obstacle_set, walkable_area
@@ -103,6 +106,10 @@ class Simulation:
         gestures = GestureSets(by_state={n: st.gestures for n, st in scene.behavior.states.items()
                                          if st.gestures is not None})
         self.body = FullBody(rng=self.rng, gestures=gestures, navigate=self._navigate)
+        # Huang & Terzopoulos: door and doorway etiquette (pedvr.etiquette), when there are doors
+        self.etiquette = (DoorEtiquette(scene, leaves=self.doors, body=self.body, rng=self.rng,
+                                        replan=self._replan)
+                          if scene.world.doors and scene.etiquette.enabled else None)
 
         self.crowd = CrowdState.empty()
         self.behavior = BehaviorState.rows(0)
@@ -131,11 +138,16 @@ class Simulation:
         for k, spawn in enumerate(scene.spawns):
             self._spawn(k, spawn)
         # ADAPT §6: personal trees, events, smart objects and triggers (pedvr.behavior.scheduler)
+        objects = make_objects(scene.behavior.objects)
+        if self.etiquette is not None:  # doors are smart objects; a holder and its follower, an event
+            objects.update(self.etiquette.smart_objects())
         self.scheduler = Scheduler(scene.behavior, Context(
             crowd=self.crowd, behavior=self.behavior, body=self.body, visibility=self.visibility,
             walkable=self.goal_mesh, rng=self.rng, goal_sets=scene.behavior.goal_sets,
-            objects=make_objects(scene.behavior.objects),
-            user=None if self.user is None else int(self.crowd.ids[0])), bfsm=self.bfsm)
+            objects=objects, user=None if self.user is None else int(self.crowd.ids[0])), bfsm=self.bfsm)
+        if self.etiquette is not None:
+            self.scheduler.events.setdefault(DOOR_HOLD_EVENT.name, DOOR_HOLD_EVENT)
+            self.etiquette.scheduler = self.scheduler
 
         seg_a, seg_b = edges(scene.world)
         self.metrics = Metrics(seg_a=seg_a, seg_b=seg_b, inside=self._inside_obstacle,
@@ -200,8 +212,15 @@ class Simulation:
             is_user=np.full(n, is_user), limits=np.tile(np.asarray(limits, np.float64), (n, 1)),
         )
         first = len(self.crowd)
+        prof = list(self.scene.profiles.values())[profile] if profile >= 0 else None
+        dims = None
+        if prof is not None and prof.sex:  # a profile that says who its agents are (door etiquette's Care)
+            dims = sk.draw_dims(self.body.rng, n, sex=sk.SEX_FEMALE if prof.sex == "female" else sk.SEX_MALE)
         rows.pref_speed *= self.body.append(n, ids=ids, pos=rows.pos, heading=rows.heading, is_user=is_user,
-                                            limits=rows.limits)
+                                            limits=rows.limits, dims=dims)
+        if self.etiquette is not None:
+            self.etiquette.append(ids, profile=prof, is_user=is_user,
+                                  female=self.body.state.dims[first:first + n, sk.DIM_SEX] == sk.SEX_FEMALE)
         self.crowd.append(rows)
         self.encounters.append(n)
         self.behavior.append(BehaviorState.rows(n))
@@ -220,12 +239,16 @@ class Simulation:
     def _spawn(self, k: int, spawn: Spawn) -> None:
         prof = self.scene.profiles[spawn.profile]
         pts = list(spawn.positions) if spawn.positions else self._place(k, spawn, prof.radius)
+        first_id = self._next_id
         for p in pts:
             heading = np.nan if spawn.facing is None else spawn.facing
             self._add_rows(1, pos=np.asarray([p]), radius=prof.radius, pref_speed=prof.pref_speed,
                            max_speed=prof.max_speed, limits=_limits_row(prof), is_user=False,
                            heading=np.asarray([heading]), state=spawn.state, sequence=spawn.goal_sequence,
                            profile=list(self.scene.profiles).index(spawn.profile))
+        if spawn.friends and self.etiquette is not None:  # consecutive pairs walk together (§4.6)
+            for a in range(first_id, self._next_id - 1, 2):
+                self.etiquette.pair_friends(a, a + 1)
 
     def _place(self, k: int, spawn: Spawn, radius: float) -> list[tuple[float, float]]:
         """Draw ``spawn.count`` free positions in the spawn's region with the run's rng."""
@@ -311,6 +334,8 @@ class Simulation:
         for row in np.flatnonzero(d.goal_changed & ~d.leaving):
             self._replan(int(row))
         self._leaving = d.leaving
+        if self.etiquette is not None:  # doorway ordering and the door interaction states
+            self.etiquette.decide(self.t, self.crowd, self.paths, self.cursor)
         for back in self.scheduler.tick(self.t):  # agents an event gave back to their BFSM
             self._replan(back)
 
@@ -388,6 +413,8 @@ class Simulation:
         self.cursor = cursor
         crowd.pref_vel = np.where(crowd.is_user[:, None], crowd.vel, pref_vel)
         crowd.pref_heading = np.where(crowd.is_user, crowd.heading, pref_heading)
+        if self.etiquette is not None:  # pedestrians at a door go where the door interaction says
+            self.etiquette.steer(crowd)
 
     def _targets(self, pts: np.ndarray, starts: np.ndarray, lens: np.ndarray,
                  cursor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -416,6 +443,8 @@ class Simulation:
         if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)
             self.steering.set_moving_segments(self.doors.hinge, self.doors.tips())
         self._new_vel = self.steering.compute_velocities(crowd, self.dt)
+        if self.etiquette is not None:  # revolving-door riders move with their compartment
+            self.etiquette.carry(self._new_vel, crowd)
         crowd.pref_vel = saved
         self._pinned = self.scheduler.pinned()  # seated bodies do not slide (contacts move the others)
         self._new_vel[self._pinned] = 0.0
@@ -425,6 +454,8 @@ class Simulation:
     def _animate(self) -> None:
         """The body turns commanded velocities into root motion; contacts are resolved; bodies are posed."""
         root, heading = self.body.animate(self.crowd, self._new_vel, self.dt, coupled=self.coupled)
+        if self.etiquette is not None:  # holders stepping round a door keep facing it (App. C)
+            heading = self.etiquette.face(heading, self.crowd.heading, self.crowd, self.dt)
         self.metrics.observe_user_contact(self.crowd, root)
         self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user,
                                                     turn=self.crowd.turn, torso=self.crowd.torso,
@@ -442,7 +473,15 @@ class Simulation:
         crowd, doors = self.crowd, self.doors
         was_closed = doors.phase == CLOSED
         vel = np.where(crowd.is_user[:, None], crowd.vel, self._new_vel)
-        doors.step(self.dt, root, vel, crowd.radius, fixed=crowd.is_user)
+        et = self.etiquette
+        if et is not None:  # the holders' hands lead their leaves (App. A's f_a)
+            et.user_reach(crowd)
+            et.before_doors(crowd)
+        doors.step(self.dt, root, vel, crowd.radius, fixed=crowd.is_user,
+                   auto=None if et is None else et.auto_open(crowd),
+                   carried=None if et is None else et.carried(crowd))
+        if et is not None:  # and the leaves lead the hands (f_pabs)
+            et.after_doors(crowd)
         pushed, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
         if len(root):
             self.metrics.door_push = max(self.metrics.door_push, float(np.hypot(*(pushed - root).T).max()))
@@ -508,6 +547,8 @@ class Simulation:
         self.crowd.keep(keep)
         self.encounters.keep(keep)
         self.body.keep(keep)
+        if self.etiquette is not None:
+            self.etiquette.keep(keep)
         self.behavior.keep(keep)
         self.paths = [p for p, k in zip(self.paths, keep, strict=True) if k]
         self.sequences = [s for s, k in zip(self.sequences, keep, strict=True) if k]
@@ -537,4 +578,8 @@ class Simulation:
         })
         out.update(self.metrics.body_summary(slides=self.body.skate.slides(), steps=self.body.step_log))
         out.update(self.scheduler.summary())
+        if self.etiquette is not None:
+            out.update(self.etiquette.summary())
+        else:
+            out.update(DoorEtiquette.empty_summary())
         return out

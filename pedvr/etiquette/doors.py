@@ -113,6 +113,7 @@ class DoorLeaves:
     drive: np.ndarray
     close_speed: np.ndarray
     stop: np.ndarray
+    open_speed: np.ndarray
     revolvers: Revolvers = field(default_factory=lambda: Revolvers.empty())
 
     @classmethod
@@ -172,6 +173,7 @@ class DoorLeaves:
             drive=np.zeros(n, np.int64),
             close_speed=np.asarray(close, np.float64),
             stop=np.full(n, np.nan),
+            open_speed=np.full(n, OPEN_SPEED),
             revolvers=Revolvers.of(rev),
         )
 
@@ -180,13 +182,15 @@ class DoorLeaves:
 
     # -- the hand (App. A) ---------------------------------------------------------------------
 
-    def grab(self, leaf: int, *, open_to: float) -> None:
+    def grab(self, leaf: int, *, open_to: float, speed: float = OPEN_SPEED) -> None:
         """A hand takes the leaf and opens it automatically toward ``open_to`` (rad, signed as the
-        leaf opens), the door leading the hand (``f_pabs``); a closing leaf is caught (App. B.2)."""
+        leaf opens) at ``speed`` (rad/s), the door leading the hand (``f_pabs``); a closing leaf is
+        caught (App. B.2)."""
         self.drive[leaf] = OPEN
         self.phase[leaf] = HELD
         self.target[leaf] = self._clamp(leaf, open_to)
         self.stop[leaf] = math.nan
+        self.open_speed[leaf] = speed
 
     def hand(self, leaf: int, angle: float) -> None:
         """The hand holding the leaf wants it at ``angle`` (rad, from ``f_a`` of where the hand
@@ -239,7 +243,7 @@ class DoorLeaves:
         if len(self) and not self.panel.all():
             _step_leaves(self.hinge, self.base, self.length, self.angle, self.side, self.phase,
                          self.target, self.swing, self.panel, self.drive, self.close_speed, self.stop,
-                         p, v, r, fx, au, float(dt))
+                         self.open_speed, p, v, r, fx, au, float(dt))
         rv = self.revolvers
         if len(rv):
             ca = np.zeros(n, np.bool_) if carried is None else np.ascontiguousarray(carried, np.bool_)
@@ -360,7 +364,7 @@ def _blocked(qx: float, qy: float, c: float, s: float, length: float, r: float) 
 
 @njit(cache=True)
 def _step_leaves(hinge, base, length, angle, side, phase, target, swing, panel, drive, close_speed, stop,  # noqa: ANN001, ANN202
-                 pos, vel, radius, fixed, auto, dt):
+                 open_speed, pos, vel, radius, fixed, auto, dt):
     n = pos.shape[0]
     for i in range(hinge.shape[0]):
         if panel[i]:
@@ -412,7 +416,7 @@ def _step_leaves(hinge, base, length, angle, side, phase, target, swing, panel, 
             d = target[i] - a
             want = target[i] if abs(d) <= step else a + math.copysign(step, d)
         elif phase[i] == HELD or phase[i] == BOUNCE:
-            step = OPEN_SPEED * dt
+            step = (open_speed[i] if drive[i] == OPEN else OPEN_SPEED) * dt
             d = target[i] - a
             want = target[i] if abs(d) <= step else a + math.copysign(step, d)
             if phase[i] == HELD and target[i] != 0.0 and a * target[i] > target[i] * target[i]:
