@@ -33,6 +33,7 @@ from pedvr.errors import NavigationError, SceneError, UsageError
 from pedvr.etiquette.doors import CLOSED, DoorLeaves
 from pedvr.etiquette.objects import DOOR_HOLD_EVENT
 from pedvr.etiquette.system import DoorEtiquette
+from pedvr.etiquette.user import DoorUser
 from pedvr.record import Metrics, Recording
 from pedvr.scene.config import CONDITIONS, USER_WALKS, AgentProfile, SceneConfig, SequenceGoal, Spawn
 from pedvr.world import NavMesh, Visibility, edges, obstacle_set, walkable_area
@@ -178,6 +179,10 @@ class Simulation:
             pts.append(leg[1:])
             here = target
         path = np.concatenate(pts)
+        if self.etiquette is not None and self.user_walk == "straight":
+            # at doors the scripted user opens (and, with user.door_hold, holds) them as a person would
+            return DoorUser(path, speed=u.speed, heading=u.heading, radius=u.radius, hold=u.door_hold,
+                            etiquette=self.etiquette)
         if self.user_walk == "reactive":
             def perceive() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
                 c = self.crowd
@@ -437,7 +442,8 @@ class Simulation:
         pref, short, to_user = self.encounters.steer(
             pos=crowd.pos, vel=crowd.vel, pref_vel=pref, radius=crowd.radius,
             responsibility=crowd.responsibility, is_user=crowd.is_user, dt=self.dt,
-            engaged=self.scheduler.engaged_with_user())
+            engaged=self.scheduler.engaged_with_user() if self.etiquette is None
+            else self.scheduler.engaged_with_user() | self.etiquette.engaged_with_user(crowd))
         saved = crowd.pref_vel
         crowd.pref_vel = pref
         if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)

@@ -113,8 +113,10 @@ def decide_hinged(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: Crowd
             skip.add(fr)  # friends side by side: no leader between them until the door (§4.6)
         if w.helping != NONE:
             skip.add(w.helping)
-        cands.append(Candidate(id=w.id, pos=(float(p[0]), float(p[1])), side=w.side,
-                               d_door=float(np.hypot(*rel)),
+        # a holder is at the door, its committed follower next, whatever their distances (the BOP
+        # lies farther from the door's middle than the lane does)
+        d_door = 0.0 if w.role == HOLDER else 0.05 if w.role == FOLLOWER else float(np.hypot(*rel))
+        cands.append(Candidate(id=w.id, pos=(float(p[0]), float(p[1])), side=w.side, d_door=d_door,
                                waited=w.waited, holder=w.role == HOLDER, follower=w.role == FOLLOWER,
                                critical=w.role == HOLDER and w.state >= HOLDER_DEC,
                                leaf=ds.leaves.index(w.leaf) if w.leaf in ds.leaves else -1,

@@ -530,6 +530,20 @@ class DoorEtiquette:
             out[r] = prev[r] + max(-lim, min(lim, delta))
         return out
 
+    def engaged_with_user(self, crowd: CrowdState) -> np.ndarray:
+        """``(N,)`` agents in a door interaction at a door the user takes part in (holding it,
+        following, passing, riding): the user-encounter model leaves them alone, as it does agents
+        an event drives for the user (``Scheduler.engaged_with_user``); ORCA still keeps them off
+        the user."""
+        out = np.zeros(len(crowd), np.bool_)
+        if self.user_id is None or self.user_id not in self.walkers:
+            return out
+        k = self.walkers[self.user_id].door
+        for w in self.walkers.values():
+            if w.door == k and not w.is_user and w.role != APPROACH and w.id in self._row:
+                out[self._row[w.id]] = True
+        return out
+
     def carry(self, new_vel: np.ndarray, crowd: CrowdState) -> None:
         """After ORCA: revolving-door riders move with their compartment."""
         from pedvr.etiquette.revolving import carry_riders
@@ -699,7 +713,7 @@ class DoorEtiquette:
             tip = lv.tips()[leaf]
             d = _point_segment(reach, lv.hinge[leaf], tip)
             k = int(lv.door[leaf])
-            holder = self.dstate[k].holder.get(leaf)
+            holder = self.dstate[k].holder.get(leaf, self.dstate[k].mutex.get(leaf))
             if d < best_d and (holder is None or holder == self.user_id):
                 best, best_d = leaf, d
         if best < 0:
