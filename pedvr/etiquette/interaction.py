@@ -101,8 +101,8 @@ def decide_hinged(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: Crowd
     # -- ordering ---------------------------------------------------------------------------
     cands = []
     for w in walkers:
-        if w.role == PASSING or w.id not in et._row:
-            continue
+        if w.role == PASSING or w.id not in et._row or (w.role == HOLDER and w.state == FINISH_DOOR):
+            continue  # on its way through: no longer anyone's leader
         p = et.pos(crowd, w.id)
         rel = p - ds.centre
         skip: set[int] = set()

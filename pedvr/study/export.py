@@ -49,6 +49,7 @@ TABLE_FILES = (
     "events",
     "gaze_events",
     "contacts",
+    "door_events",
 )
 # Trials whose samples are superseded by a rerun (see the module docstring).
 RERUN_OUTCOMES = ("interrupted", "aborted")
@@ -87,6 +88,7 @@ def read_table(store: StudyStore, table: str) -> pd.DataFrame:
         "events": "event_id",
         "gaze_events": "trial_id, frame, agent_id",
         "contacts": "trial_id, frame, agent_a, agent_b",
+        "door_events": "trial_id, frame, agent_id",
         "agent_samples": "trial_id, frame, agent_id",
     }[table]
     if table == "samples":

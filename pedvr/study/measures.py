@@ -10,9 +10,8 @@ questionnaire scores, the report tables them, and the export writes them
     @register_measure("doors_held_for_user", unit="count", label="doors held for the participant")
     def _doors_held(r: TrialRecord) -> float | None: ...
 
-(door etiquette and demonstrators will add theirs once they record events;
-``doors held for the participant`` and ``demonstrations watched`` are not
-measured yet).
+(demonstrators will add theirs once they record events; ``demonstrations watched``
+is not measured yet).
 
 Definitions (choices where the issue leaves room, stated once here):
 
@@ -42,6 +41,10 @@ Definitions (choices where the issue leaves room, stated once here):
                       the route turns. None with fewer than 2 such frames.
 ``gaze_events_received``  PedVR gaze-rule gazes at the participant that started in the trial
                       (``gaze_events`` rows ``start`` with target ``user``; 0 outside PedVR+G).
+``doors_held_for_participant``  doors an agent held open for the participant in the trial: the
+                      agent decided HOF or HOL for the participant (``door_events`` rows ``hold``
+                      with the user, action HOF or HOL), whether or not the participant then came
+                      (Huang & Terzopoulos §5; a study can ask whether participants noticed courtesy).
 """
 
 from __future__ import annotations
@@ -86,6 +89,7 @@ class TrialRecord:
     spheres: np.ndarray
     user_contacts: np.ndarray
     gaze_starts: int
+    doors_held_for_user: int = 0
 
 
 @dataclass(frozen=True)
@@ -207,6 +211,11 @@ def _gaze(r: TrialRecord) -> float | None:
     return float(r.gaze_starts)
 
 
+@register_measure("doors_held_for_participant", unit="count", label="doors held for the participant")
+def _doors_held(r: TrialRecord) -> float | None:
+    return float(r.doors_held_for_user)
+
+
 def yaw_of(qw: np.ndarray, qx: np.ndarray, qy: np.ndarray, qz: np.ndarray) -> np.ndarray:
     """Yaw (rad) of orientation quaternions about the world's z axis (the head's forward is +x)."""
     return np.arctan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
@@ -224,6 +233,12 @@ def load_trials(store: StudyStore, trial_ids: list[int] | None = None) -> Iterat
         store.db.execute(
             "SELECT trial_id, COUNT(*) FROM gaze_events WHERE event = 'start' AND target = 'user' "
             "GROUP BY trial_id"
+        ).fetchall()
+    )
+    held = dict(
+        store.db.execute(
+            "SELECT trial_id, COUNT(*) FROM door_events WHERE event = 'hold' AND with_user = 1 "
+            "AND action IN ('HOF', 'HOL') GROUP BY trial_id"
         ).fetchall()
     )
     for tid, outcome, sim_time_s in trials.fetchall():
@@ -254,6 +269,7 @@ def load_trials(store: StudyStore, trial_ids: list[int] | None = None) -> Iterat
             spheres=x[:, 8],
             user_contacts=contacts,
             gaze_starts=int(gaze.get(tid, 0)),
+            doors_held_for_user=int(held.get(tid, 0)),
         )
 
 

@@ -38,8 +38,14 @@ from typing import Any
 from pedvr.study.errors import ParticipantExistsError, StudyStoreError
 
 # 2: gaze_events.target (1 is migrated on open: its gaze table was always empty);
-# 3: answers.response_time_s, samples.spheres (the red spheres reached so far)
-SCHEMA_VERSION = "3"
+# 3: answers.response_time_s, samples.spheres (the red spheres reached so far);
+# 4: door_events (door etiquette: who held a door for whom, HOF/HOL/NH, waits, thank-yous)
+SCHEMA_VERSION = "4"
+
+DOOR_EVENTS_TABLE = """CREATE TABLE IF NOT EXISTS door_events (
+    trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, door TEXT NOT NULL,
+    event TEXT NOT NULL, agent_id INTEGER NOT NULL, other_id INTEGER, action TEXT,
+    with_user INTEGER NOT NULL, detail TEXT)"""
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -91,7 +97,7 @@ CREATE UNIQUE INDEX IF NOT EXISTS answers_once
 CREATE TABLE IF NOT EXISTS events (
     event_id INTEGER PRIMARY KEY, session_id INTEGER NOT NULL, participant TEXT NOT NULL,
     step_index INTEGER, utc TEXT NOT NULL, kind TEXT NOT NULL, detail TEXT);
-"""
+""" + DOOR_EVENTS_TABLE + ";\n"
 
 # Columns added by each schema version: (table, column, SQL type and default, value read from older files).
 ADDED_COLUMNS = {
@@ -100,7 +106,10 @@ ADDED_COLUMNS = {
         ("answers", "response_time_s", "REAL", "NULL"),
         ("samples", "spheres", "INTEGER", "NULL"),
     ),
+    "4": (),
 }
+# Tables added by each schema version: created on migration (empty in older files read only).
+ADDED_TABLES = {"4": (("door_events", DOOR_EVENTS_TABLE),)}
 
 TABLES = (
     "participants",
@@ -113,6 +122,7 @@ TABLES = (
     "contacts",
     "answers",
     "events",
+    "door_events",
 )
 
 
@@ -233,6 +243,9 @@ class StudyStore:
     def _migrate(self, version: str) -> None:
         """Add the columns of every later schema version, in one transaction."""
         with self.transaction():
+            for v in [v for v in ADDED_TABLES if int(v) > int(version)]:
+                for _, create in ADDED_TABLES[v]:
+                    self.db.execute(create)
             for table, column, decl, _ in self._added_since(version):
                 self.db.execute(f"ALTER TABLE {table} ADD COLUMN {column} {decl}")
             self.db.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (SCHEMA_VERSION,))
@@ -244,6 +257,9 @@ class StudyStore:
             by_table.setdefault(table, []).append(f"{value} AS {column}")
         for table, extra in by_table.items():
             self.db.execute(f"CREATE TEMP VIEW {table} AS SELECT *, {', '.join(extra)} FROM main.{table}")
+        for v in [v for v in ADDED_TABLES if int(v) > int(version)]:
+            for _, create in ADDED_TABLES[v]:  # an empty temporary table where the file has none
+                self.db.execute(create.replace("CREATE TABLE IF NOT EXISTS", "CREATE TEMP TABLE", 1))
 
     # -- plumbing --------------------------------------------------------------------------
 
@@ -443,6 +459,7 @@ class StudyStore:
         agents: list[tuple[Any, ...]],
         contacts: list[tuple[Any, ...]],
         gaze: list[tuple[Any, ...]],
+        doors: list[tuple[Any, ...]] = (),  # type: ignore[assignment]
     ) -> None:
         """Commit one chunk of per-frame rows."""
         with self.transaction():
@@ -450,6 +467,7 @@ class StudyStore:
             self.db.executemany("INSERT INTO agent_samples VALUES (?, ?, ?, ?, ?, ?, ?)", agents)
             self.db.executemany("INSERT INTO contacts VALUES (?, ?, ?, ?, ?, ?, ?)", contacts)
             self.db.executemany("INSERT INTO gaze_events VALUES (?, ?, ?, ?, ?, ?)", gaze)
+            self.db.executemany("INSERT INTO door_events VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", doors)
 
     def finish_trial(self, trial_id: int, **row: Any) -> None:
         row = dict(row)

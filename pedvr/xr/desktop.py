@@ -229,7 +229,7 @@ class DesktopPresenter:
         return FrameTiming(display_time=now + self.period, period=self.period)
 
     def render(self, sim: Simulation) -> None:
-        if self.door_presses and sim.etiquette is not None:  # E toggles the user's hand on a door
+        if self.door_presses and sim is not None and sim.etiquette is not None:  # E: a hand on a door
             for _ in range(self.door_presses):
                 self.holding_door = sim.etiquette.user_hand(not self.holding_door)
         self.door_presses = 0

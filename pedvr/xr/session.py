@@ -253,7 +253,7 @@ class XrPresenter:
         return out
 
     def render(self, sim: Simulation) -> None:
-        if self.controls.trigger and sim.etiquette is not None:
+        if self.controls.trigger and sim is not None and sim.etiquette is not None:
             # the trigger takes (or lets go of) the door whose handle is within reach of the user
             self.holding_door = sim.etiquette.user_hand(not self.holding_door)
         if self.update is not None:
