@@ -6,6 +6,7 @@
 ``pedvr bench steering``       ORCA step time against RVO2
 ``pedvr bench behavior``       behavior scheduler tick time (trees, events)
 ``pedvr sweep SPEC.toml``      many headless runs on Dask (:mod:`pedvr.sweep`)
+``pedvr bench sim``            a whole simulation step with full bodies (``--load K`` beside it)
 
 Errors a user can cause print as ``pedvr: error: ...`` lines and a non-zero
 exit code, never a traceback.
@@ -151,6 +152,8 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--agents", type=_positive(int), action="append", default=None)
     st.add_argument("--vs", choices=("rvo2",), default=None)
     st.add_argument("--steps", type=_positive(int), default=None)
+    st.add_argument("--load", type=int, action="append", default=None, metavar="K",
+                    help="busy processes beside the timed steps (repeatable: one run per value; default 0)")
     st.add_argument("--json", action="store_true")
     bd = bsub.add_parser("body", help="full-body layer ms per step beside the steering step")
     bd.add_argument("--agents", type=_positive(int), action="append", default=None)
@@ -161,6 +164,14 @@ def build_parser() -> argparse.ArgumentParser:
     bh.add_argument("--events", type=int, default=20, help="conversations kept running (default 20)")
     bh.add_argument("--seconds", type=_positive(float), default=20.0, help="simulated seconds timed")
     bh.add_argument("--json", action="store_true")
+    sb = bsub.add_parser("sim", help="whole Simulation.step() with full bodies on a generated plaza")
+    sb.add_argument("--agents", type=_positive(int), action="append", default=None,
+                    help="agents on the plaza (repeatable; default 100 and 1000)")
+    sb.add_argument("--steps", type=_positive(int), default=450, help="timed steps (default: %(default)s)")
+    sb.add_argument("--warmup", type=int, default=180, help="untimed steps first (default: %(default)s)")
+    sb.add_argument("--load", type=int, default=0,
+                    help="busy processes run beside the timed steps (default: %(default)s)")
+    sb.add_argument("--json", action="store_true")
     rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
     rb.add_argument("--agents", type=_positive(int), action="extend", nargs="+", default=None)
     rb.add_argument("--width", type=_positive(int), default=1280)
@@ -345,19 +356,28 @@ def _bench(args: argparse.Namespace) -> int:
         _print_results([run_behavior_bench(n, events=args.events, seconds=args.seconds)
                         for n in args.agents or [200]], args.json)
         return 0
+    if args.bench_command == "sim":
+        from pedvr.bench_sim import run_sim_bench
+
+        _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=args.load)
+                        for n in args.agents or [100, 1000]], args.json)
+        return 0
     if args.bench_command == "body":
         from pedvr.body.bench import run_body_bench
 
         _print_results([run_body_bench(n, steps=args.steps) for n in args.agents or [100, 1000]], args.json)
         return 0
+    from pedvr.benchload import check_load
     from pedvr.crowd.bench import run_steering_bench
 
+    loads = [check_load(k) for k in args.load or [0]]
     results = []
     for n in args.agents or [1000, 4000]:
-        kw = {"steps": args.steps} if args.steps else {}
-        t0 = time.perf_counter()
-        r = run_steering_bench(n, vs_rvo2=args.vs == "rvo2", **kw)
-        r["wall_s"] = round(time.perf_counter() - t0, 3)
-        results.append(r)
+        for k in loads:
+            kw = {"steps": args.steps} if args.steps else {}
+            t0 = time.perf_counter()
+            r = run_steering_bench(n, vs_rvo2=args.vs == "rvo2", load=k, **kw)
+            r["wall_s"] = round(time.perf_counter() - t0, 3)
+            results.append(r)
     _print_results(results, args.json)
     return 0

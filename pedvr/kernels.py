@@ -1,39 +1,138 @@
-"""numba kernels that run in parallel only when the work is worth it.
+"""numba kernels that run in parallel only when it pays, measured as they run.
 
 A ``prange`` loop is a fork–join: every launch waits for every worker
 thread. For the tens of agents of a VR scene that wait costs more than the
-work, and on a busy machine (a renderer thread, a compositor) a worker that
-is descheduled stalls the whole step for milliseconds. So each parallel
-kernel gets a serial twin compiled from the same source, and a call picks
-the parallel one only when its first argument has at least ``min_rows``
-rows. Results do not depend on the choice: the kernels' outputs are written
-per row, with no reductions across threads.
+work, and on a busy machine — a renderer thread, a compositor, an OpenXR
+runtime on the same cores — a worker that is descheduled stalls the whole
+join for a scheduler quantum, milliseconds, while a single thread merely runs
+a little slower. So each parallel kernel gets a serial twin compiled from the
+same source, and a :class:`Chooser` picks one per call:
+
+* fewer than ``SERIAL_ROWS`` rows, or one numba thread: always serial;
+* otherwise the twin whose measured cost per row (an exponential average of
+  wall time per row) is lower; the untried twin starts as the size rule says
+  (parallel from ``min_rows``) and the other is tried after a few calls;
+* the other twin is re-tried now and then to notice a change in the machine's
+  load: after ``EXPLORE_FIRST`` calls, then with the gap doubling each time it
+  loses, up to ``EXPLORE_MAX`` calls (about 20 s at 90 Hz for a once-per-step
+  kernel), so a loaded machine pays a slow parallel call rarely. A try's time
+  replaces the twin's old cost; if it was a lucky one, the next calls average
+  it back up and the chooser switches back.
+
+Results do not depend on the choice: the kernels' outputs are written per row,
+with no reductions across threads, so the bytes are the same whatever twin ran
+and however many threads there are (tests/test_kernels.py). Only the timing
+depends on the machine.
 """
 
 from __future__ import annotations
 
+import math
+import time
 import types
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
+import numba
 from numba import njit
 
-PARALLEL_MIN_ROWS = 512
+PARALLEL_MIN_ROWS = 512  # where the size rule starts in parallel before anything is measured
+SERIAL_ROWS = 64  # below this, never parallel
+EXPLORE_FIRST = 8
+EXPLORE_MAX = 2048
+ALPHA = 0.25  # weight of the newest measurement in the running cost
+
+
+CHOOSERS: list[Chooser] = []  # every chooser made, for benchmarks that warm both twins up
+
+
+@contextmanager
+def forcing(parallel: bool) -> Iterator[None]:
+    """Pin every chooser to one twin inside the block (benchmarks warm both twins up
+    before timing, so loading a twin's compiled code is not timed)."""
+    saved = [c.forced for c in CHOOSERS]
+    for c in CHOOSERS:
+        c.forced = parallel
+    try:
+        yield
+    finally:
+        for c, f in zip(CHOOSERS, saved, strict=True):
+            c.forced = f
+
+
+class Chooser:
+    """Serial or parallel for the next call, from measured cost (see the module docstring)."""
+
+    __slots__ = ("min_rows", "cost", "gap", "count", "exploring", "calls", "forced")
+
+    def __init__(self, min_rows: int = PARALLEL_MIN_ROWS) -> None:
+        self.min_rows = min_rows
+        self.forced: bool | None = None  # pin a twin (tests, experiments); None: measure
+        CHOOSERS.append(self)
+        self.cost = [math.nan, math.nan]  # seconds per row: [serial, parallel]
+        self.gap = EXPLORE_FIRST
+        self.count = 0
+        self.exploring = False
+        self.calls = [0, 0]
+
+    def choose(self, n: int) -> bool:
+        """True for the parallel twin. Call :meth:`record` with the time the call took."""
+        if self.forced is not None:
+            self.exploring = False
+            return self.forced
+        if n < SERIAL_ROWS or numba.get_num_threads() < 2:
+            self.exploring = False
+            return False
+        serial, par = self.cost
+        if math.isnan(serial) and math.isnan(par):
+            best = n >= self.min_rows
+        elif math.isnan(serial):
+            best = True
+        elif math.isnan(par):
+            best = False
+        else:
+            best = par < serial
+        self.count += 1
+        self.exploring = self.count >= self.gap
+        if self.exploring:
+            self.count = 0
+            return not best
+        return best
+
+    def record(self, parallel: bool, n: int, seconds: float) -> None:
+        if n < SERIAL_ROWS or n == 0:
+            return
+        k = int(parallel)
+        self.calls[k] += 1
+        c = seconds / n
+        old = self.cost[k]
+        # A rare try replaces what was known (it may be minutes old); calls in a row average.
+        self.cost[k] = c if math.isnan(old) or self.exploring else old + ALPHA * (c - old)
+        if self.exploring:
+            other = self.cost[1 - k]
+            won = not math.isnan(other) and self.cost[k] < other
+            self.gap = EXPLORE_FIRST if won else min(2 * self.gap, EXPLORE_MAX)
+            self.exploring = False
 
 
 class SizeDispatch:
-    """Call ``parallel`` when ``args[0].shape[0] >= min_rows``, else ``serial``."""
+    """Call the serial or the parallel twin, as its :class:`Chooser` decides, and time it."""
 
     def __init__(self, parallel: Any, serial: Any, min_rows: int) -> None:
         self.parallel = parallel
         self.serial = serial
-        self.min_rows = min_rows
+        self.chooser = Chooser(min_rows)
         self.__doc__ = parallel.py_func.__doc__
         self.__wrapped__ = parallel.py_func
 
     def __call__(self, *args: Any) -> Any:
         n = args[0].shape[0]
-        return (self.parallel if n >= self.min_rows else self.serial)(*args)
+        par = self.chooser.choose(n)
+        t0 = time.perf_counter()
+        out = (self.parallel if par else self.serial)(*args)
+        self.chooser.record(par, n, time.perf_counter() - t0)
+        return out
 
 
 def parallel_kernel(*, fastmath: Any = False,

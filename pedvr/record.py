@@ -14,12 +14,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from pedvr.crowd.footprint import footprint_arrays, pair_support
+from pedvr.crowd.overlap import nearest_edges, pair_overlaps
 from pedvr.crowd.state import CrowdState
+from pedvr.world.visibility_kernels import EdgeGrid
 
 OVERLAP_TOLERANCE = 0.01  # m: the quality bar (DESIGN.md)
+INSIDE_EVERY = 30  # steps between point-in-obstacle tests of rows far from every edge
 CLEARANCE_RANGE = 2.0  # m: the user's clearance is sampled while the nearest agent is this close
 STALL_DISTANCE = 0.5  # m: an agent with a goal that moved less than this ...
 STALL_SECONDS = 20.0  # s: ... in this long is stalled (a deadlock, or a jam that does not clear)
@@ -32,9 +34,9 @@ class Metrics:
     seg_a: np.ndarray
     seg_b: np.ndarray
     inside: object  # callable: (N,2) -> (N,) bool, True where a point is inside an obstacle
-    _tree: Any = None  # shapely STRtree over the edges, built on first use
+    _grid: Any = None  # EdgeGrid over the edges, built on first use
     steps: int = 0
-    agent_ids: set[int] = field(default_factory=set)
+    _seen: np.ndarray = field(default_factory=lambda: np.zeros(0, np.bool_))  # by id: a virtual agent
     max_overlap: float = 0.0
     overlap_pairs: set[tuple[int, int]] = field(default_factory=set)
     min_user_distance: float = float("inf")
@@ -93,7 +95,13 @@ class Metrics:
         """Account one committed step (``prev_*`` are the rows' values before it)."""
         self.steps += 1
         virt = ~crowd.is_user
-        self.agent_ids.update(int(i) for i in crowd.ids[virt])
+        ids = crowd.ids[virt]
+        if ids.size:
+            top = int(ids.max()) + 1
+            if top > self._seen.shape[0]:
+                self._seen = np.concatenate([self._seen, np.zeros(max(top, 2 * self._seen.shape[0])
+                                                                  - self._seen.shape[0], np.bool_)])
+            self._seen[ids] = True
         if virt.any():
             speed = np.linalg.norm(crowd.vel[virt], axis=1)
             self.speed_sum += float(speed.sum())
@@ -168,31 +176,30 @@ class Metrics:
 
     def _overlaps(self, crowd: CrowdState) -> None:
         """Overlaps between footprints (discs, or turned ellipses: :mod:`pedvr.crowd.footprint`)
-        and of footprints with obstacle edges, the same model that is steered."""
+        and of footprints with obstacle edges, the same model that is steered (numba kernels,
+        :mod:`pedvr.crowd.overlap`)."""
         n = len(crowd)
         if n == 0:
             return
         depth, facing = footprint_arrays(crowd.radius, crowd.turn, crowd.torso)
         self._user(crowd, depth, facing)
-        pos, rad = crowd.pos, crowd.radius
-        if n > 1:
-            pairs = cKDTree(pos).query_pairs(r=2.0 * float(rad.max()), output_type="ndarray")
-            if pairs.size:
-                i, j = pairs[:, 0], pairs[:, 1]
-                rel = pos[j] - pos[i]
-                d = np.hypot(rel[:, 0], rel[:, 1])
-                unit = np.divide(rel, d[:, None], out=np.zeros_like(rel), where=d[:, None] > 1e-12)
-                ov = (pair_support(rad, depth, facing, i, unit) + pair_support(rad, depth, facing, j, -unit)
-                      - d)
-                self.max_overlap = max(self.max_overlap, float(ov.max()))
-                for k in np.flatnonzero(ov > OVERLAP_TOLERANCE):
-                    a, b = int(crowd.ids[i[k]]), int(crowd.ids[j[k]])
-                    self.overlap_pairs.add((min(a, b), max(a, b)))
+        pos, rad = np.ascontiguousarray(crowd.pos), np.ascontiguousarray(crowd.radius)
+        worst, pairs = pair_overlaps(pos, rad, depth, facing, OVERLAP_TOLERANCE)
+        self.max_overlap = max(self.max_overlap, worst)
+        for a, b in crowd.ids[pairs].tolist():
+            self.overlap_pairs.add((min(a, b), max(a, b)))
         if self.seg_a.shape[0]:
             d, away = self._edge_distance(pos, float(rad.max()))
-            reach = np.where(np.isfinite(d), pair_support(rad, depth, facing, np.arange(n), away), rad)
-            inside = self.inside(pos)  # type: ignore[operator]
-            ov = np.where(inside, reach + np.where(np.isfinite(d), d, 0.0), reach - d)
+            near = np.isfinite(d)
+            reach = np.where(near, pair_support(rad, depth, facing, np.arange(n), away), rad)
+            # A centre that enters an obstacle is near its edges first (nobody crosses a
+            # wall's thickness in one step), so rows near an edge are tested every step and
+            # the others every INSIDE_EVERY steps.
+            check = near if self.steps % INSIDE_EVERY else np.ones(n, np.bool_)
+            inside = np.zeros(n, np.bool_)
+            if check.any():
+                inside[check] = self.inside(pos[check])  # type: ignore[operator]
+            ov = np.where(inside, reach + np.where(near, d, 0.0), reach - d)
             ov = np.where(crowd.is_user, -np.inf, ov)  # the user is not steered, only measured
             self.max_overlap = max(self.max_overlap, float(ov.max()))
             self.wall_overlap = max(self.wall_overlap, float(ov.max()))
@@ -201,37 +208,23 @@ class Metrics:
 
     def _edge_distance(self, pos: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
         """Distance from each point to the nearest obstacle edge within ``reach`` (else inf),
-        and the unit direction from that nearest point to the point (zero where none).
-
-        An STRtree over the edges keeps this near O(N log M) (forest: 500
-        agents, 2800 edges), where the dense N×M form took 150 ms a step.
-        """
-        import shapely
-
-        if self._tree is None:
-            lines = shapely.linestrings(np.stack([self.seg_a, self.seg_b], axis=1))
-            self._tree = shapely.STRtree(lines)
-        pi, si = self._tree.query(shapely.points(pos), predicate="dwithin", distance=reach)
-        d = np.full(pos.shape[0], np.inf)
-        away = np.zeros_like(pos)
-        if pi.size:
-            a, b, p = self.seg_a[si], self.seg_b[si], pos[pi]
-            ab = b - a
-            t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18),
-                        0.0, 1.0)
-            vec = p - (a + t[:, None] * ab)
-            dist = np.hypot(vec[:, 0], vec[:, 1])
-            np.minimum.at(d, pi, dist)
-            best = dist <= d[pi]  # the nearest edge of each point (ties: any of them)
-            away[pi[best]] = np.divide(vec[best], dist[best, None], out=np.zeros_like(vec[best]),
-                                       where=dist[best, None] > 1e-12)
+        and the unit direction from that nearest point to the point (zero where none); the
+        edges are filed in a grid once (forest: 500 agents, 2800 edges)."""
+        if self._grid is None:
+            self._grid = EdgeGrid.build(self.seg_a, self.seg_b, cell=max(2.0, 4.0 * reach))
+        g = self._grid
+        d = np.empty(pos.shape[0])
+        away = np.empty_like(pos)
+        nearest_edges(pos, float(reach), np.ascontiguousarray(self.seg_a, np.float64),
+                      np.ascontiguousarray(self.seg_b, np.float64), g.origin, g.cell, g.shape, g.start,
+                      g.items, d, away)
         return d, away
 
     def summary(self) -> dict[str, object]:
         ms = np.asarray(self.step_ms) if self.step_ms else np.zeros(1)
         return {
             "steps": self.steps,
-            "agents": len(self.agent_ids),
+            "agents": int(np.count_nonzero(self._seen)),
             "max_overlap_m": round(max(self.max_overlap, 0.0), 6),
             "overlaps_over_1cm": len(self.overlap_pairs),
             "min_user_distance_m": None if not np.isfinite(self.min_user_distance)

@@ -26,6 +26,7 @@ from pedvr.body import FullBody
 from pedvr.body import skeleton as sk
 from pedvr.body.model import GestureSets
 from pedvr.crowd.encounter import UserEncounters
+from pedvr.crowd.footprint import shoulder_twist
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
@@ -469,6 +470,9 @@ class Simulation:
         if len(self.doors):
             self._root = self._move_doors(self._root)
         self._root_heading = heading
+        if len(self.body.state) == len(self.crowd):  # the footprint's shoulder turn, shown by the body
+            self.body.state.shoulder_turn[:] = np.where(
+                self.crowd.is_user, 0.0, shoulder_twist(self.crowd.turn, self.crowd.torso, heading))
         self.body.compose(self.crowd, self._root, heading, dt=self.dt, t=self.t + self.dt,
                           coupled=self.coupled,
                           state_names=np.asarray(self.bfsm.names + ("",))[self.behavior.state])
@@ -503,7 +507,16 @@ class Simulation:
         """The 2D agent takes the position and heading of its body's root (the body is the truth)."""
         crowd = self.crowd
         virt = ~crowd.is_user
-        vel = np.where(virt[:, None], self._new_vel, crowd.vel)
+        if self.coupled:
+            # The body's commanded velocity, inside its motion limits; a contact push moves
+            # the body but is not a step it chose to take.
+            vel = np.where(virt[:, None], self._new_vel, crowd.vel)
+        else:
+            # Decoupled (plain ORCA and a contact pass: position-based dynamics): the
+            # velocity is the disc's actual motion, so where contacts pushed an agent the
+            # next step's ORCA sees a blocked neighbour as blocked (in a jam the contact
+            # pass then needs a few iterations instead of a hundred).
+            vel = np.where(virt[:, None], (self._root - crowd.pos) / self.dt, crowd.vel)
         crowd.pos = np.where(virt[:, None], self._root, crowd.pos)
         crowd.vel = vel
         crowd.heading = self._root_heading

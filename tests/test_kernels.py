@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pedvr.crowd import orca
+from pedvr.crowd import contact, orca
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
+from pedvr.kernels import Chooser
 from pedvr.scene.config import SteeringParams
 from pedvr.world.obstacles import ObstacleSet
 
@@ -26,12 +27,52 @@ def crowd(n: int, seed: int) -> CrowdState:
     return s
 
 
+def _force(monkeypatch: pytest.MonkeyPatch, chooser: Chooser, parallel: bool) -> None:
+    monkeypatch.setattr(chooser, "forced", parallel)
+
+
 @pytest.mark.parametrize("coupled", [False, True])
 def test_serial_twin_equals_parallel(coupled: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     state = crowd(900, seed=1)
     steer = Steering(SteeringParams(), ObstacleSet.empty(), coupled=coupled)
-    assert len(state) >= orca.orca_kernel.min_rows  # the parallel kernel runs
+    _force(monkeypatch, orca.orca_kernel.chooser, True)
     par = steer.compute_velocities(state, 1 / 90).copy()
-    monkeypatch.setattr(orca.orca_kernel, "min_rows", 10**9)
+    _force(monkeypatch, orca.orca_kernel.chooser, False)
     ser = steer.compute_velocities(state, 1 / 90)
     assert par.tobytes() == ser.tobytes()
+
+
+def test_contact_pass_twins_give_the_same_bytes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The contact pass (Verlet lists, fused Jacobi iterations) runs serial or parallel as its
+    measured cost says; both give the same positions, bit for bit."""
+    rng = np.random.default_rng(3)
+    n = 900
+    pos = rng.uniform(0.0, 14.0, (n, 2))  # heavily overlapping: many iterations, list rebuilds
+    radius = np.full(n, 0.25)
+    is_user = np.zeros(n, np.bool_)
+    is_user[0] = True
+    box = ObstacleSet.from_polygons([np.array([[5.0, 5.0], [8.0, 5.0], [8.0, 8.0], [5.0, 8.0]])])
+    steer = Steering(SteeringParams(), box, coupled=False)
+    out = {}
+    for par in (True, False):
+        _force(monkeypatch, contact._CHOOSER, par)
+        out[par] = steer.resolve_contacts(pos, radius, is_user)
+    assert out[True].tobytes() == out[False].tobytes()
+    assert len(contact.overlapping_pairs(out[True], radius, 0.01)) == 0
+
+
+def test_chooser_takes_the_cheaper_twin_and_backs_off() -> None:
+    c = Chooser(min_rows=512)
+    assert c.choose(10) is False  # tiny: always serial, nothing recorded
+    assert c.choose(1000) is True  # nothing measured: the size rule
+    picks = []
+    for _ in range(200):
+        par = c.choose(1000)
+        picks.append(par)
+        c.record(par, 1000, 0.004 if par else 0.001)  # parallel 4x slower (a loaded machine)
+    assert picks[-1] is False and sum(picks[-100:]) <= 4  # serial, trying parallel rarely
+    assert c.gap > 8  # each lost try doubles the wait before the next
+    for _ in range(300):  # the machine gets quiet: parallel is 2x faster when tried
+        par = c.choose(1000)
+        c.record(par, 1000, 0.0005 if par else 0.001)
+    assert c.choose(1000) is True

@@ -32,7 +32,12 @@ Behavior-facing API
 -------------------
 ``go_to``, ``gaze_at``, ``reach_for``, ``gesture``, ``sit_down``,
 ``stand_up`` on :class:`FullBody` return a :class:`Handle` whose ``status``
-is ``Status.RUNNING / SUCCESS / FAILURE``; a ``None`` target stops.
+is ``Status.RUNNING / SUCCESS / FAILURE``; a ``None`` target stops; a bad
+call (unknown gesture, malformed target) raises ``UsageError`` and changes
+nothing.
+
+Simulation-facing input: ``sim.body.state.shoulder_turn (N,)`` rad, the
+upper torso's yaw relative to the pelvis (0 by default), read at each step.
 """
 
 from __future__ import annotations

@@ -102,6 +102,7 @@ class Coordinator:
         self.targets = np.zeros((0, c))
         self.messages = np.zeros((0, len(MESSAGES)), np.bool_)
         self._base = [self.index[n] for n in ("locomotion", "idle", "gaze") if n in self.index]
+        self._graph: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def append(self, n: int) -> None:
         w = np.zeros((n, len(self.index)))
@@ -114,6 +115,26 @@ class Coordinator:
         self.weights = self.weights[mask]
         self.targets = self.targets[mask]
         self.messages = self.messages[mask]
+
+    def graph(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The graph as :func:`pedvr.body.graph.pose_graph_kernel` runs it: ``order (C, 2)`` rows of
+        (node id, weight column) in blending order, ``masks (C, J)``, ``moves_pelvis (C,)``.
+
+        Node ids are :data:`pedvr.body.graph.NODE_NAMES`; a choreographer the kernel has no node
+        for cannot be run by it (:class:`UsageError`).
+        """
+        if self._graph is None:
+            from pedvr.body.graph import NODE_NAMES
+
+            unknown = [n for n in self.order if n not in NODE_NAMES]
+            if unknown:
+                raise UsageError(f"choreographers {unknown}: the pose graph has nodes for "
+                                 f"{', '.join(NODE_NAMES)}")
+            order = np.array([[NODE_NAMES.index(n), self.index[n]] for n in self.order], np.int64)
+            masks = np.stack([self.choreographers[n].mask for n in self.order])
+            pelvis = np.array([self.choreographers[n].moves_pelvis for n in self.order])
+            self._graph = (order, masks, pelvis)
+        return self._graph
 
     def set_target(self, name: str, value: np.ndarray | float) -> None:
         self.targets[:, self.index[name]] = value

@@ -13,17 +13,41 @@ leaves the double support: the previous stance foot stays planted (heel
 rising) for ``DS`` of the step, swings on a lift curve, and lands at ``s = 1``
 where it becomes the stance foot. The landing target is re-planned every
 frame from the root's current velocity (speed changes within a stride):
-``landing = root + v·τ + v·T/2 + lateral``, τ the time left in the step, T
-the step duration from the cadence law; it is kept at least ``MIN_WIDTH``
-to its own side of the stance foot (no crossing over when side-stepping) and
-within ``MAX_STEP`` of it. Standing, a step is taken when a foot is more than
+``landing = root + v·τ + v·T/2 + lateral``, τ the time left in the step
+(negative on the landing frame, by the part of the frame the root moved past
+touchdown: clamping it to 0 used to drag the descending heel 1–1.5 cm), T the
+step duration from the step rate. As the foot comes down it commits to its
+landing: between ``COMMIT_FROM`` and ``COMMIT_TO`` of the swing the target it
+steers to stops following the re-planned one, so a late change of velocity
+does not slide a heel that is already at the floor. The landing is kept at
+least ``MIN_WIDTH`` to its own side of the stance foot (no crossing over), at
+most ``MAX_WIDTH`` sideways and ``MAX_BACK`` behind it, and within
+``MAX_STEP``. Standing, a step is taken when a foot is more than
 ``RESTEP_DIST`` or ``RESTEP_YAW`` away from where it should stand (turning on
 the spot, small shuffles); walking starts when the root moves faster than
 ``V_WALK`` and stops, with the feet together, when it slows below it.
 
-Cadence law: ``f = F0 · (v / 1.35)^0.42 · scale^-0.35`` steps/s, clamped to
-``[F_MIN, F_MAX]``; step length = v / f. At 1.3–1.4 m/s this gives
-1.8–2.1 steps/s and steps of 0.65–0.75 m for heights 1.55–1.95 m.
+Step rate: walking forward ``f = F0 · (v / 1.35)^k · scale^-0.35`` steps/s
+(``k`` = 0.26 below 1.35 m/s, 0.6 above; clamped to ``[F_MIN, F_MAX]``),
+step length = v / f: 1.8–2.1 steps/s and 0.65–0.78 m steps at 1.3–1.4 m/s
+for heights 1.55–1.95 m, about 1.5 steps/s at 0.5 m/s and 2.3 at 1.8 m/s, as
+people walk. Moving mostly sideways the body side-steps, advancing
+``SIDE_ADVANCE`` per step (short steps, the leading foot first, the trailing
+one closing), and backward it takes ``BACK_STEP`` steps, both up to
+``F_SIDE_MAX`` steps/s (:func:`step_rate`). A body that is speeding up steps
+at the rate of the speed it is reaching (``ACC_AHEAD``, ``T_AHEAD``).
+
+First step from standing (Huang & Terzopoulos App. C, Fig. 20(d): "the
+first step is generated closer to the initial foot position", α = 1.0
+against 1.5 walking). Our interpretation: H&T plan a whole step sequence
+from a root that moves with the steps; here the root is the steered body and
+is already accelerating when the first foot leaves, so "closer" is a
+*quicker* first step: it lasts at most ``T_START`` and ``START_FRAC`` of a
+walking step, and lands ``LEAD_START`` times the walking lead past the root.
+At the default 1.5 m/s² to 1.35 m/s the first step is 0.45 m, about the
+paper's 1.0 / 1.5 of a 0.7 m walking step, and the next ones 0.70, 0.72,
+0.70 m (no lunge, no extra pelvis drop). Starting sideways, the leading foot
+steps first (the swing foot may still be changed while both feet are down).
 
 Decoupled mode (the study baseline): the root follows the disc rigidly and
 the legs play a cycle authored at ``V_CLIP`` in the root's frame, its
@@ -39,18 +63,31 @@ import math
 
 from numba import njit
 
-F0 = 1.93  # steps/s at 1.35 m/s for the 1.75 m reference adult
+from pedvr.crowd.state import LIMIT_BACKWARD, LIMIT_TURN_WALKING
+
+F0 = 1.93  # steps/s at V_REF for the 1.75 m reference adult
+V_REF = 1.35  # m/s
+K_SLOW, K_FAST = 0.26, 0.6  # cadence exponents below and above V_REF
 F_MIN, F_MAX = 1.3, 2.6
+SIDE_ADVANCE = 0.16  # m (reference adult): the body's sideways progress per side step
+BACK_STEP = 0.3  # m (reference adult): step length walking backward
+F_SIDE_MAX = 3.2  # steps/s: fastest side or back stepping
 V_WALK = 0.12  # m/s: below this the body stands (and steps only to re-square its feet)
 T_INPLACE = 0.55  # s: duration of a step taken standing (turn on the spot, shuffle)
+ACC_AHEAD, T_AHEAD = 2.0, 0.25  # m/s², s: how far ahead the step rate anticipates a speed-up
+LEAD_START = 1.25  # the first step lands this much farther past the root than a walking step does
+START_FRAC = 0.7  # nor longer than this fraction of a walking step at the speed being reached
+T_START = 0.5  # s (reference adult): the first step from standing into a walk
 DS = 0.2  # fraction of a step in double support
-MIN_WIDTH = 0.07  # m: swing foot lands at least this far to its own side of the stance foot
+MIN_WIDTH = 0.1  # m (reference adult): swing foot lands at least this far to its own side of the stance foot
 MAX_STEP = 0.8  # m (reference adult): farthest landing from the stance foot
+MAX_WIDTH = 0.5  # m (reference adult): farthest landing sideways from the stance foot (short side steps)
+MAX_BACK = 0.45  # m (reference adult): farthest landing behind the stance foot (short back steps)
 LIFT_WALK = 0.085  # m (reference adult): swing-foot clearance at a walk
 LIFT_STEP = 0.05  # m: clearance of a step taken standing
 PEAK_AT = 0.4  # fraction of the swing where the foot is highest (Ashida Fig. 6)
-HEEL_STRIKE = 0.26  # rad (15°): toes up at heel strike
-HEEL_MID = 0.2  # rad: heel lift of the stance foot at the other foot's heel strike
+HEEL_STRIKE = 0.35  # rad (20°): toes up at heel strike
+HEEL_MID = 0.35  # rad (20°): heel lift of the stance foot at the other foot's heel strike
 TOE_OFF = 0.6  # rad (35°): heel lift at toe-off
 HEEL_ROCKER = 0.1  # s: heel strike to foot flat
 TOE_OUT = 0.09  # rad (5°): feet point slightly outward
@@ -63,14 +100,37 @@ RESTEP_YAW = 0.35  # rad
 V_CLIP = 1.35  # m/s: speed the decoupled cycle was "authored" at
 RATE_MIN, RATE_MAX = 0.5, 1.5
 VEL_SMOOTH = 0.08  # s: time constant of the velocity the planner uses (contact jitter)
+COMMIT_FROM, COMMIT_TO = 0.7, 0.95  # fractions of the swing over which the landing target is committed
 
 LEFT, RIGHT = 0, 1
 
 
 @njit(cache=True, fastmath=True, inline="always")
 def cadence(speed, scale):  # type: ignore[no-untyped-def]
-    f = F0 * (max(speed, 1e-3) / 1.35) ** 0.42 * scale ** -0.35
+    """Forward walking, steps/s: ``F0 (v / V_REF)^k scale^-0.35``, ``k = K_SLOW`` below V_REF,
+    ``K_FAST`` above, clamped to ``[F_MIN, F_MAX]``."""
+    v = max(speed, 1e-3)
+    k = K_SLOW if v < V_REF else K_FAST
+    f = F0 * (v / V_REF) ** k * scale ** -0.35
     return min(max(f, F_MIN), F_MAX)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def step_rate(fwd, lat, speed, scale):  # type: ignore[no-untyped-def]
+    """Steps/s for a body moving ``fwd`` m/s along its facing and ``lat`` m/s to its left.
+
+    Mostly sideways, a body side-steps: the trailing foot closes and the leading one steps out,
+    the body advancing ``SIDE_ADVANCE`` per step, so the feet stay at most about ``MIN_WIDTH +
+    2 SIDE_ADVANCE`` apart; backward it takes ``BACK_STEP`` steps; both no faster than ``F_SIDE_MAX``.
+    Diagonal walking blends in the side rule only beyond about 30° off the facing.
+    """
+    f = cadence(speed, scale)
+    if speed > 1e-9:
+        w = ease((abs(lat) / speed - 0.5) / 0.4)
+        f = max(f, w * min(abs(lat) / (SIDE_ADVANCE * scale), F_SIDE_MAX))
+    if fwd < 0.0:
+        f = max(f, min(-fwd / (BACK_STEP * scale), F_SIDE_MAX))
+    return f
 
 
 @njit(cache=True, fastmath=True, inline="always")
@@ -109,14 +169,16 @@ def foot_yaw_for(heading, side):  # type: ignore[no-untyped-def]
 def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_width,
                 vel_s, stepping, s, swing, foot_ref, foot_yaw, foot_pitch, foot_lift,
                 since_land, lift_ref, lift_yaw, lift_pitch, trail_pitch0, roll, phase, amp, planted,
-                step_events, n_events):  # type: ignore[no-untyped-def]
+                land, first, step_events, n_events):  # type: ignore[no-untyped-def]
     """Advance every body's feet one step of ``dt`` given its final root.
 
     ``root (N,2)`` is where the root is after this step (the contact pass
     included), ``root_prev (N,2)`` where it was; ``heading (N,)`` the body's
     facing. State arrays are updated in place (this kernel *is* the commit
     of the gait state; it reads nothing else that changes). ``planted
-    (N,2)`` is written: 1 where a foot is on the ground. Completed steps are
+    (N,2)`` is written: 1 where a foot is on the ground. ``land (N,3)`` is
+    the swing foot's committed landing (x, y, yaw); ``first (N,)`` marks a
+    step that began from standing. Completed steps are
     appended to ``step_events (M,4)`` as ``(row, duration s, root distance m,
     mean speed m/s)``; the count is returned (rows past the capacity are dropped).
     """
@@ -135,6 +197,7 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
         h = heading[i]
         fx, fy = math.cos(h), math.sin(h)
         fwd_speed = svx * fx + svy * fy
+        lat_speed = svx * fy - svy * fx  # toward the anatomical left, 2D (sin h, -cos h)
         # Heel-toe roll grows with forward speed; steps back or sideways are flat-footed.
         roll_t = min(max(fwd_speed / 1.0, 0.0), 1.0)
         roll[i] += (roll_t - roll[i]) * (1.0 - math.exp(-dt / 0.2))
@@ -142,7 +205,15 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
         amp[i] += (amp_t - amp[i]) * (1.0 - math.exp(-dt / 0.25))
         walking = speed > V_WALK
         if coupled or is_user[i]:
-            T = 1.0 / cadence(speed, sc) if walking else T_INPLACE
+            # A body speeding up steps at the rate of the speed it is reaching (the smoothed velocity
+            # lags the raw one by acceleration × VEL_SMOOTH), so its early steps are not drawn out.
+            acc = 0.0
+            ahead = speed
+            if speed > 1e-9:
+                acc = ((vx - svx) * svx + (vy - svy) * svy) / (speed * VEL_SMOOTH)
+            ahead = speed + min(max(acc, 0.0), ACC_AHEAD) * T_AHEAD
+            T = 1.0 / step_rate(fwd_speed * ahead / max(speed, 1e-9), lat_speed * ahead / max(speed, 1e-9),
+                                ahead, sc) if walking else T_INPLACE
         else:
             T = 1.0 / cadence(V_CLIP, sc)
         if not (coupled or is_user[i]):
@@ -230,11 +301,25 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
                 stepping[i] = True
                 s[i] = 0.0
                 swing[i] = pick
+                first[i] = True
+        if stepping[i] and first[i] and walking and s[i] < DS and abs(lat_speed) > 0.5 * speed:
+            # Starting sideways: the leading foot steps out first, the trailing one then closes (it
+            # may not cross over). Both feet are still down, so the choice can still change.
+            lead = LEFT if lat_speed > 0.0 else RIGHT
+            if swing[i] != lead:
+                swing[i] = lead
+                trail_pitch0[i] = foot_pitch[i, lead]
         if stepping[i]:
             sw = swing[i]
             st = 1 - sw
-            # a stance foot left far behind (a push, a sharp turn) hurries the step
             T_nom = T
+            if first[i] and walking:
+                # Huang & Terzopoulos App. C: from standing the first step is generated closer to the
+                # feet (alpha 1.0 against 1.5 walking). Here the body's root is already accelerating, so
+                # "closer" is a quick first step: it lands before the root has run far, about 2/3 of a
+                # steady step at the usual acceleration, and the second step is about a steady one.
+                T = min(T, T_START * sc ** 0.35, START_FRAC * T)
+            # a stance foot left far behind (a push, a sharp turn) hurries the step
             dst = math.hypot(foot_ref[i, st, 0] - root[i, 0], foot_ref[i, st, 1] - root[i, 1])
             l_nom = speed * T_nom
             over = (dst - min(0.5 * l_nom + hw + HURRY_AT * sc, FAR * sc)) / (0.1 * sc)
@@ -254,27 +339,47 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
                 lift_ref[i, 1] = foot_ref[i, sw, 1]
                 lift_yaw[i] = foot_yaw[i, sw]
                 lift_pitch[i] = foot_pitch[i, sw]
-            tau = max(0.0, 1.0 - s[i]) * T
+            # Time to touchdown; negative on the landing frame, where s overshoots 1 by the part of
+            # the frame the body moved past it (clamping it to 0 moved the target by that much).
+            tau = (1.0 - s[i]) * T
             # Landing target from the current velocity (re-planned every frame).
-            px = root[i, 0] + svx * (tau + 0.5 * T_nom)
-            py = root[i, 1] + svy * (tau + 0.5 * T_nom)
+            lead = 0.5 * T_nom
+            if first[i] and walking:
+                lead *= LEAD_START
+            px = root[i, 0] + svx * (tau + lead)
+            py = root[i, 1] + svy * (tau + lead)
             tx, ty = stand_ref(px, py, h, sw, hw)
             lx, ly = math.sin(h), -math.cos(h)
             sgn = 1.0 if sw == LEFT else -1.0
-            # stay on its own side of the stance foot
-            lat = (tx - foot_ref[i, st, 0]) * lx + (ty - foot_ref[i, st, 1]) * ly
-            if sgn * lat < MIN_WIDTH:
-                corr = sgn * MIN_WIDTH - lat
-                tx += corr * lx
-                ty += corr * ly
-            dx = tx - foot_ref[i, st, 0]
-            dy = ty - foot_ref[i, st, 1]
-            dd = math.hypot(dx, dy)
+            # In the body's frame about the stance foot: stay on its own side (no crossing over),
+            # side steps no wider than MAX_WIDTH, back steps no longer than MAX_BACK, any step no
+            # longer than MAX_STEP.
+            ax, ay = foot_ref[i, st, 0], foot_ref[i, st, 1]
+            lat = (tx - ax) * lx + (ty - ay) * ly
+            lon = (tx - ax) * fx + (ty - ay) * fy
+            lat = sgn * min(max(sgn * lat, MIN_WIDTH * sc), MAX_WIDTH * sc)
+            lon = max(lon, -MAX_BACK * sc)
+            dd = math.hypot(lat, lon)
             lim = MAX_STEP * sc
             if dd > lim:
-                tx = foot_ref[i, st, 0] + dx * lim / dd
-                ty = foot_ref[i, st, 1] + dy * lim / dd
+                lat *= lim / dd
+                lon *= lim / dd
+            tx = ax + lat * lx + lon * fx
+            ty = ay + lat * ly + lon * fy
             tyaw = foot_yaw_for(h, sw)
+            # The foot commits to its landing as it comes down: the target it steers to follows the
+            # re-planned one fully until COMMIT_FROM of the swing and not at all after COMMIT_TO, so a
+            # change of velocity in the last instants no longer drags the descending heel along.
+            if s[i] < DS:
+                k = 1.0
+            else:
+                k = 1.0 - ease(((s[i] - DS) / (1.0 - DS) - COMMIT_FROM) / (COMMIT_TO - COMMIT_FROM))
+            if s_old < DS:
+                k = 1.0  # the swing starts from the plan as it stands
+            land[i, 0] += (tx - land[i, 0]) * k
+            land[i, 1] += (ty - land[i, 1]) * k
+            land[i, 2] += wrap(tyaw - land[i, 2]) * k
+            tx, ty, tyaw = land[i, 0], land[i, 1], land[i, 2]
             r = roll[i]
             # stance foot: heel rocker after landing, then the heel rises
             hs = -HEEL_STRIKE * r * (1.0 - ease(since_land[i, st] / HEEL_ROCKER))
@@ -323,6 +428,7 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
                     s[i] = s[i] - 1.0 if walking else 0.0
                     swing[i] = st
                     trail_pitch0[i] = foot_pitch[i, st]
+                    first[i] = not walking
                 else:
                     stepping[i] = False
                     s[i] = 0.0
@@ -341,6 +447,25 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
     return ne
 
 
+@njit(cache=True, fastmath=True)
+def limits_kernel(base, stepping, s, vel, heading, pref_speed, is_user, out):  # type: ignore[no-untyped-def]
+    """Motion limits ``out (N,6)`` for this step from the profile's ``base (N,6)`` (see
+    :meth:`pedvr.body.model.FullBody.fill_limits`): the walking turn rate 80 % mid-swing, stepping
+    back down to 40 % of the profile's the faster the body walks forward; user rows as they are."""
+    for i in range(base.shape[0]):
+        for k in range(base.shape[1]):
+            out[i, k] = base[i, k]
+        if is_user[i]:
+            continue
+        mid = 0.0
+        if stepping[i] and s[i] >= DS:
+            mid = math.sin(math.pi * min(max((s[i] - DS) / (1.0 - DS), 0.0), 1.0))
+        fwd = vel[i, 0] * math.cos(heading[i]) + vel[i, 1] * math.sin(heading[i])
+        frac = min(max(fwd / max(pref_speed[i], 1e-6), 0.0), 1.0)
+        out[i, LIMIT_TURN_WALKING] = base[i, LIMIT_TURN_WALKING] * (1.0 - 0.2 * mid)
+        out[i, LIMIT_BACKWARD] = base[i, LIMIT_BACKWARD] * (1.0 - 0.6 * frac)
+
+
 @njit(cache=True, fastmath=True, inline="always")
 def foot_pose(ref_x, ref_y, yaw, pitch, lift, heel_z, ball_z, ball_h, ankle_h):  # type: ignore[no-untyped-def]
     """Ankle position (3D, Y up) of a foot given reference, yaw, pitch and lift.
@@ -348,13 +473,18 @@ def foot_pose(ref_x, ref_y, yaw, pitch, lift, heel_z, ball_z, ball_h, ankle_h): 
     ψ > 0 rotates about the ball joint (heel up), ψ < 0 about the heel
     contact (toes up). Returns ``(x, y, z)`` of the ankle.
     """
-    fx, fy = math.cos(yaw), math.sin(yaw)
-    if pitch >= 0.0:
+    return foot_pose_cs(ref_x, ref_y, math.cos(yaw), math.sin(yaw), pitch >= 0.0, math.cos(pitch),
+                        math.sin(pitch), lift, heel_z, ball_z, ball_h, ankle_h)
+
+
+@njit(cache=True, fastmath=True, inline="always")
+def foot_pose_cs(ref_x, ref_y, cy, sy, heel_up, c, s, lift, heel_z, ball_z, ball_h, ankle_h):  # type: ignore[no-untyped-def]
+    """:func:`foot_pose` from the cosine and sine of the yaw (``cy, sy``) and of the pitch (``c, s``)."""
+    if heel_up:
         pf, pu = ball_z, ball_h  # pivot in the foot's sagittal frame (fwd, up)
     else:
         pf, pu = heel_z, 0.0
     rf, ru = -pf, ankle_h - pu  # ankle relative to the pivot
-    c, s = math.cos(pitch), math.sin(pitch)
     af = pf + rf * c + ru * s
     au = pu - rf * s + ru * c + lift
-    return ref_x + af * fx, au, ref_y + af * fy
+    return ref_x + af * cy, au, ref_y + af * sy

@@ -28,18 +28,23 @@ from pedvr.body import actions as act
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
 from pedvr.body.coordinator import Coordinator, default_choreographers
-from pedvr.body.locomotion import DS, V_WALK, gait_kernel
+from pedvr.body.graph import (
+    ARM_ACTIONS,
+    ARM_GOALS,
+    GAZE_AGENT,
+    GAZE_NONE,
+    GAZE_POINT,
+    GAZE_USER,
+    gaze_rule_kernel,
+    gaze_targets_kernel,
+    pose_graph_kernel,
+)
+from pedvr.body.locomotion import V_WALK, gait_kernel, limits_kernel
 from pedvr.body.metrics import SkateMeter
-from pedvr.body.quat import fk_kernel, matrices_kernel
+from pedvr.body.quat import matrices_kernel
 from pedvr.body.simple import SimpleBody
 from pedvr.body.style import N_EMOTIONS, blend_style, draw_emotions, speed_factor
 from pedvr.crowd.state import (
-    LIMIT_ACCEL,
-    LIMIT_BACKWARD,
-    LIMIT_DECEL,
-    LIMIT_SIDEWAYS,
-    LIMIT_TURN_STANDING,
-    LIMIT_TURN_WALKING,
     CrowdState,
 )
 from pedvr.errors import UsageError
@@ -47,11 +52,19 @@ from pedvr.errors import UsageError
 FOV_HALF = math.radians(100.0)  # half field of view for the gaze rule (human ≈ 200° horizontal)
 STEP_EVENT_CAP = 4096
 RUNNING_SPEED = 2.2  # m/s: above this the "running" message is posted
-GAZE_NONE, GAZE_POINT, GAZE_AGENT, GAZE_USER = 0, 1, 2, 3
 ACTION_TICK = 1.0 / 30.0  # s: the subconscious scheduler runs at the decision rate
 BODY_ORDER = ("locomotion", "sitting", "gesture", "idle", "gaze", "reach")
-ARM_ACTIONS = np.array([act.A_HEAD_TOUCH, act.A_HEAD_SCRATCH, act.A_YAWN, act.A_BODY_TOUCH,
-                        act.A_BODY_SCRATCH])
+
+
+def _point3(target: object, *, what: str) -> np.ndarray:
+    """A finite 3D point from a capability's target, or :class:`UsageError` naming it."""
+    try:
+        p = np.asarray(target, np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise UsageError(f"{what} {target!r}: expected a 3D point (x, y, z)") from None
+    if not np.isfinite(p).all():
+        raise UsageError(f"{what} {target!r}: expected a finite 3D point")
+    return p
 
 
 def _rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -105,6 +118,9 @@ class BodyState:
     planted: np.ndarray  # (N,2) int8
     h_prev: np.ndarray  # (N,) m, pelvis height last step
     ik_miss: np.ndarray  # (N,2) m, ankle left short of its target
+    land: np.ndarray  # (N,3) the swing foot's committed landing: x, y m, yaw rad
+    first: np.ndarray  # (N,) bool: the current step began from standing
+    shoulder_turn: np.ndarray  # (N,) rad: upper-torso yaw relative to the pelvis, set by the simulation
     gaze_ang: np.ndarray  # (N,5,2) lumbar, thorax, neck, head, eyes × (yaw, pitch)
     gaze_kind: np.ndarray  # (N,) int64 GAZE_*
     gaze_point: np.ndarray  # (N,3) world target of GAZE_POINT
@@ -148,7 +164,8 @@ class BodyState:
             stepping=z(n, np.bool_), s=z(n), swing=z(n, np.int64), foot_ref=z((n, 2, 2)),
             foot_yaw=z((n, 2)), foot_pitch=z((n, 2)), foot_lift=z((n, 2)), since_land=np.full((n, 2), 10.0),
             lift_ref=z((n, 2)), lift_yaw=z(n), lift_pitch=z(n), trail_pitch0=z(n), roll=z(n), phase=z(n),
-            amp=z(n), planted=np.ones((n, 2), np.int8), h_prev=z(n), ik_miss=z((n, 2)),
+            amp=z(n), planted=np.ones((n, 2), np.int8), h_prev=z(n), ik_miss=z((n, 2)), land=z((n, 3)),
+            first=z(n, np.bool_), shoulder_turn=z(n),
             gaze_ang=z((n, 5, 2)), gaze_kind=z(n, np.int64), gaze_point=z((n, 3)),
             gaze_agent=np.full(n, -1, np.int64), gaze_rule=z(n, np.bool_),
             g_kind=z(n, np.int64), g_start=z(n), g_dur=z(n), g_next=z(n), sitting=z(n, np.bool_),
@@ -243,7 +260,6 @@ class FullBody:
         self.handles: list[Handle] = []
         self.ids = np.zeros(0, np.int64)
         self._action_clock = 0.0
-        self._shadow: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._t = 0.0
         self.hmd_position: np.ndarray | None = None
         self.state_names: tuple[str, ...] = ()
@@ -298,7 +314,6 @@ class FullBody:
         self.ids = np.concatenate([self.ids, np.asarray(ids, np.int64).reshape(n)])
         self.coordinator.append(n)
         self.skate.append(n)
-        self._shadow.clear()
         return speed_factor(rows.emotion)
 
     def keep(self, mask: np.ndarray) -> None:
@@ -312,7 +327,6 @@ class FullBody:
         self.ids = self.ids[mask]
         self.coordinator.keep(mask)
         self.skate.keep(mask)
-        self._shadow.clear()
 
     def set_emotion(self, agent_id: int, emotion: np.ndarray) -> None:
         """Set an agent's emotion weights ``(6,)`` (style follows; speed is the caller's)."""
@@ -341,20 +355,8 @@ class FullBody:
         b = self.state
         if len(b) != len(crowd):
             return
-        base = b.base_limits
-
-        swing_air = b.stepping & (b.s >= DS)
-        mid = np.where(swing_air, np.sin(np.pi * np.clip((b.s - DS) / (1 - DS), 0, 1)), 0.0)
-        fwd = (crowd.vel[:, 0] * np.cos(crowd.heading) + crowd.vel[:, 1] * np.sin(crowd.heading))
-        frac = np.clip(fwd / np.maximum(crowd.pref_speed, 1e-6), 0.0, 1.0)
-        res = base.copy()
-        res[:, LIMIT_ACCEL] = base[:, LIMIT_ACCEL]
-        res[:, LIMIT_DECEL] = base[:, LIMIT_DECEL]  # braking is never reduced: avoidance depends on it
-        res[:, LIMIT_TURN_STANDING] = base[:, LIMIT_TURN_STANDING]
-        res[:, LIMIT_TURN_WALKING] = base[:, LIMIT_TURN_WALKING] * (1.0 - 0.2 * mid)
-        res[:, LIMIT_BACKWARD] = base[:, LIMIT_BACKWARD] * (1.0 - 0.6 * frac)
-        res[:, LIMIT_SIDEWAYS] = base[:, LIMIT_SIDEWAYS]
-        out[:] = np.where(crowd.is_user[:, None], base, res)
+        limits_kernel(b.base_limits, b.stepping, b.s, crowd.vel, crowd.heading, crowd.pref_speed,
+                      crowd.is_user, out)
 
     # -- animate --------------------------------------------------------------------------------
 
@@ -389,7 +391,7 @@ class FullBody:
                          b.dims[:, sk.DIM_SCALE].copy(), b.half_width, b.vel_s, b.stepping, b.s, b.swing,
                          b.foot_ref, b.foot_yaw, b.foot_pitch, b.foot_lift, b.since_land, b.lift_ref,
                          b.lift_yaw, b.lift_pitch, b.trail_pitch0, b.roll, b.phase, b.amp, b.planted,
-                         self._steps, 0)
+                         b.land, b.first, self._steps, 0)
         if ne:
             ev = self._steps[:ne].copy()
             ev[:, 0] = self.ids[ev[:, 0].astype(np.int64)]
@@ -401,97 +403,69 @@ class FullBody:
 
     # -- choreographers + coordinator -----------------------------------------------------------
 
-    def _buf(self, name: str) -> tuple[np.ndarray, np.ndarray]:
-        n = len(self.state)
-        got = self._shadow.get(name)
-        if got is None or got[0].shape[0] != n:
-            q = np.zeros((n, sk.J, 4))
-            q[..., 3] = 1.0
-            got = (q, np.zeros((n, 3)))
-            self._shadow[name] = got
-        return got
-
     def _pose(self, crowd: CrowdState, *, dt: float, t: float) -> None:
+        """Weights and messages for this step, then the whole graph, leg IK and FK in one kernel."""
         b = self.state
         co = self.coordinator
-        scale = np.ascontiguousarray(b.dims[:, sk.DIM_SCALE])
-        speed = np.linalg.norm(b.vel_s, axis=1)
+        speed = np.sqrt(b.vel_s[:, 0] ** 2 + b.vel_s[:, 1] ** 2)
+        running = speed > RUNNING_SPEED
         co.clear_messages()
-        co.post("running", speed > RUNNING_SPEED)
-        co.post("walking", (speed > V_WALK) & (speed <= RUNNING_SPEED))
+        co.post("running", running)
+        co.post("walking", (speed > V_WALK) & ~running)
         co.post("sitting", b.sitting)
-        # weights
         co.set_target("sitting", b.sitting.astype(np.float64))
         g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur)
         g_env = np.clip(np.minimum(t - b.g_start, b.g_start + b.g_dur - t) / 0.4, 0.0, 1.0)
         co.set_target("gesture", np.where(g_active, g_env, 0.0))
         arm_act = np.isin(b.run_kind, ARM_ACTIONS).any(axis=1)
-        reach_any = b.reach_on.any(axis=1) | arm_act
-        co.set_target("reach", reach_any.astype(np.float64))
+        co.set_target("reach", (b.reach_on.any(axis=1) | arm_act).astype(np.float64))
         co.smooth(dt)
-        pose_q = b.local_q
-        pose_p = b.pelvis
-        pose_q[:] = 0.0
-        pose_q[..., 3] = 1.0
-        pose_p[:] = 0.0
-        joints: np.ndarray | None = None
-        for name in co.order:
-            sq, sp = self._buf(name)
-            if name == "locomotion":
-                ps.loco_shadow_kernel(b.phase, b.amp, b.style, scale, b.pelvis_rest, sq, sp)
-            elif name == "sitting":
-                ps.sit_shadow_kernel(scale, b.pelvis_rest, sq, sp)
-            elif name == "gesture":
-                # The clip plays on while its weight fades out, so it ends where it was going.
-                fading = co.weights[:, co.index["gesture"]] > 0.0
-                kind = np.where(g_active | fading, b.g_kind, 0)
-                ps.gesture_kernel(t, kind, b.g_start, b.g_dur, b.offsets, sq, sp)
-                joints = ps.GESTURE_MASKS[kind]
-            elif name == "idle":
-                w = np.clip(1.0 - speed / 0.3, 0.0, 1.0) * (~b.sitting)
-                ps.idle_kernel(t, b.noise_seed, w, scale, ps.PERM, pose_q, pose_p, sq, sp)
-            elif name == "gaze":
-                has, target = self._gaze_targets(crowd)
-                running = co.has("running")
-                # Eyes close the loop on last step's head once a forward kinematics has run.
-                closed = ~np.all(b.world_pos[:, sk.HEAD] == 0.0, axis=1)
-                ps.gaze_kernel(dt, has, target, self._head_pos(), self._root_yaw(), running, ps.GAZE_SHARE,
-                               ps.GAZE_YAW_LIMIT, ps.GAZE_PITCH_LIMIT, ps.GAZE_SPEED, ps.GAZE_TAU,
-                               b.gaze_ang, pose_q, sq, np.ascontiguousarray(b.world_pos[:, sk.L_EYE]),
-                               np.ascontiguousarray(b.world_pos[:, sk.R_EYE]),
-                               np.ascontiguousarray(b.world_q[:, sk.HEAD]), closed)
-            elif name == "reach":
-                wp, wq = self._fk_of(pose_q, pose_p)
-                active, target = self._reach_targets(wp, wq, t)
-                ps.reach_kernel(active, target, wp, wq, b.offsets, pose_q, sq)
-            co.blend(name, pose_q, pose_p, sq, sp, joints=joints if name == "gesture" else None)
-        ps.leg_ik_kernel(dt, b.root, self._root_yaw(), b.offsets, b.foot_ref, b.foot_yaw, b.foot_pitch,
-                         b.foot_lift, b.planted, b.stepping, b.s, b.swing, b.h_prev, pose_q, pose_p,
-                         b.ik_miss)
-        root3 = np.stack([b.root[:, 0], np.zeros(len(b)), b.root[:, 1]], 1)
-        fk_kernel(sk.PARENTS, b.offsets, pose_q, root3, self._root_yaw(), pose_p, b.world_pos, b.world_q)
+        # The clip plays on while its weight fades out, so it ends where it was going.
+        fading = co.weights[:, co.index["gesture"]] > 0.0
+        kind = np.where(g_active | fading, b.g_kind, 0)
+        idle_w = np.clip(1.0 - speed / 0.3, 0.0, 1.0) * ~b.sitting
+        order, masks, moves_pelvis = co.graph()
+        heads, fresh = self._heads()
+        has_user, user_head = self._user_head(crowd, heads)
+        pose_graph_kernel(
+            dt, t, order, co.weights, masks, moves_pelvis, ps.GESTURE_MASKS,
+            b.phase, b.amp, b.style, b.dims[:, sk.DIM_SCALE].copy(), b.pelvis_rest, b.offsets,
+            kind, b.g_start, b.g_dur, b.noise_seed, idle_w, ps.PERM,
+            b.gaze_kind, b.gaze_point, self._gaze_rows(), b.gaze_rule, user_head, has_user,
+            co.has("running"), b.heading, b.gaze_ang,
+            ps.GAZE_SHARE, ps.GAZE_YAW_LIMIT, ps.GAZE_PITCH_LIMIT, ps.GAZE_SPEED, ps.GAZE_TAU,
+            b.run_kind, b.run_mask, b.run_start, b.reach_on, b.reach_pt, ARM_GOALS,
+            b.root, b.foot_ref, b.foot_yaw, b.foot_pitch, b.foot_lift, b.planted, b.stepping, b.s, b.swing,
+            b.h_prev, b.ik_miss, heads, fresh, b.shoulder_turn, sk.PARENTS, b.local_q, b.pelvis, b.world_pos,
+            b.world_q)
 
-    def _root_yaw(self) -> np.ndarray:
-        return np.ascontiguousarray(0.5 * np.pi - self.state.heading)
-
-    def _head_pos(self) -> np.ndarray:
+    def _heads(self) -> tuple[np.ndarray, np.ndarray]:
+        """Head positions after the last frame ``(N, 3)`` (a copy) and where no FK has run yet."""
         b = self.state
-        hp = b.world_pos[:, sk.HEAD]
-        fresh = np.all(hp == 0.0, axis=1)
+        hp = b.world_pos[:, sk.HEAD].copy()
+        fresh = np.logical_not(hp.any(axis=1))
         if fresh.any():  # before the first FK: the standing head height
-            hp = hp.copy()
             hp[fresh] = np.stack([b.root[fresh, 0], b.offsets[fresh, sk.PELVIS, 1] + 0.62 * b.dims[fresh, 3],
                                   b.root[fresh, 1]], 1)
-        return np.ascontiguousarray(hp)
+        return hp, fresh
 
-    def _fk_of(self, pose_q: np.ndarray, pose_p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _gaze_rows(self) -> np.ndarray:
+        """The row of each ``gaze_at(("agent", id))`` target, -1 where none (or gone)."""
         b = self.state
-        n = len(b)
-        wp = np.empty((n, sk.K, 3))
-        wq = np.empty((n, sk.K, 4))
-        root3 = np.stack([b.root[:, 0], np.zeros(n), b.root[:, 1]], 1)
-        fk_kernel(sk.PARENTS, b.offsets, pose_q, root3, self._root_yaw(), pose_p, wp, wq)
-        return wp, wq
+        rows = np.full(len(b), -1, np.int64)
+        ag = np.flatnonzero(b.gaze_kind == GAZE_AGENT)
+        if ag.size:
+            # ids are appended in increasing order and rows removed in place: they stay sorted
+            r = np.minimum(np.searchsorted(self.ids, b.gaze_agent[ag]), len(b) - 1)
+            rows[ag] = np.where(self.ids[r] == b.gaze_agent[ag], r, -1)
+        return rows
+
+    def _user_head(self, crowd: CrowdState, heads: np.ndarray) -> tuple[bool, np.ndarray]:
+        if not crowd.is_user.any():
+            return False, np.zeros(3)
+        if self.hmd_position is not None:
+            return True, np.asarray(self.hmd_position, np.float64).reshape(3)
+        return True, heads[int(np.flatnonzero(crowd.is_user)[0])]
 
     def gaze_targets(self, crowd: CrowdState) -> np.ndarray:
         """``(N, 3)`` world points each agent attends to (``gaze_at`` or the PedVR gaze rule); NaN where none.
@@ -499,105 +473,22 @@ class FullBody:
         Subconscious look-arounds are left out: this is what the overhead view's
         gaze lines show (PedVR Fig. 4).
         """
-        has, target = self._gaze_targets(crowd)
-        deliberate = has & ((self.state.gaze_kind != GAZE_NONE) | self.state.gaze_rule)
-        return np.where(deliberate[:, None], target, np.nan)
-
-    def _gaze_targets(self, crowd: CrowdState) -> tuple[np.ndarray, np.ndarray]:
         b = self.state
         n = len(b)
-        target = np.zeros((n, 3))
-        has = b.gaze_kind != GAZE_NONE
-        pt = b.gaze_kind == GAZE_POINT
-        target[pt] = b.gaze_point[pt]
-        heads = self._head_pos()
-        ag = b.gaze_kind == GAZE_AGENT
-        if ag.any():
-            rows = np.searchsorted(self.ids, b.gaze_agent[ag])
-            ok = (rows < n) & (self.ids[np.minimum(rows, n - 1)] == b.gaze_agent[ag])
-            sel = np.flatnonzero(ag)
-            target[sel[ok]] = heads[rows[ok]]
-            has[sel[~ok]] = False
-        us = (b.gaze_kind == GAZE_USER) | (b.gaze_rule & (b.gaze_kind == GAZE_NONE))
-        if us.any():
-            urow = np.flatnonzero(crowd.is_user)
-            if urow.size:
-                target[us] = self.user_head(crowd)
-                has |= us
-        # subconscious head actions, when nothing else holds the gaze
-        look = self._look_targets(heads)
-        free = ~has & ~np.isnan(look[:, 0])
-        target[free] = look[free]
-        has |= free
-        return has, target
+        heads, _ = self._heads()
+        has_user, user_head = self._user_head(crowd, heads)
+        out = np.empty((n, 3))
+        deliberate = np.zeros(n, np.bool_)
+        gaze_targets_kernel(self._t, b.gaze_kind, b.gaze_point, self._gaze_rows(), b.gaze_rule, user_head,
+                            has_user, heads, b.run_kind, b.run_start, b.heading, b.root, out, deliberate)
+        return np.where(deliberate[:, None], out, np.nan)
 
     def user_head(self, crowd: CrowdState) -> np.ndarray:
         """The user's head (HMD) position, 3D.
 
         ``hmd_position`` (3,) if the backend set it, else the user body's head.
         """
-        hmd = getattr(self, "hmd_position", None)
-        if hmd is not None:
-            return np.asarray(hmd, np.float64)
-        u = int(np.flatnonzero(crowd.is_user)[0])
-        return self._head_pos()[u]
-
-    def _look_targets(self, heads: np.ndarray) -> np.ndarray:
-        b = self.state
-        n = len(b)
-        out = np.full((n, 3), np.nan)
-        h = b.heading
-        fwd = np.stack([np.cos(h), np.sin(h)], 1)
-        for a, make in ((act.A_LOOK_AROUND, "around"), (act.A_LOOK_DOWN, "down")):
-            slot = (b.run_kind == a)
-            rows = np.flatnonzero(slot.any(axis=1))
-            if rows.size == 0:
-                continue
-            if make == "around":
-                start = (b.run_start * slot).sum(axis=1)[rows]
-                ang = 1.0 * np.sin(1.3 * (self._t - start) + 0.5)
-                d = np.stack([np.cos(h[rows] + ang), np.sin(h[rows] + ang)], 1)
-                out[rows] = np.stack([heads[rows, 0] + 3 * d[:, 0],
-                                      heads[rows, 1] + 0.1 * np.sin(self._t - start),
-                                      heads[rows, 2] + 3 * d[:, 1]], 1)
-            else:
-                out[rows] = np.stack([b.root[rows, 0] + 1.2 * fwd[rows, 0], np.zeros(rows.size),
-                                      b.root[rows, 1] + 1.2 * fwd[rows, 1]], 1)
-        return out
-
-    def _reach_targets(self, wp: np.ndarray, wq: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Per arm: capability reach targets, else subconscious-action hand goals.
-
-        Action goals are defined relative to body segments (Ashida §4.2):
-        the head for touching/scratching it and yawning, the chest or hip
-        for the body, so the hand follows a moving head.
-        """
-        b = self.state
-        len(b)
-        active = b.reach_on.copy()
-        target = b.reach_pt.copy()
-        sc = b.dims[:, sk.DIM_SCALE]
-        for slot in range(act.N_RES):
-            kind = b.run_kind[:, slot]
-            mask = b.run_mask[:, slot]
-            for a, seg, local, osc in ((act.A_HEAD_TOUCH, sk.HEAD, (0.09, 0.03, 0.05), 0.0),
-                                       (act.A_HEAD_SCRATCH, sk.HEAD, (0.07, 0.11, -0.02), 0.02),
-                                       (act.A_YAWN, sk.HEAD, (0.0, -0.02, 0.13), 0.0),
-                                       (act.A_BODY_TOUCH, sk.SPINE3, (0.06, -0.02, 0.13), 0.0),
-                                       (act.A_BODY_SCRATCH, sk.SPINE1, (0.12, -0.05, 0.10), 0.02)):
-                rows = np.flatnonzero(kind == a)
-                for side, bit in ((0, act.LEFT_ARM), (1, act.RIGHT_ARM)):
-                    r = rows[(mask[rows] & bit) != 0]
-                    r = r[~b.reach_on[r, side]]
-                    if r.size == 0:
-                        continue
-                    sgn = 1.0 if side == 0 else -1.0
-                    lx = sgn * local[0] * sc[r]
-                    ly = local[1] * sc[r] + osc * np.sin(2 * np.pi * 4.0 * t + r)
-                    lz = local[2] * sc[r]
-                    target[r, side] = wp[r, seg] + _rotate(wq[r, seg], np.stack([lx, ly, lz], 1))
-                    active[r, side] = True
-        return active, target
+        return self._user_head(crowd, self._heads()[0])[1]
 
     # -- behaviour: gestures and subconscious actions ---------------------------------------------
 
@@ -613,27 +504,31 @@ class FullBody:
         self._action_clock = 0.0
         g = self.rng
         virt = ~crowd.is_user
-        speed = np.linalg.norm(b.vel_s, axis=1)
+        speed = np.sqrt(b.vel_s[:, 0] ** 2 + b.vel_s[:, 1] ** 2)
         standing = speed < V_WALK
-        b.boredom[:] = np.clip(b.boredom + np.where(standing, tick / 60.0, -tick / 30.0), 0.0, 1.0)
-        tired = np.clip(b.tiredness0 + t / 3600.0, 0.0, 1.0)
-        rates = act.modulated_rates(tiredness=tired, boredom=b.boredom, fear=b.fear, speaking=b.speaking,
-                                    emotion=b.emotion) * virt[:, None]
+        # draws, in this order: arrivals u (N, A); durations of the arrivals, row-major; then the
+        # gesture sets' fire (N), pick (N) and duration (N)
         u = g.random((n, act.N_ACTIONS))
-        dur = g.gamma(4.0, act.MEAN_DURATION / 4.0, (n, act.N_ACTIONS))
-        blocked = np.where((b.gaze_rule | (b.gaze_kind != GAZE_NONE)), act.HEAD, 0).astype(np.int64)
-        blocked |= np.where(b.sitting, 0, 0)
-        # a planned gesture holds the arms, torso and head while it plays
+        arrive = np.empty((n, act.N_ACTIONS), np.bool_)
+        act.agent_model_kernel(t, tick, b.tiredness0, b.boredom, b.fear, b.speaking, b.emotion, standing,
+                               virt, u, arrive)
+        dur = np.zeros((n, act.N_ACTIONS))
+        k = int(np.count_nonzero(arrive))
+        if k:
+            dur[arrive] = g.gamma(4.0, act.MEAN_DURATION / 4.0, k)
+        # a planned gesture holds the arms, torso and head while it plays; the gaze rule, the head
         g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur)
-        blocked |= np.where(g_active, act.LEFT_ARM | act.RIGHT_ARM | act.UPPER_TORSO, 0)
-        blocked |= np.where(b.reach_on[:, 0], act.LEFT_ARM, 0) | np.where(b.reach_on[:, 1], act.RIGHT_ARM, 0)
-        before = b.run_kind.copy()
-        act.schedule_kernel(t, tick, rates, u, dur, b.right_handed, blocked, b.q_kind, b.q_prio, b.q_wait,
-                            b.q_planned, b.q_dur, b.run_kind, b.run_end, b.run_mask, act.ALTERNATIVES, b.itch)
-        started = (b.run_kind >= 0) & (b.run_kind != before)
+        blocked = (np.where(b.gaze_rule | (b.gaze_kind != GAZE_NONE), act.HEAD, 0)
+                   | np.where(g_active, act.LEFT_ARM | act.RIGHT_ARM | act.UPPER_TORSO, 0)
+                   | np.where(b.reach_on[:, 0], act.LEFT_ARM, 0)
+                   | np.where(b.reach_on[:, 1], act.RIGHT_ARM, 0)).astype(np.int64)
+        started = np.empty((n, act.N_RES), np.bool_)
+        act.schedule_kernel(t, tick, arrive, dur, b.right_handed, blocked, b.q_kind, b.q_prio, b.q_wait,
+                            b.q_planned, b.q_dur, b.run_kind, b.run_end, b.run_mask, act.ALTERNATIVES, b.itch,
+                            started)
         b.run_start[started] = t
         # subconscious gestures play through the gesture choreographer
-        for a, clip in ((act.A_TALK, ps.G_TALK), (act.A_SHRUG, ps.G_SHRUG)):
+        for a, clip in ((act.A_TALK, ps.G_TALK), (act.A_SHRUG, ps.G_SHRUG)) if started.any() else ():
             rows = np.flatnonzero(((b.run_kind == a) & started).any(axis=1) & ~g_active)
             b.g_kind[rows] = clip
             b.g_start[rows] = t
@@ -672,13 +567,9 @@ class FullBody:
         user = np.flatnonzero(crowd.is_user)
         if enabled and user.size and n > 1:
             u = int(user[0])
-            d = crowd.pos[u] - crowd.pos
-            dist = np.linalg.norm(d, axis=1)
-            dhat = np.divide(d, dist[:, None], out=np.zeros_like(d), where=dist[:, None] > 1e-9)
-            w = np.einsum("ij,ij->i", crowd.vel - crowd.vel[u], dhat)
-            fwd = np.stack([np.cos(crowd.heading), np.sin(crowd.heading)], 1)
-            in_fov = np.einsum("ij,ij->i", fwd, dhat) >= math.cos(FOV_HALF)
-            cand = ~crowd.is_user & (dist < d1) & (w > 0.0) & (w < d2) & in_fov & (dist > 1e-9)
+            cand = np.empty(n, np.bool_)
+            gaze_rule_kernel(crowd.pos, crowd.vel, crowd.heading, crowd.is_user, u, d1, d2,
+                             math.cos(FOV_HALF), cand)
             idx = np.flatnonzero(cand)
             if idx.size:
                 vis = visibility.visible(crowd.pos[idx], np.repeat(crowd.pos[u:u + 1], idx.size, 0))  # type: ignore[attr-defined]
@@ -696,7 +587,7 @@ class FullBody:
         for hd in self.handles:
             if hd.running and hd.agent == agent_id and hd.capability == capability:
                 hd.status, hd.detail = Status.SUCCESS, "stopped"
-        hd = Handle(capability, agent_id, target, getattr(self, "_t", 0.0))
+        hd = Handle(capability, agent_id, target, self._t)
         self.handles.append(hd)
         return hd
 
@@ -722,52 +613,74 @@ class FullBody:
         """Gaze at a 3D point ``(x, y, z)``, ``("agent", id)`` or ``"user"``; None stops.
 
         Succeeds when head and eyes are within 5° of the target; keeps gazing
-        until stopped.
+        until stopped. A target that is none of these raises :class:`UsageError`
+        and changes nothing.
         """
         row = self._row(agent_id)
         b = self.state
+        point = None
+        is_user = isinstance(target, str) and target == "user"
+        is_agent = isinstance(target, tuple) and len(target) == 2 and target[0] == "agent"
+        if not (target is None or is_user or is_agent):
+            point = _point3(target, what="gaze_at target")
         hd = self._start("gaze_at", agent_id, target)
         if target is None:
             b.gaze_kind[row] = GAZE_NONE
             hd.status, hd.detail = Status.SUCCESS, "stopped"
-        elif isinstance(target, str) and target == "user":
-            b.gaze_kind[row] = GAZE_USER
-        elif isinstance(target, tuple) and len(target) == 2 and target[0] == "agent":
-            b.gaze_kind[row] = GAZE_AGENT
-            b.gaze_agent[row] = int(target[1])  # type: ignore[arg-type]
-        else:
-            p = np.asarray(target, np.float64).reshape(3)
+        elif point is not None:
             b.gaze_kind[row] = GAZE_POINT
-            b.gaze_point[row] = p
+            b.gaze_point[row] = point
+        elif is_user:
+            b.gaze_kind[row] = GAZE_USER
+        else:
+            b.gaze_kind[row] = GAZE_AGENT
+            b.gaze_agent[row] = int(cast(tuple[str, int], target)[1])
         return hd
 
     def reach_for(self, agent_id: int, target: tuple[float, float, float] | None, *,
                   side: str = "right") -> Handle:
-        """Put the hand on a 3D world point; fails if it stays out of reach for 2 s. None releases."""
+        """Put the hand on a 3D world point; fails if it stays out of reach for 2 s. None releases.
+
+        A bad ``side`` or target raises :class:`UsageError` and changes nothing.
+        """
         row = self._row(agent_id)
+        if side not in ("left", "right"):
+            raise UsageError(f"reach_for side {side!r}: expected 'left' or 'right'")
         s = 1 if side == "right" else 0
+        point = None if target is None else _point3(target, what="reach_for target")
         hd = self._start("reach_for", agent_id, (target, s))
-        if target is None:
+        if point is None:
             self.state.reach_on[row, s] = False
             hd.status, hd.detail = Status.SUCCESS, "released"
         else:
             self.state.reach_on[row, s] = True
-            self.state.reach_pt[row, s] = np.asarray(target, np.float64)
+            self.state.reach_pt[row, s] = point
         return hd
 
     def gesture(self, agent_id: int, name: str | None, *, duration: float = 2.5) -> Handle:
-        """Play a gesture clip (``pose.GESTURES``); None stops the current one."""
+        """Play a gesture clip (``pose.GESTURES``) for ``duration`` s; None stops the current one.
+
+        An unknown name or a duration that is not a positive finite number
+        raises :class:`UsageError` *before* anything changes: the running
+        clip plays on and its handle stays RUNNING (a bad call is the
+        caller's mistake, reported at once, not a FAILURE handle that a
+        behavior tree might silently poll past).
+        """
         row = self._row(agent_id)
         b = self.state
+        if name is not None:
+            if name not in ps.GESTURES[1:]:
+                raise UsageError(f"gesture {name!r}: unknown; known: {', '.join(ps.GESTURES[1:])}")
+            if not (math.isfinite(duration) and duration > 0.0):
+                raise UsageError(f"gesture {name!r}: duration = {duration}: "
+                                 "must be a positive number of seconds")
         hd = self._start("gesture", agent_id, name)
         if name is None:
-            b.g_dur[row] = max(0.0, self._t - b.g_start[row]) if hasattr(self, "_t") else 0.0
+            b.g_dur[row] = max(0.0, self._t - b.g_start[row])
             hd.status, hd.detail = Status.SUCCESS, "stopped"
             return hd
-        if name not in ps.GESTURES[1:]:
-            raise UsageError(f"gesture {name!r}: unknown; known: {', '.join(ps.GESTURES[1:])}")
         b.g_kind[row] = ps.GESTURES.index(name)
-        b.g_start[row] = getattr(self, "_t", 0.0)
+        b.g_start[row] = self._t
         b.g_dur[row] = duration
         return hd
 
@@ -833,7 +746,7 @@ class FullBody:
             tgt = b.gaze_point[r]
         else:
             return float(b.gaze_ang[r, :, 0].sum())
-        d = tgt - self._head_pos()[r]
+        d = tgt - self._heads()[0][r]
         ry = 0.5 * np.pi - b.heading[r]
         c, s = math.cos(-ry), math.sin(-ry)
         return math.atan2(c * d[0] + s * d[2], -s * d[0] + c * d[2])

@@ -152,6 +152,40 @@ def yaw_from_heading(theta):  # type: ignore[no-untyped-def]
     return 0.5 * math.pi - theta
 
 
+@njit(cache=True, fastmath=_FM, inline="always")
+def fk_row(parents, offsets, local_q, rx, ry, rz, root_yaw, pelvis_pos, world_pos, world_q, upto):  # type: ignore[no-untyped-def]
+    """Forward kinematics of one body for nodes ``0 .. upto - 1`` (see :func:`fk_kernel`).
+
+    ``offsets (K,3)``, ``local_q (J,4)``, ``pelvis_pos (3,)``; writes ``world_pos (K,3)`` and
+    ``world_q (K,4)``. Parents precede children, so any prefix of the nodes is a complete chain.
+    """
+    nj = local_q.shape[0]
+    rqy = math.sin(0.5 * root_yaw)
+    rqw = math.cos(0.5 * root_yaw)
+    for k in range(upto):
+        p = parents[k]
+        if k < nj:
+            lx, ly, lz, lw = local_q[k, 0], local_q[k, 1], local_q[k, 2], local_q[k, 3]
+        else:
+            lx, ly, lz, lw = 0.0, 0.0, 0.0, 1.0
+        if p < 0:
+            px, py, pz, pw = 0.0, rqy, 0.0, rqw
+            tx, ty, tz = qrot3(px, py, pz, pw, pelvis_pos[0], pelvis_pos[1], pelvis_pos[2])
+            ox, oy, oz = rx, ry, rz
+        else:
+            px, py, pz, pw = world_q[p, 0], world_q[p, 1], world_q[p, 2], world_q[p, 3]
+            tx, ty, tz = qrot3(px, py, pz, pw, offsets[k, 0], offsets[k, 1], offsets[k, 2])
+            ox, oy, oz = world_pos[p, 0], world_pos[p, 1], world_pos[p, 2]
+        world_pos[k, 0] = ox + tx
+        world_pos[k, 1] = oy + ty
+        world_pos[k, 2] = oz + tz
+        x, y, z, w = qmul4(px, py, pz, pw, lx, ly, lz, lw)
+        world_q[k, 0] = x
+        world_q[k, 1] = y
+        world_q[k, 2] = z
+        world_q[k, 3] = w
+
+
 @njit(cache=True, fastmath=_FM)
 def fk_kernel(parents, offsets, local_q, root_pos, root_yaw, pelvis_pos, world_pos, world_q):  # type: ignore[no-untyped-def]
     """Batched forward kinematics.
@@ -163,35 +197,10 @@ def fk_kernel(parents, offsets, local_q, root_pos, root_yaw, pelvis_pos, world_p
     replaces the pelvis rest offset: bob and sway live there). Outputs:
     ``world_pos (N,K,3)``, ``world_q (N,K,4)``.
     """
-    n = local_q.shape[0]
-    nj = local_q.shape[1]
     nk = parents.shape[0]
-    for i in range(n):
-        ry = root_yaw[i]
-        rqy = math.sin(0.5 * ry)
-        rqw = math.cos(0.5 * ry)
-        for k in range(nk):
-            p = parents[k]
-            if k < nj:
-                lx, ly, lz, lw = local_q[i, k, 0], local_q[i, k, 1], local_q[i, k, 2], local_q[i, k, 3]
-            else:
-                lx, ly, lz, lw = 0.0, 0.0, 0.0, 1.0
-            if p < 0:
-                px, py, pz, pw = 0.0, rqy, 0.0, rqw
-                tx, ty, tz = qrot3(px, py, pz, pw, pelvis_pos[i, 0], pelvis_pos[i, 1], pelvis_pos[i, 2])
-                ox, oy, oz = root_pos[i, 0], root_pos[i, 1], root_pos[i, 2]
-            else:
-                px, py, pz, pw = world_q[i, p, 0], world_q[i, p, 1], world_q[i, p, 2], world_q[i, p, 3]
-                tx, ty, tz = qrot3(px, py, pz, pw, offsets[i, k, 0], offsets[i, k, 1], offsets[i, k, 2])
-                ox, oy, oz = world_pos[i, p, 0], world_pos[i, p, 1], world_pos[i, p, 2]
-            world_pos[i, k, 0] = ox + tx
-            world_pos[i, k, 1] = oy + ty
-            world_pos[i, k, 2] = oz + tz
-            x, y, z, w = qmul4(px, py, pz, pw, lx, ly, lz, lw)
-            world_q[i, k, 0] = x
-            world_q[i, k, 1] = y
-            world_q[i, k, 2] = z
-            world_q[i, k, 3] = w
+    for i in range(local_q.shape[0]):
+        fk_row(parents, offsets[i], local_q[i], root_pos[i, 0], root_pos[i, 1], root_pos[i, 2], root_yaw[i],
+               pelvis_pos[i], world_pos[i], world_q[i], nk)
 
 
 @njit(cache=True, fastmath=_FM)

@@ -11,9 +11,11 @@ facing snaps to the velocity direction, as a skeleton rigidly following a disc.
 
 from __future__ import annotations
 
+import math
 from typing import Protocol
 
 import numpy as np
+from numba import njit
 
 from pedvr.crowd.state import LIMIT_TURN_STANDING, LIMIT_TURN_WALKING, CrowdState
 
@@ -46,22 +48,47 @@ class SimpleBody:
 
     def animate(self, crowd: CrowdState, new_vel: np.ndarray, dt: float, *,
                 coupled: bool) -> tuple[np.ndarray, np.ndarray]:
-        root = crowd.pos + new_vel * dt
-        speed = np.linalg.norm(new_vel, axis=1)
-        moving = speed > MOVING
-        motion_dir = np.arctan2(new_vel[:, 1], new_vel[:, 0])
-        # Backing away or side-stepping keeps the facing: a person steps back
-        # without turning around.
-        facing_target = np.where(moving, motion_dir, crowd.pref_heading)
-        fwd = np.cos(motion_dir - crowd.heading) * speed
-        facing_target = np.where(moving & (fwd < 0.0), crowd.pref_heading, facing_target)
-        delta = wrap(facing_target - crowd.heading)
-        if coupled:
-            limit = turn_rate_limit(speed, crowd.pref_speed, crowd.limits) * dt
-            delta = np.clip(delta, -limit, limit)
-            heading = wrap(crowd.heading + delta)
-        else:
-            heading = np.where(moving, motion_dir, wrap(crowd.heading + delta))
-        heading = np.where(crowd.is_user, crowd.heading, heading)
-        root = np.where(crowd.is_user[:, None], crowd.pos, root)
+        n = len(crowd)
+        root = np.empty((n, 2))
+        heading = np.empty(n)
+        root_motion_kernel(crowd.pos, np.ascontiguousarray(new_vel, np.float64), crowd.heading,
+                           crowd.pref_heading, crowd.pref_speed, crowd.limits, crowd.is_user, dt, coupled,
+                           root, heading)
         return root, heading
+
+
+@njit(cache=True, fastmath=True)
+def root_motion_kernel(pos, vel, heading, pref_heading, pref_speed, limits, is_user, dt, coupled, root_out,
+                       heading_out):  # type: ignore[no-untyped-def]
+    """:meth:`SimpleBody.animate` for every agent: the root follows the commanded velocity; the
+    facing turns toward the motion (or, below ``MOVING`` or backing away, toward the preferred
+    facing) no faster than :func:`turn_rate_limit` allows when coupled, snapping to it when not.
+    The user's root and facing are its input's."""
+    for i in range(pos.shape[0]):
+        if is_user[i]:
+            root_out[i, 0], root_out[i, 1] = pos[i, 0], pos[i, 1]
+            heading_out[i] = heading[i]
+            continue
+        vx, vy = vel[i, 0], vel[i, 1]
+        root_out[i, 0] = pos[i, 0] + vx * dt
+        root_out[i, 1] = pos[i, 1] + vy * dt
+        speed = math.sqrt(vx * vx + vy * vy)
+        moving = speed > MOVING
+        motion_dir = math.atan2(vy, vx)
+        target = motion_dir if moving else pref_heading[i]
+        # Backing away or side-stepping keeps the facing: a person steps back without turning around.
+        if moving and math.cos(motion_dir - heading[i]) * speed < 0.0:
+            target = pref_heading[i]
+        delta = (target - heading[i] + math.pi) % (2.0 * math.pi) - math.pi
+        if coupled:
+            frac = min(max(speed / max(pref_speed[i], 1e-6), 0.0), 1.0)
+            lo, hi = limits[i, LIMIT_TURN_STANDING], limits[i, LIMIT_TURN_WALKING]
+            lim = (lo + frac * (hi - lo)) * dt
+            delta = min(max(delta, -lim), lim)
+            h = heading[i] + delta
+            heading_out[i] = (h + math.pi) % (2.0 * math.pi) - math.pi
+        elif moving:
+            heading_out[i] = motion_dir
+        else:
+            h = heading[i] + delta
+            heading_out[i] = (h + math.pi) % (2.0 * math.pi) - math.pi

@@ -10,7 +10,10 @@ preferred speed 1.4 m/s (slowing within 1.4 m of the goal), decoupled mode,
 no user, no obstacles.
 
 Both simulations run in the same process and the same loop, one step of each
-in turn, so they see the same machine state. Measured per step:
+in turn, so they see the same machine state. Like the simulation's decoupled
+condition, pedvr's velocity after a step is the disc's actual motion (ORCA's,
+plus whatever the contact pass pushed: position-based dynamics), so the next
+step's ORCA sees a neighbour blocked in the jam as blocked. Measured per step:
 
 * core: RVO2's ``do_step`` (k-d tree, neighbours, ORCA, position update)
   against ours (grid, neighbours, ORCA, position update);
@@ -30,13 +33,16 @@ import math
 import os
 import platform
 import time
+from typing import Any
 
 import numba
 import numpy as np
 
+from pedvr.benchload import cpu_load
 from pedvr.crowd.contact import overlapping_pairs
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
+from pedvr.kernels import forcing
 from pedvr.scene.config import SteeringParams
 from pedvr.world.obstacles import ObstacleSet
 
@@ -78,13 +84,45 @@ def _pair_keys(pos: np.ndarray, radius: np.ndarray) -> np.ndarray:
     return pairs[:, 0] * pos.shape[0] + pairs[:, 1]
 
 
+def _one_step(state: CrowdState, goals: np.ndarray, steering: Steering, radius: np.ndarray,
+              is_user: np.ndarray, vel_out: np.ndarray, sim: Any, rvo_pos: np.ndarray, agents: int,
+              ours_pairs: set[int], rvo_pairs: set[int],
+              ) -> tuple[tuple[float, float, float], tuple[float, float]]:
+    """One step of each; returns pedvr's (core, contact, end to end) and RVO2's (core, end to end), s."""
+    t0 = time.perf_counter()
+    state.pref_vel = _pref_velocities(state.pos, goals)
+    t1 = time.perf_counter()
+    v = steering.compute_velocities(state, DT, out=vel_out)
+    before = state.pos
+    state.pos = state.pos + v * DT
+    t2 = time.perf_counter()
+    state.pos = steering.resolve_contacts(state.pos, radius, is_user)
+    state.vel = (state.pos - before) / DT  # what the simulation's decoupled condition does
+    t3 = time.perf_counter()
+    ours_pairs.update(_pair_keys(state.pos, radius).tolist())
+    rvo = (0.0, 0.0)
+    if sim is not None:
+        pv = _pref_velocities(rvo_pos, goals)
+        r0 = time.perf_counter()
+        for i in range(agents):
+            sim.set_agent_pref_velocity(i, (float(pv[i, 0]), float(pv[i, 1])))
+        r1 = time.perf_counter()
+        sim.do_step()
+        r2 = time.perf_counter()
+        rvo = (r2 - r1, r2 - r0)
+        for i in range(agents):
+            rvo_pos[i] = sim.get_agent_position(i).to_tuple()
+        rvo_pairs.update(_pair_keys(rvo_pos, radius).tolist())
+    return (t2 - t1, t3 - t2, t3 - t0), rvo
+
+
 def crossing_steps(agents: int) -> int:
     """Steps for the front of the crowd to reach the centre, plus 200 steps of jam."""
     return int(math.ceil(circle_radius(agents) / (PREF_SPEED * DT))) + 200
 
 
 def run_steering_bench(agents: int, *, vs_rvo2: bool, steps: int | None = None, seed: int = 0,
-                       threads: int | None = None, warmup_steps: int = 5) -> dict[str, object]:
+                       threads: int | None = None, warmup_steps: int = 5, load: int = 0) -> dict[str, object]:
     """Run the antipodal-circle benchmark and return the figures (see module doc).
 
     ``steps`` defaults to :func:`crossing_steps` (the approach and the central
@@ -92,7 +130,8 @@ def run_steering_bench(agents: int, *, vs_rvo2: bool, steps: int | None = None, 
     ``numba.set_num_threads`` (default: numba's current setting). ``seed``
     jitters start positions by up to 1 mm (the circle is otherwise perfectly
     symmetric). ``vs_rvo2=False`` skips pyrvo (its keys
-    are then None).
+    are then None). ``load`` busy processes (:mod:`pedvr.benchload`) run beside
+    the timed steps (not the warm-up), as a renderer and a compositor would.
     """
     if agents < 2:
         raise ValueError(f"agents = {agents}: must be >= 2")
@@ -115,13 +154,14 @@ def run_steering_bench(agents: int, *, vs_rvo2: bool, steps: int | None = None, 
     radius = np.full(agents, RADIUS)
     is_user = np.zeros(agents, np.bool_)
 
-    # Warm numba up (compilation / cache load) on a throwaway copy.
+    # Warm numba up (compilation / cache load of both twins) on a throwaway copy.
     warm = _crowd(start)
-    for _ in range(warmup_steps):
-        warm.pref_vel = _pref_velocities(warm.pos, goals)
-        v = steering.compute_velocities(warm, DT)
-        warm.vel = v
-        warm.pos = steering.resolve_contacts(warm.pos + v * DT, radius, is_user)
+    for k in range(max(warmup_steps, 2)):
+        with forcing(k % 2 == 0):
+            warm.pref_vel = _pref_velocities(warm.pos, goals)
+            v = steering.compute_velocities(warm, DT)
+            warm.vel = v
+            warm.pos = steering.resolve_contacts(warm.pos + v * DT, radius, is_user)
     _pair_keys(warm.pos, radius)
 
     sim = None
@@ -140,52 +180,37 @@ def run_steering_bench(agents: int, *, vs_rvo2: bool, steps: int | None = None, 
     vel_out = np.empty((agents, 2))
     ours_core = ours_e2e = ours_contact = 0.0
     rvo_core = rvo_e2e = 0.0
+    ours_steps: list[float] = []
+    rvo_steps: list[float] = []
     ours_pairs: set[int] = set()
     rvo_pairs: set[int] = set()
     rvo_pos = start.copy()
-    for _ in range(steps):
-        # ---- pedvr
-        t0 = time.perf_counter()
-        state.pref_vel = _pref_velocities(state.pos, goals)
-        t1 = time.perf_counter()
-        v = steering.compute_velocities(state, DT, out=vel_out)
-        state.vel = v.copy()
-        state.pos = state.pos + v * DT
-        t2 = time.perf_counter()
-        state.pos = steering.resolve_contacts(state.pos, radius, is_user)
-        t3 = time.perf_counter()
-        ours_core += t2 - t1
-        ours_contact += t3 - t2
-        ours_e2e += t3 - t0
-        ours_pairs.update(_pair_keys(state.pos, radius).tolist())
-
-        # ---- RVO2
-        if sim is not None:
-            pv = _pref_velocities(rvo_pos, goals)
-            t0 = time.perf_counter()
-            for i in range(agents):
-                sim.set_agent_pref_velocity(i, (float(pv[i, 0]), float(pv[i, 1])))
-            t1 = time.perf_counter()
-            sim.do_step()
-            t2 = time.perf_counter()
-            rvo_core += t2 - t1
-            rvo_e2e += t2 - t0
-            for i in range(agents):
-                rvo_pos[i] = sim.get_agent_position(i).to_tuple()
-            rvo_pairs.update(_pair_keys(rvo_pos, radius).tolist())
-
+    with cpu_load(load) as busy:
+        for _ in range(steps):
+            o, r = _one_step(state, goals, steering, radius, is_user, vel_out, sim, rvo_pos, agents,
+                             ours_pairs, rvo_pairs)
+            ours_core += o[0]
+            ours_contact += o[1]
+            ours_e2e += o[2]
+            ours_steps.append(o[0])
+            rvo_core += r[0]
+            rvo_e2e += r[1]
+            rvo_steps.append(r[0])
     ms = 1000.0 / steps
     result: dict[str, object] = {
         "agents": agents,
         "steps": steps,
+        **busy.describe(),
         "circle_radius_m": big_r,
         "threads": numba.get_num_threads(),
         "machine": f"{platform.processor() or platform.machine()} / {os.cpu_count()} cpus",
         "pedvr_ms_per_step": ours_core * ms,
+        "pedvr_p95_ms": float(np.percentile(ours_steps, 95)) * 1e3,
         "pedvr_contact_ms_per_step": ours_contact * ms,
         "pedvr_end_to_end_ms_per_step": ours_e2e * ms,
         "pedvr_overlaps_over_1cm": len(ours_pairs),
         "rvo2_ms_per_step": rvo_core * ms if sim is not None else None,
+        "rvo2_p95_ms": float(np.percentile(rvo_steps, 95)) * 1e3 if sim is not None else None,
         "rvo2_end_to_end_ms_per_step": rvo_e2e * ms if sim is not None else None,
         "rvo2_overlaps_over_1cm": len(rvo_pairs) if sim is not None else None,
         "ratio": (ours_core / rvo_core) if sim is not None and rvo_core > 0 else None,

@@ -36,18 +36,21 @@ be ambiguous for walls thinner than a disc.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from numba import njit, prange
 
 from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import ObstacleGrid, build_agent_grid_arrays, edges_near
-from pedvr.kernels import PARALLEL_MIN_ROWS, parallel_kernel
+from pedvr.kernels import Chooser, parallel_kernel
 
 DEFAULT_TOLERANCE = 0.005  # m: stop when no overlap exceeds this (the bar is 1 cm)
 DEFAULT_ITERATIONS = 300
 SLACK = 0.0005  # m: pushed this much past touching, so iterations settle faster
 MOMENTUM = 0.9  # share of the previous iteration's step kept (heavy ball)
 _EDGE_CAP = 64
+SKIN = 0.1  # m: Verlet lists hold pairs and edges up to this far beyond touching
 
 
 @njit(cache=True, fastmath={"nsz", "arcp", "contract"})
@@ -92,109 +95,207 @@ def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
     return (depth + SLACK) * ux, (depth + SLACK) * uy, depth
 
 
-@parallel_kernel(fastmath={"nsz", "arcp", "contract"})
-def _corrections(cur, radius, fp_depth, facing, fixed, origin, cell, nx, ny, cell_start, order,
-                 sorted_pos, vertices, nxt, prv, n_static, og_origin, og_cell, og_nx, og_ny,
-                 og_cell_start, og_cell_edges, og_edge_cells, edge_scratch, corr, depth):
-    n = cur.shape[0]
-    nchunks = edge_scratch.shape[0]
-    cap = edge_scratch.shape[1]
+@njit(cache=True)
+def _count_near(pos, radius, reach, skin, origin, cell, nx, ny, cell_start, order, sorted_pos,
+                vertices, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
+                og_edge_cells, scratch, i):
+    """Neighbours of row ``i`` within ``r_i + r_j + skin`` and edges whose bounding-box
+    cells meet ``p_i ± (r_i + skin)``: their counts (scratch holds the edges)."""
+    px = pos[i, 0]
+    py = pos[i, 1]
     inv = 1.0 / cell
-    for c in prange(nchunks):
-        eidx = edge_scratch[c]
-        lo = (n * c) // nchunks
-        hi = (n * (c + 1)) // nchunks
-        for i in range(lo, hi):
-            corr[i, 0] = 0.0
-            corr[i, 1] = 0.0
-            depth[i] = 0.0
-            if fixed[i]:
-                continue
-            px = cur[i, 0]
-            py = cur[i, 1]
-            ri = radius[i]
-            bi = fp_depth[i]
-            fxi = facing[i, 0]
-            fyi = facing[i, 1]
-            cx = int((px - origin[0]) * inv)
-            cy = int((py - origin[1]) * inv)
-            sx = 0.0
-            sy = 0.0
-            worst = 0.0
-            for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
-                for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
-                    cc = gy * nx + gx
-                    for k in range(cell_start[cc], cell_start[cc + 1]):
-                        j = order[k]
-                        if j == i:
-                            continue
-                        dx = px - sorted_pos[k, 0]
-                        dy = py - sorted_pos[k, 1]
-                        rr = ri + radius[j]
-                        dsq = dx * dx + dy * dy
-                        if dsq >= rr * rr:
-                            continue
-                        d = np.sqrt(dsq)
-                        if d > 1e-12 and (bi < ri or fp_depth[j] < radius[j]):
-                            rr = (support(ri, bi, fxi, fyi, -dx / d, -dy / d)
-                                  + support(radius[j], fp_depth[j], facing[j, 0], facing[j, 1],
-                                            dx / d, dy / d))
-                            if d >= rr:
-                                continue
-                        ov = rr - d
-                        worst = max(worst, ov)
-                        share = 1.0 if fixed[j] else 0.5
-                        if d > 1e-12:
-                            ux = dx / d
-                            uy = dy / d
-                        elif j > i:
-                            # Coincident centres: split along x by row order
-                            # (the pair moves apart, symmetric and deterministic).
-                            ux = -1.0
-                            uy = 0.0
-                        else:
-                            ux = 1.0
-                            uy = 0.0
-                        sx += share * (ov + SLACK) * ux
-                        sy += share * (ov + SLACK) * uy
-            if vertices.shape[0] > 0:
-                total = edges_near(px, py, ri, og_origin, og_cell, og_nx, og_ny, og_cell_start,
-                                   og_cell_edges, og_edge_cells, eidx, cap)
-                for q in range(min(total, cap)):
-                    e = eidx[q]
-                    e2 = nxt[e]
-                    closed = nxt[e] != prv[e]
-                    if not closed and e2 < e:
-                        continue  # a two-vertex segment: handle it once
-                    # Moving segments (door leaves) see the disc, as the door controller does.
-                    be = bi if e < n_static else ri
-                    ex, ey, dep = _edge_push(px, py, ri, be, fxi, fyi, vertices[e, 0], vertices[e, 1],
-                                             vertices[e2, 0], vertices[e2, 1], closed)
-                    sx += ex
-                    sy += ey
-                    worst = max(worst, dep)
-                if total > cap:
-                    depth[i] = -1.0  # scratch too small: the caller retries with more room
-            corr[i, 0] = sx
-            corr[i, 1] = sy
-            if depth[i] >= 0.0:
-                depth[i] = worst
+    cx = int((px - origin[0]) * inv)
+    cy = int((py - origin[1]) * inv)
+    m = 0
+    for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
+        for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
+            c = gy * nx + gx
+            for k in range(cell_start[c], cell_start[c + 1]):
+                j = order[k]
+                if j == i:
+                    continue
+                dx = px - sorted_pos[k, 0]
+                dy = py - sorted_pos[k, 1]
+                rr = radius[i] + radius[j] + skin
+                if dx * dx + dy * dy < rr * rr:
+                    m += 1
+    e = 0
+    if vertices.shape[0] > 0:
+        e = edges_near(px, py, radius[i] + skin, og_origin, og_cell, og_nx, og_ny, og_cell_start,
+                       og_cell_edges, og_edge_cells, scratch, scratch.shape[0])
+    return m, e
 
 
 @parallel_kernel()
-def _apply(cur, corr, step, momentum):
-    # Heavy-ball Jacobi: the step keeps a share of the previous one, which
-    # carries a push through a packed cluster in O(depth) instead of
-    # O(depth^2) iterations (plain Jacobi diffuses).
+def _list_counts(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos, vertices,
+                 og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
+                 scratch, out_nbr, out_edge):
+    """Per row: how many neighbours and nearby edges its lists will hold (pass 1 of 2)."""
+    nchunks = scratch.shape[0]
+    n = pos.shape[0]
+    for c in prange(nchunks):
+        lo = (n * c) // nchunks
+        hi = (n * (c + 1)) // nchunks
+        for i in range(lo, hi):
+            out_nbr[i], out_edge[i] = _count_near(
+                pos, radius, 0.0, skin, origin, cell, nx, ny, cell_start, order, sorted_pos,
+                vertices, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
+                og_edge_cells, scratch[c], i)
+
+
+@parallel_kernel()
+def _list_fill(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos, vertices,
+               og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
+               nbr_start, edge_start, out_nbr, out_edge):
+    """Fill each row's neighbour and edge lists at its offsets (pass 2 of 2)."""
+    n = pos.shape[0]
+    for i in prange(n):
+        px = pos[i, 0]
+        py = pos[i, 1]
+        inv = 1.0 / cell
+        cx = int((px - origin[0]) * inv)
+        cy = int((py - origin[1]) * inv)
+        m = nbr_start[i]
+        for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
+            for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
+                c = gy * nx + gx
+                for k in range(cell_start[c], cell_start[c + 1]):
+                    j = order[k]
+                    if j == i:
+                        continue
+                    dx = px - sorted_pos[k, 0]
+                    dy = py - sorted_pos[k, 1]
+                    rr = radius[i] + radius[j] + skin
+                    if dx * dx + dy * dy < rr * rr:
+                        out_nbr[m] = j
+                        m += 1
+        if vertices.shape[0] > 0:
+            e0 = edge_start[i]
+            edges_near(px, py, radius[i] + skin, og_origin, og_cell, og_nx, og_ny, og_cell_start,
+                       og_cell_edges, og_edge_cells, out_edge[e0:edge_start[i + 1]],
+                       edge_start[i + 1] - e0)
+
+
+@parallel_kernel(fastmath={"nsz", "arcp", "contract"})
+def _iterate(cur, radius, fp_depth, facing, fixed, nbr_start, nbr_idx, edge_start, edge_idx,
+             vertices, nxt, prv, n_static, momentum, step, out_pos, depth):
+    """One Jacobi iteration, fused: each row's correction from ``cur`` (its neighbour and
+    edge lists), then its heavy-ball step, written to ``out_pos``; ``depth[i]`` is the
+    deepest overlap row ``i`` saw (measured before the step)."""
     for i in prange(cur.shape[0]):
-        step[i, 0] = momentum * step[i, 0] + corr[i, 0]
-        step[i, 1] = momentum * step[i, 1] + corr[i, 1]
-        cur[i, 0] += step[i, 0]
-        cur[i, 1] += step[i, 1]
+        px = cur[i, 0]
+        py = cur[i, 1]
+        ri = radius[i]
+        bi = fp_depth[i]
+        fxi = facing[i, 0]
+        fyi = facing[i, 1]
+        sx = 0.0
+        sy = 0.0
+        worst = 0.0
+        for q in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_idx[q]
+            dx = px - cur[j, 0]
+            dy = py - cur[j, 1]
+            rr = ri + radius[j]
+            dsq = dx * dx + dy * dy
+            if dsq >= rr * rr:
+                continue
+            d = np.sqrt(dsq)
+            if d > 1e-12 and (bi < ri or fp_depth[j] < radius[j]):
+                rr = (support(ri, bi, fxi, fyi, -dx / d, -dy / d)
+                      + support(radius[j], fp_depth[j], facing[j, 0], facing[j, 1], dx / d, dy / d))
+                if d >= rr:
+                    continue
+            ov = rr - d
+            worst = max(worst, ov)
+            share = 1.0 if fixed[j] else 0.5
+            if d > 1e-12:
+                ux = dx / d
+                uy = dy / d
+            elif j > i:
+                # Coincident centres: split along x by row order
+                # (the pair moves apart, symmetric and deterministic).
+                ux = -1.0
+                uy = 0.0
+            else:
+                ux = 1.0
+                uy = 0.0
+            sx += share * (ov + SLACK) * ux
+            sy += share * (ov + SLACK) * uy
+        for q in range(edge_start[i], edge_start[i + 1]):
+            e = edge_idx[q]
+            e2 = nxt[e]
+            closed = nxt[e] != prv[e]
+            if not closed and e2 < e:
+                continue  # a two-vertex segment: handle it once
+            # Moving segments (door leaves) see the disc, as the door controller does.
+            be = bi if e < n_static else ri
+            ex, ey, dep = _edge_push(px, py, ri, be, fxi, fyi, vertices[e, 0], vertices[e, 1],
+                                     vertices[e2, 0], vertices[e2, 1], closed)
+            sx += ex
+            sy += ey
+            worst = max(worst, dep)
+        depth[i] = worst
+        if fixed[i]:
+            out_pos[i, 0] = px
+            out_pos[i, 1] = py
+            continue
+        # Heavy-ball Jacobi: the step keeps a share of the previous one, which
+        # carries a push through a packed cluster in O(depth) instead of
+        # O(depth^2) iterations (plain Jacobi diffuses).
+        step[i, 0] = momentum * step[i, 0] + sx
+        step[i, 1] = momentum * step[i, 1] + sy
+        out_pos[i, 0] = px + step[i, 0]
+        out_pos[i, 1] = py + step[i, 1]
 
 
-_corrections_par, _corrections_ser = _corrections.parallel, _corrections.serial
-_apply_par, _apply_ser = _apply.parallel, _apply.serial
+_list_counts_par, _list_counts_ser = _list_counts.parallel, _list_counts.serial
+_list_fill_par, _list_fill_ser = _list_fill.parallel, _list_fill.serial
+_iterate_par, _iterate_ser = _iterate.parallel, _iterate.serial
+
+
+@njit(cache=True)
+def _build_lists(pos, radius, skin, vertices, og_origin, og_cell, og_nx, og_ny, og_cell_start,
+                 og_cell_edges, og_edge_cells, scratch, parallel):
+    """Verlet lists: each row's neighbours within ``r_i + r_j + skin`` and the edges that
+    may come within ``r_i + skin`` of it, as CSR arrays ``(nbr_start, nbr_idx,
+    edge_start, edge_idx)``; -1 in ``nbr_start[0]`` when ``scratch`` was too small for
+    some row's edges (the caller retries with more room)."""
+    n = pos.shape[0]
+    rmax = 0.0
+    for i in range(n):
+        rmax = max(rmax, radius[i])
+    origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(
+        pos, (2.0 * rmax + skin) * 1.0001)
+    cnt_n = np.empty(n, np.int64)
+    cnt_e = np.empty(n, np.int64)
+    if parallel:
+        _list_counts_par(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos,
+                         vertices, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
+                         og_edge_cells, scratch, cnt_n, cnt_e)
+    else:
+        _list_counts_ser(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos,
+                         vertices, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
+                         og_edge_cells, scratch, cnt_n, cnt_e)
+    nbr_start = np.zeros(n + 1, np.int64)
+    edge_start = np.zeros(n + 1, np.int64)
+    for i in range(n):
+        if cnt_e[i] > scratch.shape[1]:
+            nbr_start[0] = -1
+            return nbr_start, np.zeros(0, np.int64), edge_start, np.zeros(0, np.int64)
+        nbr_start[i + 1] = nbr_start[i] + cnt_n[i]
+        edge_start[i + 1] = edge_start[i] + cnt_e[i]
+    nbr_idx = np.empty(nbr_start[n], np.int64)
+    edge_idx = np.empty(edge_start[n], np.int64)
+    if parallel:
+        _list_fill_par(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos, vertices,
+                       og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
+                       nbr_start, edge_start, nbr_idx, edge_idx)
+    else:
+        _list_fill_ser(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos, vertices,
+                       og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
+                       nbr_start, edge_start, nbr_idx, edge_idx)
+    return nbr_start, nbr_idx, edge_start, edge_idx
 
 
 @njit(cache=True, fastmath={"nsz", "arcp", "contract"})
@@ -296,16 +397,20 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
 @njit(cache=True)
 def contact_kernel(pos, radius, fp_depth, facing, fixed, user, vertices, nxt, prv, n_static, og_origin,
                    og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, tolerance,
-                   max_iterations, momentum, edge_scratch, out_pos):
+                   max_iterations, momentum, edge_scratch, parallel, out_pos):
     """Jacobi contact iterations; writes ``out_pos`` and returns ``(iterations, worst)``.
 
     ``fixed`` rows never move (the user, seated bodies); ``user`` is the user's row (-1
     without one), out of whose disc every other row, fixed or not, is projected.
+    ``worst`` is the largest overlap left, or -1 when ``edge_scratch`` was too small
+    for some agent's edges (retry with more room). After every iteration, and at the
+    end, agents are projected out of the user: where there is truly no room, an agent
+    gives way into a wall or another agent, never into the user. ``parallel`` picks the
+    parallel or serial twins (the same bytes either way).
 
-    ``worst`` is the largest overlap left, or -1 when ``edge_scratch`` was too
-    small for some agent's edges (retry with more room). After every iteration,
-    and at the end, agents are projected out of the user: where there is truly
-    no room, an agent gives way into a wall or another agent, never into the user.
+    Neighbours and edges come from Verlet lists built once (``SKIN`` beyond touching)
+    and rebuilt only when some row has moved ``SKIN / 2`` since; each iteration is one
+    pass (one parallel region) over the rows, double-buffered.
     """
     n = pos.shape[0]
     for i in range(n):
@@ -336,45 +441,65 @@ def contact_kernel(pos, radius, fp_depth, facing, fixed, user, vertices, nxt, pr
                 if dx * dx + dy * dy < reach * reach:
                     near[cnt] = i
                     cnt += 1
-    corr = np.zeros((n, 2))
+    cur = out_pos
+    nxt_pos = np.empty_like(out_pos)
+    swapped = False
+    anchor = out_pos.copy()
     step = np.zeros((n, 2))
     depth = np.zeros(n)
+    nbr_start, nbr_idx, edge_start, edge_idx = _build_lists(
+        cur, radius, SKIN, vertices, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
+        og_edge_cells, edge_scratch, parallel)
+    if nbr_start[0] < 0:
+        return 0, -1.0
     worst = 0.0
     it = 0
     while True:
-        origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(
-            out_pos, 2.0 * rmax * 1.0001)
-        if n >= PARALLEL_MIN_ROWS:
-            _corrections_par(out_pos, radius, fp_depth, facing, fixed, origin, cell, nx, ny,
-                             cell_start, order, sorted_pos, vertices, nxt, prv, n_static, og_origin, og_cell,
-                             og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, edge_scratch,
-                             corr, depth)
+        if parallel:
+            _iterate_par(cur, radius, fp_depth, facing, fixed, nbr_start, nbr_idx, edge_start, edge_idx,
+                         vertices, nxt, prv, n_static, momentum, step, nxt_pos, depth)
         else:
-            _corrections_ser(out_pos, radius, fp_depth, facing, fixed, origin, cell, nx, ny,
-                             cell_start, order, sorted_pos, vertices, nxt, prv, n_static, og_origin, og_cell,
-                             og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, edge_scratch,
-                             corr, depth)
+            _iterate_ser(cur, radius, fp_depth, facing, fixed, nbr_start, nbr_idx, edge_start, edge_idx,
+                         vertices, nxt, prv, n_static, momentum, step, nxt_pos, depth)
         worst = 0.0
         for i in range(n):
-            if depth[i] < 0.0:
-                return it, -1.0
             worst = max(worst, depth[i])
         if worst <= tolerance or it >= max_iterations:
-            break
-        if n >= PARALLEL_MIN_ROWS:
-            _apply_par(out_pos, corr, step, momentum)
-        else:
-            _apply_ser(out_pos, corr, step, momentum)
+            break  # cur holds the positions the overlaps were measured on
+        cur, nxt_pos = nxt_pos, cur
+        swapped = not swapped
         if user >= 0:
-            _out_of_user(out_pos, radius, fp_depth, facing, user, near, step, vertices, nxt,
-                         og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
-                         og_edge_cells, edge_scratch[0])
+            _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt, og_origin,
+                         og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
+                         edge_scratch[0])
         it += 1
+        moved = 0.0
+        for i in range(n):
+            dx = cur[i, 0] - anchor[i, 0]
+            dy = cur[i, 1] - anchor[i, 1]
+            moved = max(moved, dx * dx + dy * dy)
+        if moved > 0.25 * SKIN * SKIN:
+            # Someone moved half the skin: the lists may miss a new contact. Rebuild.
+            for i in range(n):
+                anchor[i, 0] = cur[i, 0]
+                anchor[i, 1] = cur[i, 1]
+            nbr_start, nbr_idx, edge_start, edge_idx = _build_lists(
+                cur, radius, SKIN, vertices, og_origin, og_cell, og_nx, og_ny, og_cell_start,
+                og_cell_edges, og_edge_cells, edge_scratch, parallel)
+            if nbr_start[0] < 0:
+                return it, -1.0
     if user >= 0:
-        _out_of_user(out_pos, radius, fp_depth, facing, user, near, step, vertices, nxt, og_origin,
+        _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt, og_origin,
                      og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
                      edge_scratch[0])
+    if swapped:  # cur is the other buffer
+        for i in range(n):
+            out_pos[i, 0] = cur[i, 0]
+            out_pos[i, 1] = cur[i, 1]
     return it, worst
+
+
+_CHOOSER = Chooser()  # the whole pass, serial or parallel, by its measured cost (pedvr.kernels)
 
 
 def resolve_contacts(pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray,
@@ -404,11 +529,14 @@ def resolve_contacts(pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray,
     chunks = 8
     while True:
         scratch = np.zeros((chunks, cap), np.int64)
+        par = _CHOOSER.choose(n)
+        t0 = time.perf_counter()
         _, worst = contact_kernel(pos, radius, depth, facing, fixed, user, vertices, nxt, prv,
                                   vertices.shape[0] if n_static is None else int(n_static), grid.origin,
                                   grid.cell, grid.shape[0], grid.shape[1], grid.cell_start,
                                   grid.cell_edges, grid.edge_cells, float(tolerance),
-                                  int(max_iterations), MOMENTUM, scratch, out)
+                                  int(max_iterations), MOMENTUM, scratch, par, out)
+        _CHOOSER.record(par, n, time.perf_counter() - t0)
         if worst >= 0.0:
             return out
         cap *= 4

@@ -24,9 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import prange
-
-from pedvr.kernels import parallel_kernel
+from numba import njit
 
 SLOW_FRACTION = 0.2  # "stuck" means speed below this share of the preferred speed
 PATIENCE = 1.5  # s of being stuck before the preferred velocity is turned
@@ -35,7 +33,7 @@ MAX_TURN = 1.2  # rad (about 70°)
 RECOVERY = 0.5  # stuck_time decays at this many seconds per second once moving
 
 
-@parallel_kernel()
+@njit(cache=True)  # O(N) and cheap: a parallel region would cost more than it saves (pedvr.kernels)
 def unstick_kernel(vel, pref_vel, is_user, stuck_time, dt, slow_fraction, patience, turn_rate,
                    max_turn, recovery, out_pref_vel):
     """Update ``stuck_time`` in place and write perturbed preferred velocities.
@@ -43,7 +41,7 @@ def unstick_kernel(vel, pref_vel, is_user, stuck_time, dt, slow_fraction, patien
     User rows and agents with zero preferred velocity are never perturbed and
     their ``stuck_time`` is reset to 0.
     """
-    for i in prange(vel.shape[0]):
+    for i in range(vel.shape[0]):
         px = pref_vel[i, 0]
         py = pref_vel[i, 1]
         out_pref_vel[i, 0] = px

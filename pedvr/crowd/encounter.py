@@ -59,10 +59,9 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from numba import prange
+from numba import njit
 
 from pedvr.crowd.footprint import DEPTH_RATIO
-from pedvr.kernels import parallel_kernel
 from pedvr.world.visibility_kernels import raycast
 
 ENGAGE_TIME = 4.0  # s before the closest approach an encounter starts
@@ -102,7 +101,7 @@ class EncounterState:
         return int(self.on.shape[0])
 
 
-@parallel_kernel()
+@njit(cache=True)  # O(N) and cheap: a parallel region would cost more than it saves (pedvr.kernels)
 def encounter_kernel(pos, vel, pref_vel, radius, responsibility, is_user, user, personal_space,
                      safety_horizon, dt, edge_a, edge_b, on, axis, miss0, need, user_shift, user_v0,
                      out_pref, out_short, out_room_dir):
@@ -116,7 +115,7 @@ def encounter_kernel(pos, vel, pref_vel, radius, responsibility, is_user, user, 
     vux = vel[user, 0]
     vuy = vel[user, 1]
     ru = radius[user]
-    for i in prange(pos.shape[0]):
+    for i in range(pos.shape[0]):
         out_pref[i, 0] = pref_vel[i, 0]
         out_pref[i, 1] = pref_vel[i, 1]
         out_short[i] = False

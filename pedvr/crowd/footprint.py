@@ -38,10 +38,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from pedvr.crowd.neighbors import obstacle_neighbors_of
-from pedvr.kernels import parallel_kernel
 
 DEPTH_RATIO = 0.52  # front-to-back half depth / shoulder half width
 SQUEEZE_GAP = 0.15  # m: a passing neighbour's disc this close (surface to surface) makes the agent turn
@@ -65,7 +64,7 @@ def depth_of(radius, turn):
     return radius * (1.0 - turn * (1.0 - DEPTH_RATIO))
 
 
-@parallel_kernel()
+@njit(cache=True)  # O(N) and cheap: a parallel region would cost more than it saves (pedvr.kernels)
 def turn_kernel(pos, vel, radius, is_user, turn, torso, nbr_idx, nbr_count, short_of_room,
                 room_dir, wall_dist, dt, out_turn, out_torso):
     """New ``τ`` and torso facing per row (compute, then the caller commits).
@@ -77,7 +76,7 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, nbr_idx, nbr_count, shor
     distance to the nearest obstacle edge); otherwise it holds its turn. User rows
     never turn.
     """
-    for i in prange(pos.shape[0]):
+    for i in range(pos.shape[0]):
         out_turn[i] = 0.0
         out_torso[i] = torso[i]
         if is_user[i]:
@@ -160,6 +159,19 @@ def wall_distance_kernel(pos, rows, radius, vertices, nxt, origin, cell, nx, ny,
             dsq = np.empty(cap)
         if cnt > 0:
             out[i] = math.sqrt(dsq[0])
+
+
+SHOULDER_TWIST_LIMIT = math.radians(60.0)  # the most the chest turns against the pelvis when drawn
+
+
+def shoulder_twist(turn: np.ndarray, torso: np.ndarray, heading: np.ndarray) -> np.ndarray:
+    """The body's upper-torso yaw relative to the pelvis (rad) for turned footprints: the
+    shortest twist that brings the chest to face ``torso`` or its opposite (the footprint
+    is the same either way), scaled by ``τ`` and capped at 60° (people squeezing past
+    twist the chest about that much and side-step the rest)."""
+    delta = (torso - heading + np.pi) % (2.0 * np.pi) - np.pi
+    delta = np.where(delta > 0.5 * np.pi, delta - np.pi, np.where(delta < -0.5 * np.pi, delta + np.pi, delta))
+    return np.clip(turn * delta, -SHOULDER_TWIST_LIMIT, SHOULDER_TWIST_LIMIT)
 
 
 def footprint_arrays(radius: np.ndarray, turn: np.ndarray,

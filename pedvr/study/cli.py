@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from pedvr.errors import PedvrError, UsageError
+from pedvr.scene.config import USER_WALKS
 
 EXIT_ABORTED = 4
 
@@ -72,6 +73,13 @@ def _add_commands(study: argparse.ArgumentParser) -> None:
         type=_positive_float,
         default=None,
         help="simulated participant only: run trials at this multiple of real time",
+    )
+    run.add_argument(
+        "--walk",
+        choices=USER_WALKS,
+        default=None,
+        help="simulated participant only: step aside for pedestrians like a person (reactive, the "
+        "default) or walk the route straight",
     )
 
     export = sub.add_parser("export", help="export a study database as TSV/CSV files")
@@ -142,6 +150,8 @@ def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
     simulated = args.simulated or args.participant == "simulated"
     if args.pace is not None and not simulated:
         raise UsageError("--pace applies only to a simulated participant")
+    if args.walk is not None and not simulated:
+        raise UsageError("--walk applies only to a simulated participant")
     protocol = load_protocol(args.protocol)
     db = args.db or Path(f"{protocol.name}.sqlite")
     if args.resume and not db.is_file():
@@ -198,7 +208,8 @@ def _run_in(
             participant = InAppParticipant(frontend)
         elif simulated:
             participant = SimulatedParticipant(
-                seed=protocol.seed, number=number, eye_height_m=protocol.eye_height_m, pace=args.pace or 0.0
+                seed=protocol.seed, number=number, eye_height_m=protocol.eye_height_m, pace=args.pace or 0.0,
+                walk=args.walk or "reactive",
             )
         else:
             participant = TerminalParticipant(stdin=stdin, stdout=stdout, eye_height_m=protocol.eye_height_m)

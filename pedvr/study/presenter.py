@@ -41,6 +41,7 @@ import numpy as np
 
 from pedvr.crowd.user import UserInput
 from pedvr.errors import UsageError
+from pedvr.scene.config import USER_WALKS
 from pedvr.study.counterbalance import stable_seed
 from pedvr.study.errors import AnswerError
 from pedvr.study.protocol import ShownPair, TrialSpec
@@ -114,6 +115,12 @@ class Participant(Protocol):
         """The user's pose source for this trial; ``None`` = the simulation's scripted walk of the route."""
         ...
 
+    @property
+    def user_walk(self) -> str | None:
+        """How the scripted walk goes when :meth:`trial_input` gives ``None``: ``straight``,
+        ``reactive`` (:class:`pedvr.crowd.user.ReactiveUser`), or ``None`` for the scene's."""
+        ...
+
     def present(self, sim: Simulation) -> float:
         """Present the current frame; return the simulation time the next frame shows."""
         ...
@@ -142,8 +149,11 @@ FREE_TEXT = (
 class SimulatedParticipant:
     """A scripted participant for dry runs and tests.
 
-    Walks the red-sphere route along the navigation mesh (the simulation's
-    own :class:`~pedvr.crowd.user.ScriptedUser`), and answers every question
+    Walks the red-sphere route along the navigation mesh, stepping aside for
+    pedestrians like a person (``walk = "reactive"``, the default:
+    :class:`~pedvr.crowd.user.ReactiveUser`, so trajectories differ by condition
+    as a real participant's would) or straight along it (``"straight"``), and
+    answers every question
     from a distribution seeded by (``seed``, participant ``number``,
     questionnaire, item, comparison, scenario): the same answers on every
     run and after a resume. Pairwise answers lean towards the condition with
@@ -164,7 +174,11 @@ class SimulatedParticipant:
         pace: float = 0.0,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
+        walk: str = "reactive",
     ) -> None:
+        if walk not in USER_WALKS:
+            raise ValueError(f"walk {walk!r}: expected one of {', '.join(USER_WALKS)}")
+        self._walk = walk
         self.seed = seed
         self.number = number
         self.eye_height_m = eye_height_m
@@ -226,6 +240,10 @@ class SimulatedParticipant:
         self._trial_start = None
         return None
 
+    @property
+    def user_walk(self) -> str:
+        return self._walk
+
     def present(self, sim: Simulation) -> float:
         if self.pace > 0:
             now = self._clock()
@@ -254,6 +272,7 @@ class TerminalParticipant:
     """
 
     kind = "terminal"
+    user_walk = None  # the scene's (a person at the terminal has no view to walk in)
 
     def __init__(
         self, *, stdin: TextIO = sys.stdin, stdout: TextIO = sys.stdout, eye_height_m: float = 1.6

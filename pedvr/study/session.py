@@ -403,6 +403,7 @@ class Session:
             condition=spec.condition,
             responsibility=spec.responsibility,
             user_input=user_input,
+            user_walk=self.participant.user_walk,
         )
         if sim.user is None:
             raise StudyStoreError(f"{scene_file}: the scene has no user; a study trial needs one")

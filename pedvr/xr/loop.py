@@ -68,6 +68,8 @@ class Telemetry:
     frame_ms: list[float] = field(default_factory=list)
     steps: list[int] = field(default_factory=list)
     missed_frames: int = 0
+    refreshes: int = 0  # display refreshes between the first and the last frame
+    period_s: float = 0.0  # the display's refresh period, s (the last one reported)
     skipped_sim_s: float = 0.0
     idle_polls: int = 0
     backend: str = ""
@@ -83,6 +85,8 @@ class Telemetry:
             "frames": frames,
             "fps": round(len(self.frame_ms) / total_s, 2) if total_s > 0 else None,
             "missed_frames": self.missed_frames,
+            "display_refreshes": self.refreshes,
+            "refresh_ms": round(self.period_s * 1e3, 3) if self.period_s > 0 else None,
             "skipped_sim_s": round(self.skipped_sim_s, 4),
             "sim_ms_p50": pct(self.sim_ms, 50),
             "sim_ms_p95": pct(self.sim_ms, 95),
@@ -93,6 +97,33 @@ class Telemetry:
             "frame_ms_p95": pct(self.frame_ms, 95),
             "steps_per_frame_max": max(self.steps) if self.steps else 0,
         }
+
+
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "lavapipe", "software")
+
+
+def missed_line(summary: dict[str, object], renderer: str) -> str:
+    """One honest line on missed display refreshes: how many of how many, and why — the
+    renderer or the simulation slower than a refresh, and whether the renderer is
+    software (then the figure says nothing about a GPU headset's frame rate)."""
+    missed = int(summary.get("missed_frames") or 0)  # type: ignore[call-overload]
+    total = int(summary.get("display_refreshes") or 0)  # type: ignore[call-overload]
+    refresh = summary.get("refresh_ms")
+    if not total or refresh is None:
+        return f"missed {missed} display refreshes"
+    head = f"missed {missed} of {total} display refreshes ({100.0 * missed / total:.0f} %)"
+    if missed == 0:
+        return head
+    why = []
+    render = summary.get("render_ms_p50")
+    sim = summary.get("sim_ms_p50")
+    if isinstance(render, float) and render > float(refresh):  # type: ignore[arg-type]
+        why.append(f"drawing a frame takes {render} ms at p50, longer than a {refresh} ms refresh")
+    if isinstance(sim, float) and sim > float(refresh):  # type: ignore[arg-type]
+        why.append(f"simulating a frame takes {sim} ms at p50")
+    if any(k in renderer.lower() for k in SOFTWARE_RENDERERS):
+        why.append(f"{renderer} is a software renderer: frame rates need a GPU")
+    return head + (": " + "; ".join(why) if why else "")
 
 
 def missed_between(interval: float, period: float) -> int:
@@ -137,6 +168,8 @@ def run_frames(
             interval = timing.display_time - last_display
             tel.frame_ms.append(interval * 1e3)
             tel.missed_frames += missed_between(interval, timing.period)
+            tel.refreshes += max(1, int(round(interval / timing.period))) if timing.period > 0 else 1
+            tel.period_s = timing.period
         last_display = timing.display_time
         target = timing.display_time - origin
         if duration is not None:

@@ -80,6 +80,7 @@ class InAppParticipant:
     def __init__(self, frontend: Frontend, *, max_lag: float = 0.25) -> None:
         self.frontend = frontend
         self.kind = f"in-app ({frontend.name})"
+        self.user_walk: str | None = None  # a real person walks (trial_input gives the pose source)
         self.max_lag = max_lag
         self._origin: float | None = None
 

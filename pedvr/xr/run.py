@@ -19,7 +19,7 @@ from pedvr.render.math3d import EyeView
 from pedvr.render.snapshot import Snapshot
 from pedvr.scene.config import SceneConfig
 from pedvr.sim import Simulation
-from pedvr.xr.loop import Presenter, Telemetry, run_frames
+from pedvr.xr.loop import Presenter, Telemetry, missed_line, run_frames
 
 if TYPE_CHECKING:
     from pedvr.xr.locomotion import HeadsetUser
@@ -181,7 +181,7 @@ def run_with_view(
     f = tel.summary()
     print(
         f"  frames {f['frames']} ({backend}, {renderer_name}), render p50 {f['render_ms_p50']} ms, "
-        f"sim p50 {f['sim_ms_p50']} ms, missed {f['missed_frames']}"
+        f"sim p50 {f['sim_ms_p50']} ms, {missed_line(f, renderer_name)}"
     )
     if opts.frames is not None:
         print(f"  frames:     {opts.frames}/first_person, {opts.frames}/overhead")

@@ -273,7 +273,7 @@ tree = "fidget"
     sim = make_sim(agents=[(0.0, 0.0, "fidgeting")], behavior=behavior)
     starts = []
     last = -1.0
-    while sim.t < 9.0:
+    while sim.t < 9.2:  # shrugs at 0, 4.5 and 9 s: a 0.5 s clip, then the 4 s cooldown
         sim.step()
         g = float(sim.body.state.g_start[row(sim, A)])
         if sim.body.state.g_kind[row(sim, A)] == 3 and g != last:  # a new shrug

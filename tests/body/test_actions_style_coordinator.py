@@ -32,11 +32,13 @@ def test_resource_conflicts_never_run_two_actions_on_one_resource() -> None:
     for k in range(3000):
         t = k * dt
         blocked = np.where(rng.random(n) < 0.2, act.HEAD, 0).astype(np.int64)
-        before = run_kind.copy()
-        act.schedule_kernel(t, dt, rates, rng.random((n, act.N_ACTIONS)),
-                            rng.gamma(4.0, 0.75, (n, act.N_ACTIONS)), right, blocked, q_kind, q_prio, q_wait,
-                            q_planned, q_dur, run_kind, run_end, run_mask, act.ALTERNATIVES, itch)
-        launched += int(((run_kind >= 0) & (run_kind != before)).sum())
+        arrive = np.empty((n, act.N_ACTIONS), np.bool_)
+        act.arrivals(rates, rng.random((n, act.N_ACTIONS)), dt, arrive)
+        started = np.empty((n, r), np.bool_)
+        act.schedule_kernel(t, dt, arrive, rng.gamma(4.0, 0.75, (n, act.N_ACTIONS)), right, blocked, q_kind,
+                            q_prio, q_wait, q_planned, q_dur, run_kind, run_end, run_mask, act.ALTERNATIVES, itch,
+                            started)
+        launched += int(started.sum())
         for i in range(n):
             masks = run_mask[i][run_kind[i] >= 0]
             total = 0
@@ -60,15 +62,17 @@ def test_planned_actions_win_and_urgency_grows() -> None:
     run_kind = np.full((n, act.N_RES), -1, np.int64)
     run_end, run_mask = np.zeros((n, act.N_RES)), np.zeros((n, act.N_RES), np.int64)
     itch = np.zeros((n, act.N_ACTIONS))
-    none = np.zeros((n, act.N_ACTIONS))
+    none = np.zeros((n, act.N_ACTIONS), np.bool_)
+    dur = np.zeros((n, act.N_ACTIONS))
+    started = np.empty((n, act.N_RES), np.bool_)
     # the head is held by something else: both wait, the subconscious one grows more urgent
-    act.schedule_kernel(0.0, 1.0, none, np.ones_like(none), none, np.array([True]), np.array([act.HEAD]),
+    act.schedule_kernel(0.0, 1.0, none, dur, np.array([True]), np.array([act.HEAD]),
                         q_kind, q_prio, q_wait, q_planned, q_dur, run_kind, run_end, run_mask,
-                        act.ALTERNATIVES, itch)
-    assert (run_kind < 0).all() and itch[0, act.A_HEAD_SCRATCH] > 0
-    act.schedule_kernel(1.0, 1 / 30, none, np.ones_like(none), none, np.array([True]), np.array([0]),
+                        act.ALTERNATIVES, itch, started)
+    assert (run_kind < 0).all() and itch[0, act.A_HEAD_SCRATCH] > 0 and not started.any()
+    act.schedule_kernel(1.0, 1 / 30, none, dur, np.array([True]), np.array([0]),
                         q_kind, q_prio, q_wait, q_planned, q_dur, run_kind, run_end, run_mask,
-                        act.ALTERNATIVES, itch)
+                        act.ALTERNATIVES, itch, started)
     running = set(run_kind[0][run_kind[0] >= 0].tolist())
     assert act.A_HEAD_TOUCH in running  # planned first (both need the head)
     assert act.A_HEAD_SCRATCH not in running

@@ -130,3 +130,34 @@ def test_skeleton_proportions_and_scaling() -> None:
     assert abs(tall[sk.HEAD_TOP, 1] - 1.95) < 0.01
     f = rest_positions(np.array([[1.75, 1, 0.5, 1.0]]))[0]
     assert (f[sk.L_SHOULDER, 0] - f[sk.R_SHOULDER, 0]) < (ref[sk.L_SHOULDER, 0] - ref[sk.R_SHOULDER, 0])
+
+
+def test_shoulder_turn_turns_the_chest_not_the_hips_or_the_head() -> None:
+    """``state.shoulder_turn`` (set by the simulation each step) yaws the upper torso relative to the pelvis;
+    legs, pelvis and the head's facing are as without it, and 0 changes nothing."""
+    from tests.body._walk import bodies, drive
+
+    def pose(turn: float) -> np.ndarray:
+        b = bodies(1, seed=2)
+        b.state.shoulder_turn[:] = turn
+        drive(b, lambda t: np.array([[1.2, 0.0]]), lambda t: np.zeros(1), 1.5)
+        return b.state.world_pos[0].copy(), b.state.world_q[0].copy()
+
+    still, still_q = pose(0.0)
+    turned, turned_q = pose(0.6)
+    legs = [sk.PELVIS, sk.L_HIP, sk.L_KNEE, sk.L_ANKLE, sk.R_HIP, sk.R_KNEE, sk.R_ANKLE, sk.L_HEEL, sk.R_HEEL]
+    np.testing.assert_array_equal(turned[legs], still[legs])
+
+    def yaw(a: np.ndarray, b: np.ndarray) -> float:  # 3D heading of the line a -> b about +Y
+        d = b - a
+        return float(np.arctan2(d[0], d[2]))
+
+    chest = yaw(turned[sk.R_SHOULDER], turned[sk.L_SHOULDER]) - yaw(still[sk.R_SHOULDER], still[sk.L_SHOULDER])
+    hips = yaw(turned[sk.R_HIP], turned[sk.L_HIP]) - yaw(still[sk.R_HIP], still[sk.L_HIP])
+    assert abs(chest - 0.6) < 0.08 and hips == 0.0
+    # the head still faces where it did: its forward axis turns by less than 1°
+    fwd = Rotation.from_quat(turned_q[sk.HEAD]).apply([0.0, 0.0, 1.0])
+    ref = Rotation.from_quat(still_q[sk.HEAD]).apply([0.0, 0.0, 1.0])
+    assert abs(np.arctan2(fwd[0], fwd[2]) - np.arctan2(ref[0], ref[2])) < np.radians(1.0)
+    unchanged, _ = pose(0.0)
+    np.testing.assert_array_equal(unchanged, still)

@@ -219,3 +219,16 @@ def test_support_of_a_turned_footprint() -> None:
     d = np.array([[0.6, 0.8]])
     got = pair_support(np.array([r]), np.array([b]), np.array([[0.0, 1.0]]), np.array([0]), d)
     assert got[0] == pytest.approx(np.sqrt((r * 0.6) ** 2 + (b * 0.8) ** 2))
+
+
+def test_a_turned_agent_shows_its_shoulders_turned() -> None:
+    """The body turns its chest with the footprint (at most 60° against the pelvis)."""
+    sim = Simulation(corridor(0.9, dead_end=True, kind="standing", n_agents=1, user_speed=1.0))
+    twist = 0.0
+    for _ in range(round(8.0 / sim.dt)):
+        sim.step()
+        agent = ~sim.crowd.is_user
+        if sim.crowd.turn[agent][0] == 1.0:
+            twist = max(twist, float(np.abs(sim.body.state.shoulder_turn[agent]).max()))
+    assert np.radians(15.0) < twist <= np.radians(60.0) + 1e-9
+    assert not np.any(sim.body.state.shoulder_turn[sim.crowd.is_user])

@@ -395,4 +395,4 @@ def test_multisampled_targets_smooth_edges_and_resolve_on_read(renderer: Rendere
     plain, msaa = images
     assert np.abs(plain - msaa).mean() < 4.0  # the same picture...
     edges = lambda img: len(np.unique(img.reshape(-1, 3), axis=0))  # noqa: E731
-    assert edges(msaa) > 1.2 * edges(plain)  # ...with blended edge pixels
+    assert edges(msaa) > 1.1 * edges(plain)  # ...with blended edge pixels (1.0 without multisampling)

@@ -128,7 +128,8 @@ def test_analysis_reads_the_study_database(study: Path, tmp_path: Path) -> None:
 def test_corridor_trajectories_by_responsibility(tmp_path: Path) -> None:
     db = tmp_path / "corridor.sqlite"
     with StudyStore(db) as store:
-        s, _ = _session(Path(__file__).resolve().parent / "data" / "corridor.toml", store, "P01")
+        s, _ = _session(Path(__file__).resolve().parent / "data" / "corridor.toml", store, "P01",
+                        participant=SimulatedParticipant(seed=5, number=1, walk="straight"))
         assert s.run().status == "finished"
     cor = analyze_corridor(db)
     by = cor["by_responsibility"]
@@ -142,7 +143,19 @@ def test_corridor_trajectories_by_responsibility(tmp_path: Path) -> None:
         assert b["gave_way"]["user"] == b["gave_way"]["both"] == 0
     assert by["1"]["gave_way"]["agent"] == 1
     assert by["0"]["min_distance_m"]["mean"] <= by["1"]["min_distance_m"]["mean"]
-    assert len(cor["trajectories"]) == 4 and len(cor["trajectories"][0]["user"]) == 406
+    assert len(cor["trajectories"]) == 4 and len(cor["trajectories"][0]["user"]) == 541
+
+
+def test_simulated_participant_steps_aside_by_what_the_agent_leaves(tmp_path: Path) -> None:
+    """The default simulated participant reacts like a person (issue 10): at ρ = 0 it gives
+    way itself, at ρ = 1 the agent does and the participant walks on."""
+    db = tmp_path / "corridor.sqlite"
+    with StudyStore(db) as store:
+        s, _ = _session(Path(__file__).resolve().parent / "data" / "corridor.toml", store, "P01")
+        assert s.run().status == "finished"
+    by = analyze_corridor(db)["by_responsibility"]
+    assert by["0"]["user_lateral_deviation_m"]["mean"] > 0.2
+    assert by["1"]["user_lateral_deviation_m"]["mean"] < 0.05
 
 
 def test_export_round_trips_through_pandas(study: Path, tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ import pytest
 from pedvr.scene.loader import load_any
 from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
-from pedvr.xr.loop import FrameTiming, missed_between, run_frames
+from pedvr.xr.loop import FrameTiming, missed_between, missed_line, run_frames
 
 
 @dataclass
@@ -63,8 +63,21 @@ def test_simulation_follows_display_time_at_its_own_fixed_dt(scene) -> None:  # 
 def test_missed_frames_are_counted_from_the_display_intervals(scene) -> None:  # type: ignore[no-untyped-def]
     times = [0.0, 1 / 90, 2 / 90, 5 / 90, 6 / 90]  # two refreshes missed between the 3rd and 4th frame
     tel = run_frames(Simulation(scene), ScriptedPresenter(times=times, period=1 / 90), duration=None)
-    assert tel.missed_frames == 2
+    assert tel.missed_frames == 2 and tel.refreshes == 6
     assert missed_between(1 / 90, 1 / 90) == 0 and missed_between(3.1 / 90, 1 / 90) == 2
+
+
+def test_missed_frames_are_reported_with_their_cause() -> None:
+    """The desktop on llvmpipe missed 799 refreshes and said only that; the line says of how
+    many, what was too slow, and that a software renderer says nothing about a GPU."""
+    s = {"missed_frames": 799, "display_refreshes": 900, "refresh_ms": 16.667, "render_ms_p50": 70.2,
+         "sim_ms_p50": 0.9}
+    line = missed_line(s, "llvmpipe (LLVM 15.0.6, 256 bits)")
+    assert line == ("missed 799 of 900 display refreshes (89 %): drawing a frame takes 70.2 ms at p50, "
+                    "longer than a 16.667 ms refresh; llvmpipe (LLVM 15.0.6, 256 bits) is a software "
+                    "renderer: frame rates need a GPU")
+    s.update(missed_frames=0, render_ms_p50=5.0)
+    assert missed_line(s, "NVIDIA H100") == "missed 0 of 900 display refreshes (0 %)"
 
 
 def test_a_stall_skips_simulated_time_instead_of_a_burst_of_steps(scene) -> None:  # type: ignore[no-untyped-def]

@@ -1,0 +1,121 @@
+"""Overlap measurements for the ``record`` phase, as numba kernels over arrays.
+
+The metrics measure every recorded step (max overlap, pairs over 1 cm, how
+close walls are), so they must cost little next to the step they measure:
+no per-agent Python, no tree rebuilt per step. Footprints are the steering's
+(:mod:`pedvr.crowd.footprint`): discs, or turned ellipses measured along the
+line of centres by their support radii.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from pedvr.crowd.footprint import support
+from pedvr.crowd.neighbors import build_agent_grid_arrays
+
+
+@njit(cache=True)
+def pair_overlaps(pos, radius, depth, facing, tolerance):
+    """``(max_overlap, pairs)``: the deepest overlap between any two footprints (m, 0 if
+    none) and the rows ``(i, j)``, ``i < j``, overlapping by more than ``tolerance``."""
+    n = pos.shape[0]
+    if n < 2:
+        return 0.0, np.zeros((0, 2), np.int64)
+    rmax = 0.0
+    for i in range(n):
+        rmax = max(rmax, radius[i])
+    origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(pos, 2.0 * rmax * 1.0001)
+    inv = 1.0 / cell
+    worst = 0.0
+    cap = 16
+    pairs = np.empty((cap, 2), np.int64)
+    m = 0
+    for i in range(n):
+        px = pos[i, 0]
+        py = pos[i, 1]
+        cx = int((px - origin[0]) * inv)
+        cy = int((py - origin[1]) * inv)
+        for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
+            for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
+                c = gy * nx + gx
+                for k in range(cell_start[c], cell_start[c + 1]):
+                    j = order[k]
+                    if j <= i:
+                        continue
+                    dx = sorted_pos[k, 0] - px
+                    dy = sorted_pos[k, 1] - py
+                    d = math.sqrt(dx * dx + dy * dy)
+                    rr = radius[i] + radius[j]
+                    if d >= rr:
+                        continue
+                    if d > 1e-12:
+                        rr = (support(radius[i], depth[i], facing[i, 0], facing[i, 1], dx / d, dy / d)
+                              + support(radius[j], depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d))
+                    ov = rr - d
+                    worst = max(worst, ov)
+                    if ov > tolerance:
+                        if m == cap:
+                            grown = np.empty((2 * cap, 2), np.int64)
+                            grown[:m] = pairs[:m]
+                            pairs = grown
+                            cap *= 2
+                        pairs[m, 0] = i
+                        pairs[m, 1] = j
+                        m += 1
+    return worst, pairs[:m].copy()
+
+
+@njit(cache=True)
+def nearest_edges(pos, reach, p1, p2, origin, cell, shape, start, items, out_dist, out_away):
+    """For each point, the distance to the nearest of the segments ``p1[k] -> p2[k]`` within
+    ``reach`` (inf if none) and the unit direction from that nearest point to the point
+    (zero if none). The segments are filed in the cells of an
+    :class:`pedvr.world.visibility_kernels.EdgeGrid` (``origin``, ``cell``, ``shape``,
+    ``start``, ``items``)."""
+    nx = shape[0]
+    ny = shape[1]
+    inv = 1.0 / cell
+    for i in range(pos.shape[0]):
+        px = pos[i, 0]
+        py = pos[i, 1]
+        best = np.inf
+        bx = 0.0
+        by = 0.0
+        x0 = max(int(math.floor((px - reach - origin[0]) * inv)), 0)
+        x1 = min(int(math.floor((px + reach - origin[0]) * inv)), nx - 1)
+        y0 = max(int(math.floor((py - reach - origin[1]) * inv)), 0)
+        y1 = min(int(math.floor((py + reach - origin[1]) * inv)), ny - 1)
+        for ix in range(x0, x1 + 1):
+            for iy in range(y0, y1 + 1):
+                c = ix * ny + iy
+                for s in range(start[c], start[c + 1]):
+                    k = items[s]
+                    ax = p1[k, 0]
+                    ay = p1[k, 1]
+                    ex = p2[k, 0] - ax
+                    ey = p2[k, 1] - ay
+                    ll = ex * ex + ey * ey
+                    t = 0.0 if ll <= 0.0 else min(max(((px - ax) * ex + (py - ay) * ey) / ll, 0.0), 1.0)
+                    vx = px - (ax + t * ex)
+                    vy = py - (ay + t * ey)
+                    d = math.sqrt(vx * vx + vy * vy)
+                    if d < best:
+                        best = d
+                        bx = vx
+                        by = vy
+        if best <= reach:
+            out_dist[i] = best
+            if best > 1e-12:
+                out_away[i, 0] = bx / best
+                out_away[i, 1] = by / best
+            else:
+                out_away[i, 0] = 0.0
+                out_away[i, 1] = 0.0
+        else:
+            out_dist[i] = np.inf
+            out_away[i, 0] = 0.0
+            out_away[i, 1] = 0.0
