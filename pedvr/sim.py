@@ -31,7 +31,7 @@ from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
 from pedvr.errors import NavigationError, SceneError, UsageError
-from pedvr.etiquette.doors import CLOSED, DoorLeaves
+from pedvr.etiquette.doors import CLOSED_EPS, DoorLeaves
 from pedvr.etiquette.objects import DOOR_HOLD_EVENT
 from pedvr.etiquette.system import DoorEtiquette
 from pedvr.etiquette.user import DoorUser
@@ -183,7 +183,8 @@ class Simulation:
         if self.etiquette is not None and self.user_walk == "straight":
             # at doors the scripted user opens (and, with user.door_hold, holds) them as a person would
             return DoorUser(path, speed=u.speed, heading=u.heading, radius=u.radius, hold=u.door_hold,
-                            etiquette=self.etiquette)
+                            etiquette=self.etiquette,
+                            perceive=lambda: (self.crowd.pos, self.crowd.radius, self.crowd.is_user))
         if self.user_walk == "reactive":
             def perceive() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
                 c = self.crowd
@@ -481,7 +482,10 @@ class Simulation:
         """Door leaves yield to the bodies' new discs, then bodies yield to leaves that cannot
         (:mod:`pedvr.etiquette.doors`); before the bodies are posed, so the body stays the truth."""
         crowd, doors = self.crowd, self.doors
-        was_closed = doors.phase == CLOSED
+        # a leaf counts as opened when it leaves its closed position (a hand may have taken it in
+        # the decide phase already); a revolving door when it starts turning from rest
+        was_closed = ~doors.panel & (np.abs(doors.angle) < CLOSED_EPS)
+        was_still = doors.revolvers.omega == 0.0
         vel = np.where(crowd.is_user[:, None], crowd.vel, self._new_vel)
         et = self.etiquette
         if et is not None:  # the holders' hands lead their leaves (App. A's f_a)
@@ -500,7 +504,8 @@ class Simulation:
                                                   turn=crowd.turn, torso=crowd.torso, pinned=self._pinned)
             root, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
         self.metrics.door_overlap = max(self.metrics.door_overlap, overlap)
-        self.metrics.door_openings += int(np.count_nonzero(was_closed & (doors.phase != CLOSED)))
+        self.metrics.door_openings += int(np.count_nonzero(was_closed & (np.abs(doors.angle) >= CLOSED_EPS))
+                                          + np.count_nonzero(was_still & (doors.revolvers.omega != 0.0)))
         return root
 
     def _sync(self) -> None:

@@ -410,7 +410,9 @@ def _holder(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Crowd
         action = et.decide_hold(w, f, crowd)
         w.action = action
         et.holds[action] += 1
-        et.log("hold", w, follower=f.id, action=action, for_user=f.is_user, case="pull" if pull else "push")
+        dist = float(np.hypot(*(et.pos(crowd, w.id) - et.pos(crowd, f.id))))  # Effort's distance (§5)
+        et.log("hold", w, follower=f.id, action=action, for_user=f.is_user, case="pull" if pull else "push",
+               distance_m=round(dist, 3))
         if action == "NH":
             _finish(et, w, crowd)
             return

@@ -759,7 +759,7 @@ class DoorEtiquette:
         self.passages += 1
         if not w.is_user:
             self.waits.append(w.waited)
-        self.log("pass", w, waited_s=round(w.waited, 3), user=w.is_user)
+        self.log("pass", w, waited_s=round(w.waited, 3), user=w.is_user, side=w.side, leaf=w.leaf)
 
     def finish(self, w: Walker, crowd: CrowdState, *, passed: bool = True) -> None:
         """``w`` is through (or gives up the door): its navigation takes over again."""

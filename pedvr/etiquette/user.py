@@ -22,6 +22,7 @@ it is asked about (``pose(t)`` is called once per step with increasing ``t``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -31,6 +32,7 @@ from pedvr.etiquette.regions import BOP_PULL_POLAR, HOLD_ANGLE, LANE_AT, LeafFra
 if TYPE_CHECKING:
     from pedvr.etiquette.system import DoorEtiquette
 
+CLEARANCE = 0.06  # m beyond touching discs that the scripted user keeps from anyone it walks toward
 WALK, TO_HANDLE, OPENING, HOLDING, THROUGH, PAST_HOLD, REJOIN = range(7)
 
 
@@ -38,8 +40,10 @@ class DoorUser:
     """A scripted user that opens and holds doors (module docstring)."""
 
     def __init__(self, path: np.ndarray, *, speed: float, heading: float, radius: float, hold: float,
-                 etiquette: DoorEtiquette) -> None:
+                 etiquette: DoorEtiquette,
+                 perceive: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None) -> None:
         self.et = etiquette
+        self.perceive = perceive  # () -> (pos (N, 2), radius (N,), is_user (N,)): who is where now
         self.speed = float(speed)
         self.radius = float(radius)
         self.hold = float(hold)
@@ -116,6 +120,28 @@ class DoorUser:
     # -- UserInput ----------------------------------------------------------------------------
 
     def pose(self, t: float) -> tuple[np.ndarray, float]:
+        """The user's pose at ``t``; like a person, it does not step into someone: a step that
+        would bring it within :data:`CLEARANCE` of a pedestrian's disc, closer than it is now,
+        is not taken (the user waits a moment; the door procedures go on)."""
+        before, s_before, h_before = self._pos.copy(), self._s, self._heading
+        pos, heading = self._pose(t)
+        if self.perceive is not None and self._blocked(before, pos):
+            self._pos, self._s = before, s_before
+            return before.copy(), h_before
+        return pos, heading
+
+    def _blocked(self, a: np.ndarray, b: np.ndarray) -> bool:
+        assert self.perceive is not None
+        pos, rad, is_user = self.perceive()
+        if not len(pos):
+            return False
+        others = ~is_user
+        need = rad[others] + self.radius + CLEARANCE
+        d_a = np.hypot(*(pos[others] - a).T)
+        d_b = np.hypot(*(pos[others] - b).T)
+        return bool(np.any((d_b < need) & (d_b < d_a - 1e-9)))
+
+    def _pose(self, t: float) -> tuple[np.ndarray, float]:
         dt = 0.0 if self._t is None else max(0.0, t - self._t)
         self._t = t
         if self.path.shape[0] < 2 or float(self._cum[-1]) == 0.0:

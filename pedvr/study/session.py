@@ -584,7 +584,8 @@ class _SampleRecorder:
         doors = self.doors
         self.samples, self.agents, self.contacts, self.gaze, self.doors = [], [], [], [], []
         if samples or agents or contacts or gaze or doors:
-            self.store.write_samples(samples=samples, agents=agents, contacts=contacts, gaze=gaze, doors=doors)
+            self.store.write_samples(samples=samples, agents=agents, contacts=contacts, gaze=gaze,
+                                     doors=doors)
 
 
 def door_row(trial_id: int, frame: int, ev: dict[str, Any], user: int | None) -> tuple[Any, ...]:
@@ -594,7 +595,8 @@ def door_row(trial_id: int, frame: int, ev: dict[str, Any], user: int | None) ->
     other = ev.get("follower", ev.get("holder"))
     with_user = bool(ev.get("for_user") or ev.get("to_user") or ev.get("user")) or (
         user is not None and user in (ev.get("agent"), other))
-    rest = {k: v for k, v in ev.items() if k not in ("t", "event", "door", "agent", "follower", "holder", "action")}
+    named = ("t", "event", "door", "agent", "follower", "holder", "action")
+    rest = {k: v for k, v in ev.items() if k not in named}
     return (trial_id, frame, float(ev["t"]), str(ev["door"]), str(ev["event"]), int(ev["agent"]),
             None if other is None else int(other), ev.get("action"), int(with_user),
             json.dumps(rest, sort_keys=True) if rest else None)

@@ -1,0 +1,294 @@
+"""The paper's observations (Huang & Terzopoulos §6) measured in pedvr's running crowd, over a
+few seeds each (the larger measurements are ``scripts/door_observations.py``), and the user at
+the door: agents hold doors for the user, give up when the user does not come, and respond to
+a door the user holds.
+
+Every run here is short (10–40 simulated seconds); runs shared by several tests are cached per
+module."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from pedvr.etiquette import care_factor, effort_factor, holding_probabilities
+from pedvr.etiquette.decision import decide
+from pedvr.scene.config import SceneConfig
+from pedvr.scene.loader import load_scene
+from pedvr.scenes import resolve_scene
+from pedvr.sim import Simulation
+
+
+def _scene(name: str) -> SceneConfig:
+    return load_scene(resolve_scene(name))
+
+
+def _with_counts(scene: SceneConfig, *counts: int) -> SceneConfig:
+    spawns = tuple(dataclasses.replace(s, count=c) for s, c in zip(scene.spawns, counts, strict=True))
+    return dataclasses.replace(scene, spawns=spawns)
+
+
+def _run(scene: SceneConfig, *, seed: int, seconds: float) -> Simulation:
+    sim = Simulation(scene, seed=seed)
+    sim.advance_to(seconds)
+    return sim
+
+
+@functools.cache
+def _events(name: str, seed: int, seconds: float, counts: tuple[int, ...] = ()) -> tuple[dict[str, Any], ...]:
+    scene = _scene(name)
+    if counts:
+        scene = _with_counts(scene, *counts)
+    sim = _run(scene, seed=seed, seconds=seconds)
+    assert sim.etiquette is not None
+    s = sim.summary()
+    assert s["overlaps_over_1cm"] == 0 and float(s["door_leaf_overlap_max_m"]) <= 0.01, s  # type: ignore[arg-type]
+    return tuple(sim.etiquette.events) + ({"event": "_summary", **{k: v for k, v in s.items()
+                                                                   if k.startswith("door_")}},)
+
+
+def _passes(events: tuple[dict[str, Any], ...]) -> list[dict[str, Any]]:
+    return [e for e in events if e["event"] == "pass" and not e.get("user")]
+
+
+def _summary(events: tuple[dict[str, Any], ...]) -> dict[str, Any]:
+    return events[-1]
+
+
+# -- §6.1: single doors --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_groups_arriving_together_from_opposite_sides_interleave(seed: int) -> None:
+    """Fig. 12 bottom: neither group waits for the whole other group; the passages alternate."""
+    passes = _passes(_events("door_opposing", seed, 25.0))[:8]
+    assert len(passes) == 8, passes
+    sides = [e["side"] for e in passes]
+    switches = sum(1 for a, b in zip(sides, sides[1:], strict=False) if a != b)
+    assert sorted(set(sides)) == [-1, 1] and switches >= 2, sides
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_much_earlier_group_passes_first(seed: int) -> None:
+    """§6.1: the group that reaches the door much earlier passes first; the late group waits."""
+    passes = _passes(_events("door_late_group", seed, 25.0))
+    assert len(passes) >= 8, passes
+    first = [e["side"] for e in passes[:4]]
+    assert len(set(first)) == 1, first  # the early group, all four
+    assert all(e["side"] != first[0] for e in passes[4:8])
+
+
+def test_holding_decisions_follow_the_network_in_the_crowd() -> None:
+    """Holders hold (HOF / HOL) only for followers within 4 m (Effort = 0 beyond: MEU gives NH for
+    every Care, Kindness and Rush), and the counts reach the metrics."""
+    events = _events("door_same_side", 1, 40.0)
+    holds = [e for e in events if e["event"] == "hold"]
+    assert len(holds) >= 3, holds
+    assert all(e["distance_m"] <= 4.0 for e in holds if e["action"] in ("HOF", "HOL")), holds
+    s = _summary(events)
+    assert sum(s["door_holds"].values()) == len(holds)
+    assert s["door_passages"] >= 5 and s["door_deadlocks"] == 0
+
+
+def test_a_follower_beyond_4m_is_not_held_for() -> None:
+    grid = np.linspace(0.0, 1.0, 11)
+    for d in (4.0, 4.5, 8.0):
+        for k in grid:
+            for r in grid:
+                for female, carrying in ((True, False), (False, True), (False, False)):
+                    p = holding_probabilities(effort=effort_factor(d),
+                                              care=care_factor(follower_female=female, follower_carrying=carrying),
+                                              kindness=float(k), rush=float(r))
+                    assert decide(p) == "NH", (d, k, r, female, carrying, p)
+
+
+def test_a_female_or_carrying_follower_gets_hof_more_often() -> None:
+    """§6 Table 3: over the scenes' spread of distances, Kindness and Rush, a follower with Care
+    (female, or carrying) is held for first (HOF) more often than a male with empty hands, by
+    MEU and by sampling."""
+    rng = np.random.default_rng(3)
+    n = 4000
+    d = rng.uniform(0.5, 3.5, n)
+    kind = rng.uniform(0.2, 0.9, n)
+    rush = rng.uniform(0.0, 0.6, n)
+    rates = {}
+    for who, (female, carrying) in {"female": (True, False), "male carrier": (False, True),
+                                    "male": (False, False)}.items():
+        care = care_factor(follower_female=female, follower_carrying=carrying)
+        ps = [holding_probabilities(effort=effort_factor(float(d[i])), care=care, kindness=float(kind[i]),
+                                    rush=float(rush[i])) for i in range(n)]
+        meu = np.mean([decide(p) == "HOF" for p in ps])
+        draw = np.random.default_rng(7)
+        sampled = np.mean([decide(p, rng=draw) == "HOF" for p in ps])
+        rates[who] = (meu, sampled)
+    for who in ("female", "male carrier"):
+        assert rates[who][0] > rates["male"][0] + 0.2, rates
+        assert rates[who][1] > rates["male"][1] + 0.1, rates
+
+
+def test_hurried_pedestrians_pass_earlier() -> None:
+    """Fig. 13: in a mixed group starting together, those in a rush reach and pass the door
+    earlier (they walk faster near it and are seldom held up holding it for others)."""
+    base = _scene("door_same_side")
+    walker = base.profiles["walker"]
+    profiles = {"calm": dataclasses.replace(walker, rush=(0.0, 0.0)),
+                "hurried": dataclasses.replace(walker, rush=(1.0, 1.0))}
+    spawn = base.spawns[0]
+    spawns = (dataclasses.replace(spawn, profile="calm", count=3), dataclasses.replace(spawn, profile="hurried", count=3))
+    scene = dataclasses.replace(base, profiles=profiles, spawns=spawns)
+    ranks: dict[str, list[float]] = {"calm": [], "hurried": []}
+    for seed in (1, 2, 3):
+        sim = _run(scene, seed=seed, seconds=14.0)
+        assert sim.etiquette is not None
+        order = [e["agent"] for e in sim.etiquette.events if e["event"] == "pass" and not e.get("user")]
+        first_ids = list(dict.fromkeys(order))
+        assert len(first_ids) == 6, order
+        hurried = {int(i) for i in sim.crowd.ids[~sim.crowd.is_user] if i >= 4}  # ids 1-3 calm, 4-6 hurried
+        for rank, a in enumerate(first_ids):
+            ranks["hurried" if a in hurried else "calm"].append(rank)
+    assert np.mean(ranks["hurried"]) < np.mean(ranks["calm"]) - 0.5, ranks
+
+
+# -- §6.3: double doors, §6.2: revolving doors -----------------------------------------------------
+
+
+def test_double_door_keeps_right_and_uses_both_leaves() -> None:
+    passes = _passes(_events("door_double", 1, 30.0))
+    assert len(passes) >= 10
+    sides = {1: [], -1: []}  # type: ignore[var-annotated]
+    for e in passes:
+        sides[e["side"]].append(e["leaf"])
+    for side, leaves in sides.items():
+        assert leaves, side
+    # the leaf each side uses most is its right-hand one, and that is a different leaf per side
+    favourite = {side: max(set(v), key=v.count) for side, v in sides.items()}
+    assert favourite[1] != favourite[-1], sides
+    for side, leaves in sides.items():
+        assert leaves.count(favourite[side]) >= 0.6 * len(leaves), sides
+
+
+def test_revolving_door_flows_both_ways_at_once() -> None:
+    events = _events("door_revolving", 1, 30.0)
+    passes = _passes(events)
+    assert {e["side"] for e in passes} == {-1, 1}, passes
+    t_plus = np.array([e["t"] for e in passes if e["side"] == 1])
+    t_minus = np.array([e["t"] for e in passes if e["side"] == -1])
+    # simultaneous: passages from the two sides within 4 s of each other
+    assert np.abs(t_plus[:, None] - t_minus[None, :]).min() < 4.0, (t_plus, t_minus)
+    assert _summary(events)["door_deadlocks"] == 0
+
+
+def test_revolving_door_one_sided_flow_is_continuous() -> None:
+    events = _events("door_revolving", 2, 30.0, counts=(5, 0))
+    t = np.array([e["t"] for e in _passes(events)])
+    assert len(t) >= 5, t
+    assert np.diff(t[:5]).max() < 6.0, t  # no one waits a whole turn after the one before
+
+
+# -- no deadlock --------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("per_side", [6])
+def test_no_deadlock_with_six_per_side(per_side: int) -> None:
+    events = _events("door_opposing", 4, 40.0, counts=(per_side, per_side))
+    s = _summary(events)
+    assert s["door_deadlocks"] == 0, s
+    passes = _passes(events)
+    assert len({e["agent"] for e in passes}) == 2 * per_side, passes  # everyone got through
+
+
+# -- the user at the door -------------------------------------------------------------------------
+
+
+HELD_FOR_USER = """
+[scene]
+name = "held_for_user"
+seed = 1
+duration = 30.0
+[world]
+bounds = [[-7.0, -4.0], [7.0, 4.0]]
+indoor = true
+[[world.obstacles]]
+kind = "wall"
+wall = [[0.0, -4.0], [0.0, -0.55]]
+height = 2.6
+[[world.obstacles]]
+kind = "wall"
+wall = [[0.0, 0.55], [0.0, 4.0]]
+height = 2.6
+[[world.doors]]
+name = "main"
+kind = "single"
+span = [[0.0, -0.55], [0.0, 0.55]]
+pull_side = [PULL, 0.0]
+[agents.profiles.kind]
+radius = 0.25
+pref_speed = 1.2
+max_speed = 1.6
+kindness = 1.0
+rush = 0.0
+[[agents.spawns]]
+profile = "kind"
+state = "go"
+positions = [[-3.0, 0.4]]
+[behavior.states.go]
+goal = { selector = "region", box = [4.0, -2.0, 6.0, 2.0] }
+[[behavior.states.go.transitions]]
+on = "arrival"
+to = "stay"
+[behavior.states.stay]
+goal = { selector = "stay" }
+[user]
+start = [-5.2, 0.0]
+heading_deg = 0
+speed = 1.2
+sex = "female"
+route = ROUTE
+"""
+
+
+def _user_scene(tmp_path: Path, *, route: str, pull: float) -> SceneConfig:
+    p = tmp_path / "held.toml"
+    p.write_text(HELD_FOR_USER.replace("ROUTE", route).replace("PULL", str(pull)))
+    return load_scene(p)
+
+
+@pytest.mark.parametrize("pull", [-1.0, 1.0], ids=["agent-pulls", "agent-pushes"])
+def test_an_agent_holds_the_door_for_the_user_who_walks_through(tmp_path: Path, pull: float) -> None:
+    sim = _run(_user_scene(tmp_path, route="[[5.0, 0.0]]", pull=pull), seed=1, seconds=14.0)
+    assert sim.etiquette is not None
+    ev = sim.etiquette.events
+    holds = [e for e in ev if e["event"] == "hold" and e.get("for_user")]
+    assert holds and holds[0]["action"] in ("HOF", "HOL"), ev
+    assert any(e["event"] in ("held_for_user",) for e in ev) or holds[0]["action"] == "HOL", ev
+    assert sim.crowd.pos[0, 0] > 1.0  # the user got through
+    s = sim.summary()
+    assert s["door_holds_for_user"] >= 1 and s["user_overlap_max_m"] <= 0.01, s  # type: ignore[operator]
+
+
+def test_an_agent_gives_up_on_a_user_who_does_not_come(tmp_path: Path) -> None:
+    sim = _run(_user_scene(tmp_path, route="[[-2.0, 0.0]]", pull=-1.0), seed=1, seconds=20.0)
+    assert sim.etiquette is not None
+    ev = sim.etiquette.events
+    holds = [e for e in ev if e["event"] == "hold" and e.get("for_user")]
+    assert holds and holds[0]["action"] in ("HOF", "HOL"), ev
+    gave_up = [e for e in ev if e["event"] == "give_up" and e.get("for_user")]
+    assert gave_up, ev
+    waited = gave_up[0]["t"] - holds[0]["t"]
+    assert 3.0 <= waited <= 10.0, (holds, gave_up)
+    assert sim.crowd.pos[1, 0] > 1.0  # and went on through
+    assert sim.crowd.pos[0, 0] < 0.0  # the user stayed
+
+
+def test_the_user_holds_doors_and_agents_respond_and_thank() -> None:
+    events = _events("door_user", 20, 60.0)
+    kinds = {e["event"] for e in events}
+    assert "user_holds" in kinds, sorted(kinds)
+    thanked_user = [e for e in events if e["event"] == "thank" and e.get("to_user")]
+    assert thanked_user, [e for e in events if e["event"] in ("user_holds", "thank")]
+    assert _summary(events)["door_holds_for_user"] >= 1
