@@ -76,6 +76,18 @@ def _compete(me: Candidate, leader: Candidate, rivals: list[Candidate], wait_cre
     return max(closer, key=lambda t: (t[0], -t[1]))[2]
 
 
+def _compete_across(me: Candidate, leader: Candidate, rivals: list[Candidate], wait_credit: float) -> Candidate:
+    """:func:`_compete` against the other side's pedestrians, by ``E`` to the doorway: who passes
+    after a holder or its follower is whoever is nearer the doorway (less the credit for waiting),
+    not nearer the holder's body, which stands outside the swing on its own side (module docstring)."""
+    mine = me.d_door - wait_credit * me.waited
+    closer = [(r.d_door - wait_credit * r.waited, r.id, r) for r in rivals
+              if r.id != me.id and r.id != leader.id and r.d_door - wait_credit * r.waited < mine]
+    if not closer:
+        return leader
+    return max(closer, key=lambda t: (t[0], -t[1]))[2]
+
+
 def leaders(everyone: list[Candidate], *, wait_credit: float) -> dict[int, int]:
     """Alg. 1 for every pedestrian that is neither holder nor follower: ``{id: leader id}``
     (``NONE``: no leader). Cycles (two pedestrians leading each other, which Alg. 1 does not
@@ -93,7 +105,7 @@ def leaders(everyone: list[Candidate], *, wait_credit: float) -> dict[int, int]:
             leader = _compete(me, init, sharing, wait_credit) if sharing else init
             if leader.holder or leader.follower:
                 opposite = [c for c in everyone if c.side != me.side and not c.holder and not c.follower]
-                leader = _compete(me, leader, opposite, wait_credit)
+                leader = _compete_across(me, leader, opposite, wait_credit)
             out[me.id] = leader.id
             continue
         opposing = [c for c in everyone if c.side != me.side and (c.follower or c.holder)]
@@ -101,7 +113,7 @@ def leaders(everyone: list[Candidate], *, wait_credit: float) -> dict[int, int]:
             followers = [c for c in opposing if c.follower]
             init = min(followers or opposing, key=lambda c: (c.d_door, c.id))
             rivals = [c for c in everyone if c.side != me.side and not c.holder and not c.follower]
-            out[me.id] = _compete(me, init, rivals, wait_credit).id
+            out[me.id] = _compete_across(me, init, rivals, wait_credit).id
             continue
         out[me.id] = NONE
     # Break cycles: follow each chain; a pedestrian met twice closes a cycle.

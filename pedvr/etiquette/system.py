@@ -70,6 +70,7 @@ DEADLOCK_AFTER = 20.0  # s of waiting with the doorway free: a deadlock (the met
 SENSE_USER = 0.2  # m/s: the user walking toward a door faster than this takes part in its ordering
 THANK_RANGE = 2.5  # m: a follower thanks its holder when passing this close
 LEAF_REACH = 0.9  # m: a hand farther than this from its leaf lets go
+GRAB_REACH_S = 1.5  # s: a press of E or the trigger takes a handle that comes within reach this soon
 
 
 @dataclass
@@ -161,6 +162,8 @@ class DoorEtiquette:
         # the user's hand on a leaf (a backend's E key or trigger, or the scripted user)
         self.user_leaf = -1
         self.user_hand_point: np.ndarray | None = None
+        self._user_grab_pending = False
+        self._user_grab_until = 0.0
         # what happened, for metrics and the recording
         self.events: list[dict[str, Any]] = []
         self.holds = {"HOF": 0, "HOL": 0, "NH": 0}
@@ -676,6 +679,7 @@ class DoorEtiquette:
         if self.user_leaf >= 0:
             return True
         self._user_grab_pending = True
+        self._user_grab_until = self.t + GRAB_REACH_S
         return True
 
     def _user_release(self) -> None:
@@ -697,9 +701,11 @@ class DoorEtiquette:
 
     def user_reach(self, crowd: CrowdState) -> None:
         """Once per step before the doors: a pending press takes the nearest handle within reach."""
-        if not getattr(self, "_user_grab_pending", False) or self.user_id is None:
+        if not self._user_grab_pending or self.user_id is None:
             return
-        self._user_grab_pending = False
+        if self.t > self._user_grab_until:  # the press found no handle in time: it lapses
+            self._user_grab_pending = False
+            return
         r = self._row[self.user_id]
         p = crowd.pos[r]
         h = crowd.heading[r]
@@ -717,7 +723,8 @@ class DoorEtiquette:
             if d < best_d and (holder is None or holder == self.user_id):
                 best, best_d = leaf, d
         if best < 0:
-            return
+            return  # nothing within reach yet: the press keeps reaching until GRAB_REACH_S
+        self._user_grab_pending = False
         k = int(lv.door[best])
         ds = self.dstate[k]
         side = 1 if float((p - ds.centre) @ ds.n) >= 0.0 else -1
@@ -756,6 +763,9 @@ class DoorEtiquette:
     # -- bookkeeping ---------------------------------------------------------------------------
 
     def _passed(self, w: Walker) -> None:
+        h = self.walkers.get(w.holder) if w.is_user and w.holder != NONE else None
+        if h is not None and h.state == HOLD_DOOR and h.follower == w.id:
+            self.log("held_for_user", h, action=h.action)  # the user walked through the held door
         self.passages += 1
         if not w.is_user:
             self.waits.append(w.waited)
