@@ -11,6 +11,13 @@ pedestrian has waited counts as ``wait_credit`` metres closer, so that waiting t
 paper names the function, not its form). Alg. 3–4 rank pedestrians "prior to me" by the same
 ``E`` against the door.
 
+Across the doorway (a pedestrian whose leader is a holder or a follower competes with the other
+side's pedestrians, or one with nobody ahead on its side takes the other side's follower as its
+leader) the competition is by ``E`` to the doorway, ``d_door - wait_credit * t_wait``: the
+holder's body stands outside the swing on its own side, so proximity to it would favour the
+holder's own queue and groups arriving together would never interleave (§6.1 observes that they
+do). This is pedvr's reading of Alg. 1 across the door.
+
 Double doors (Alg. 3–4): a pedestrian's passing side is one of the two leaves. "The right-hand
 door" is the leaf on the pedestrian's ``keep`` side as it walks through (configurable:
 ``[etiquette] keep``); a leaf is *free* when nobody holds it, waits for it or walks to it; a
@@ -76,7 +83,8 @@ def _compete(me: Candidate, leader: Candidate, rivals: list[Candidate], wait_cre
     return max(closer, key=lambda t: (t[0], -t[1]))[2]
 
 
-def _compete_across(me: Candidate, leader: Candidate, rivals: list[Candidate], wait_credit: float) -> Candidate:
+def _compete_across(me: Candidate, leader: Candidate, rivals: list[Candidate],
+                    wait_credit: float) -> Candidate:
     """:func:`_compete` against the other side's pedestrians, by ``E`` to the doorway: who passes
     after a holder or its follower is whoever is nearer the doorway (less the credit for waiting),
     not nearer the holder's body, which stands outside the swing on its own side (module docstring)."""
