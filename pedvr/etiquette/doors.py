@@ -74,6 +74,7 @@ CLOSE_TIME = 0.8  # s, the closer's time constant
 CLOSED_EPS = math.radians(1.0)  # below this a closing leaf latches shut
 REACH = 0.8  # m from the doorway line (plus the walker's radius) at which a hand reaches the leaf
 APPROACH_SPEED = 0.1  # m/s toward the doorway line: slower walkers are not opening the door
+USER_SWEEP_MAX = 0.009  # m a step: the user turns a panel tip no faster with others at the drum
 SWEEP_CLEARANCE = 0.05  # m: a swinging leaf stops this far short of a body
 
 CLOSED, HELD, BOUNCE, CLOSING = 0, 1, 2, 3  # phase
@@ -522,6 +523,17 @@ def _step_revolvers(centre, radius, sense, first, rotation, omega, push, base, l
                         forced = min(forced, -back)
         if forced != 0.0:
             delta = forced
+            # ...but with others at the drum a panel's tip moves no more than USER_SWEEP_MAX a
+            # step (the contact pass moves them that little); the user may lean into a panel
+            # meanwhile (nothing ever moves the user).
+            for j in range(n):
+                if carried[j] or fixed[j]:
+                    continue
+                qx, qy = pos[j, 0] - centre[d, 0], pos[j, 1] - centre[d, 1]
+                if qx * qx + qy * qy <= (radius[d] + rad[j] + SWEEP_CLEARANCE) ** 2:
+                    cap = USER_SWEEP_MAX / radius[d]
+                    delta = max(-cap, min(cap, delta))
+                    break
         else:
             # p_stop: a panel stops SWEEP_CLEARANCE short of anyone it would sweep into.
             for j in range(n):

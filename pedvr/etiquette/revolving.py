@@ -43,6 +43,8 @@ EXIT_BEFORE = math.radians(30.0)  # a rider steps out this short of the far open
 MAX_OCCUPANTS = 4  # two holders and two followers (§4.5.1)
 CARRY_GAIN = 3.0  # 1/s: a rider's pull toward its compartment's middle
 QUARTER = 0.5 * math.pi
+USER_CLAIM = 1.0  # m outside the drum: the user approaching claims the compartment in front of it
+USER_CLAIM_ANGLE = math.radians(20.0)  # and a compartment this close to the user's bearing
 SIDE_OFFSET = math.radians(25.0)  # riders step out through an opening's first half, others in at its second
 
 
@@ -112,13 +114,18 @@ def decide_revolving(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: Cr
     psi = [compartment_psi(et, r, c) for c in range(4)]
     taken = {w.compartment for w in walkers if w.role in (ENTRANT, RIDER) and w.compartment >= 0}
     user_row = None if et.user_id is None else et._row.get(et.user_id)
-    if user_row is not None:  # the user's compartment is taken
+    if user_row is not None:  # the user's compartment is taken, and the one the user walks into
         up = crowd.pos[user_row] - centre
-        if float(np.hypot(*up)) < radius:
+        if float(np.hypot(*up)) < radius + USER_CLAIM:
             up_psi = psi_of(et, r, math.atan2(up[1], up[0]))
-            for c, p in enumerate(psi):
-                if abs(_wrap(up_psi - p)) < QUARTER / 2:
-                    taken.add(c)
+            mine = {c for c, p in enumerate(psi) if abs(_wrap(up_psi - p)) < QUARTER / 2 + USER_CLAIM_ANGLE}
+            taken |= mine
+            for w in walkers:  # an agent about to enter it with the user waits for the next one
+                if w.role == ENTRANT and w.compartment in mine:
+                    w.role = APPROACH
+                    w.compartment = -1
+                    et.approach(w)
+                    et.log("missed", w, compartment=-1, why="user")
     occupants = sum(1 for w in walkers if w.role in (ENTRANT, RIDER))
     _, _, agent_r = waiting_radii("revolving")
     wr = waiting_radii("revolving")[0]

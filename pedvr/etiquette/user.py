@@ -32,6 +32,7 @@ from pedvr.etiquette.regions import BOP_PULL_POLAR, HOLD_ANGLE, LANE_AT, LeafFra
 if TYPE_CHECKING:
     from pedvr.etiquette.system import DoorEtiquette
 
+DRUM_SPEED = 0.4  # m/s: in a revolving door's drum the user walks slowly (the panels turn with the user)
 CLEARANCE = 0.06  # m beyond touching discs that the scripted user keeps from anyone it walks toward
 WALK, TO_HANDLE, OPENING, HOLDING, THROUGH, PAST_HOLD, REJOIN = range(7)
 
@@ -152,10 +153,18 @@ class DoorUser:
             if nxt is not None and nxt[0] - self._s < self._approach(nxt[1]):
                 self._start_door(nxt, t)
             else:
-                self._s = min(self._s + self.speed * dt, float(self._cum[-1]))
+                speed = min(self.speed, DRUM_SPEED) if self._in_drum(self._pos) else self.speed
+                self._s = min(self._s + speed * dt, float(self._cum[-1]))
                 self._pos, self._heading = self._at(self._s)
                 return self._pos.copy(), self._heading
         return self._door_step(t, dt)
+
+    def _in_drum(self, p: np.ndarray) -> bool:
+        rv = self.et.leaves.revolvers
+        for r in range(len(rv)):
+            if float(np.hypot(*(p - rv.centre[r]))) < float(rv.radius[r]) + self.radius + 0.3:
+                return True
+        return False
 
     def _approach(self, k: int) -> float:
         return 1.6
