@@ -112,14 +112,14 @@ def draw_dims(rng: np.random.Generator, n: int, *, sex: float | None = None) -> 
     (documented so runs reproduce): ``sex (n), height z (n), build (n)``.
     """
     drawn = (rng.random(n) < 0.5).astype(np.float64)
-    sex = drawn if sex is None else np.full(n, float(sex))
+    sexes = drawn if sex is None else np.full(n, float(sex))
     z = rng.standard_normal(n)
-    height = np.where(sex == SEX_FEMALE, 1.63 + 0.065 * z, 1.76 + 0.07 * z)
+    height = np.where(sexes == SEX_FEMALE, 1.63 + 0.065 * z, 1.76 + 0.07 * z)
     height = np.clip(height, *HEIGHT_RANGE)
     build = rng.random(n)
     out = np.empty((n, N_DIMS))
     out[:, DIM_HEIGHT] = height
-    out[:, DIM_SEX] = sex
+    out[:, DIM_SEX] = sexes
     out[:, DIM_BUILD] = build
     out[:, DIM_SCALE] = height / REFERENCE_HEIGHT
     return out

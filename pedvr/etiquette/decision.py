@@ -126,6 +126,6 @@ def decide(probabilities: dict[str, float], *, rng: np.random.Generator | None =
     if rng is not None:
         u = float(rng.random())
         cum = np.cumsum(p) / p.sum()
-        return ACTIONS[int(min(np.searchsorted(cum, u, side="right"), len(ACTIONS) - 1))]
+        return ACTIONS[min(int(np.searchsorted(cum, u, side="right")), len(ACTIONS) - 1)]
     best = max(TIE_ORDER, key=lambda i: (round(float(p[i]), 12), -TIE_ORDER.index(i)))
     return ACTIONS[best]

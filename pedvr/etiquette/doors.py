@@ -119,7 +119,14 @@ class DoorLeaves:
 
     @classmethod
     def of_world(cls, world: WorldConfig) -> DoorLeaves:
-        door, hinge, base, length, height, swing, panel, close = [], [], [], [], [], [], [], []
+        door: list[int] = []
+        hinge: list[np.ndarray] = []
+        base: list[float] = []
+        length: list[float] = []
+        height: list[float] = []
+        swing: list[int] = []
+        panel: list[bool] = []
+        close: list[float] = []
         rev: list[tuple[int, np.ndarray, float, float, int, int]] = []
         for k, d in enumerate(world.doors):
             a, b = np.asarray(d.span[0], np.float64), np.asarray(d.span[1], np.float64)

@@ -157,7 +157,7 @@ class DoorEtiquette:
         self._ids = np.zeros(0, np.int64)
         self._row: dict[int, int] = {}
         self._path_cache: dict[int, tuple[int, list[tuple[int, int]]]] = {}
-        self._later: list[tuple[float, int, Callable[[], None]]] = []
+        self._later: list[tuple[float, int, Callable[[], object]]] = []
         self._seq = 0
         # the user's hand on a leaf (a backend's E key or trigger, or the scripted user)
         self.user_leaf = -1
@@ -260,7 +260,7 @@ class DoorEtiquette:
             _, _, fn = self._later.pop(0)
             fn()
 
-    def later(self, dt: float, fn: Callable[[], None]) -> None:
+    def later(self, dt: float, fn: Callable[[], object]) -> None:
         """Run ``fn`` at the first decision tick ``dt`` seconds from now (a nod's second half)."""
         self._seq += 1
         self._later.append((self.t + dt, self._seq, fn))

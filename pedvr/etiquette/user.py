@@ -62,7 +62,7 @@ class DoorUser:
         self._frame: LeafFrame | None = None
         self._since = 0.0
         self._goal: list[np.ndarray] = []
-        self._done: set[int] = set()
+        self._done: set[tuple[float, int]] = set()
         self.crossings = self._crossings()
 
     # -- the route -------------------------------------------------------------------------
