@@ -288,7 +288,17 @@ class DoorEtiquette:
     def _engage(self, crowd: CrowdState, paths: list[np.ndarray], cursor: np.ndarray) -> None:
         """Who takes part in which door's etiquette now (and who is done)."""
         pos = crowd.pos
-        for r in range(len(crowd)):
+        n = len(crowd)
+        # the leg each walks now, from where it is to its current waypoint, against every door: (N, D)
+        ahead = pos.copy()
+        for r in range(n):
+            path = paths[r]
+            if path.shape[0] >= 2:
+                ahead[r] = path[min(int(cursor[r]), path.shape[0] - 1)]
+        leg_cross = np.zeros((n, len(self.doors)), np.bool_)
+        for k, d in enumerate(self.doors):
+            leg_cross[:, k] = _segments_cross(pos, ahead, np.asarray(d.span[0]), np.asarray(d.span[1]))
+        for r in range(n):
             agent = int(crowd.ids[r])
             if bool(crowd.is_user[r]):
                 self._engage_user(r, agent, crowd)
@@ -297,12 +307,8 @@ class DoorEtiquette:
             path = paths[r]
             c = int(cursor[r])
             crossing = [(k, i) for k, i in self._path_doors(agent, path) if i >= c]
-            if path.shape[0] >= 2:  # the leg it walks now: from where it is to its current waypoint
-                ahead = path[min(c, path.shape[0] - 1)]
-                for k, d in enumerate(self.doors):
-                    if _segments_cross(pos[r][None], ahead[None], np.asarray(d.span[0]),
-                                       np.asarray(d.span[1]))[0]:
-                        crossing.append((k, c))
+            if path.shape[0] >= 2:
+                crossing.extend((int(k), c) for k in np.flatnonzero(leg_cross[r]))
             if w is None:
                 for k, _ in crossing:
                     ds = self.dstate[k]
