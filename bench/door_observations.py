@@ -3,13 +3,14 @@
 The tests (tests/etiquette/test_etiquette_sim.py) check each observation on a few seeds; this
 measures them on ``--seeds`` seeds and prints one JSON line per observation:
 
-* ``interleave``: door_opposing, the first 8 passages: fraction of seeds whose two groups
+* ``interleave``: door_opposing, the first 6 passages: fraction of seeds whose two groups
   alternate at least twice (§6.1, Fig. 12 bottom), and the mean number of alternations;
 * ``late_group``: door_late_group: fraction of seeds whose first four passages are all the early
   group's (§6.1);
 * ``hurried``: door_same_side with three calm (Rush 0) and three hurried (Rush 1) pedestrians:
   mean passing rank of each (Fig. 13);
-* ``double``: door_double: fraction of passages through each side's right-hand leaf (§6.3);
+* ``double``: door_double with two a side: each side's most used leaf and its share (§6.3; leaf 0
+  is side +1's right-hand leaf, leaf 1 side -1's);
 * ``revolving``: door_revolving: passages per minute from each side (§6.2);
 * ``deadlock``: door_opposing with ``n`` pedestrians per side for 60 s (6 + 6 and the paper's
   12 + 14): runs with a deadlock (``door_deadlocks``), passages, and the 95th percentile wait.
@@ -59,7 +60,7 @@ def _passes(events: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def interleave(seeds: list[int]) -> dict[str, Any]:
     ok, sw = 0, []
     for s in seeds:
-        sides = [e["side"] for e in _passes(_run(_scene("door_opposing"), s, 25.0)[0])[:8]]
+        sides = [e["side"] for e in _passes(_run(_scene("door_opposing"), s, 35.0)[0])[:6]]
         n = sum(1 for a, b in zip(sides, sides[1:], strict=False) if a != b)
         sw.append(n)
         ok += n >= 2
@@ -70,7 +71,7 @@ def interleave(seeds: list[int]) -> dict[str, Any]:
 def late_group(seeds: list[int]) -> dict[str, Any]:
     ok = 0
     for s in seeds:
-        sides = [e["side"] for e in _passes(_run(_scene("door_late_group"), s, 25.0)[0])[:4]]
+        sides = [e["side"] for e in _passes(_run(_scene("door_late_group"), s, 30.0)[0])[:4]]
         ok += len(sides) == 4 and len(set(sides)) == 1
     return {"observation": "late_group", "seeds": len(seeds), "fraction_early_first": ok / len(seeds)}
 
@@ -86,7 +87,7 @@ def hurried(seeds: list[int]) -> dict[str, Any]:
                 dataclasses.replace(sp, profile="hurried", count=3)))
     ranks: dict[str, list[int]] = {"calm": [], "hurried": []}
     for s in seeds:
-        order = list(dict.fromkeys(e["agent"] for e in _passes(_run(scene, s, 14.0)[0])))
+        order = list(dict.fromkeys(e["agent"] for e in _passes(_run(scene, s, 32.0)[0])))
         for rank, a in enumerate(order):
             ranks["hurried" if a >= 4 else "calm"].append(rank)
     return {"observation": "hurried", "seeds": len(seeds), "rank_mean_calm": float(np.mean(ranks["calm"])),
@@ -96,7 +97,7 @@ def hurried(seeds: list[int]) -> dict[str, Any]:
 def double(seeds: list[int]) -> dict[str, Any]:
     by_side: dict[int, list[int]] = {1: [], -1: []}
     for s in seeds:
-        for e in _passes(_run(_scene("door_double"), s, 30.0)[0]):
+        for e in _passes(_run(_scene("door_double", (2, 2)), s, 40.0)[0]):
             by_side[e["side"]].append(e["leaf"])
     out: dict[str, Any] = {"observation": "double", "seeds": len(seeds)}
     for side, leaves in by_side.items():

@@ -396,6 +396,10 @@ class Session:
         assert spec is not None and self.session_id is not None
         scene_file = self.protocol.scene_path(spec.scene)
         scene = load_any(scene_file, seed=spec.seed)
+        if self.protocol.participant_sex or self.protocol.participant_carrying:  # door etiquette's Care
+            u = scene.user
+            scene = replace(scene, user=replace(u, sex=self.protocol.participant_sex or u.sex,
+                                                carrying=self.protocol.participant_carrying or u.carrying))
         user_input = self.participant.trial_input(trial=spec, scene=scene)
         sim = Simulation(
             scene,

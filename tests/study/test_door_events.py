@@ -7,7 +7,10 @@ import io
 import sqlite3
 from pathlib import Path
 
+import pytest
+
 from pedvr.study.console import ExperimenterConsole, NoKeys
+from pedvr.study.errors import ProtocolError
 from pedvr.study.measures import load_trials, measures
 from pedvr.study.presenter import SimulatedParticipant
 from pedvr.study.protocol import load_protocol
@@ -34,7 +37,9 @@ def test_a_door_held_for_the_participant_is_recorded_and_measured(tmp_path: Path
         user_id = 0
     holds = [r for r in rows if r[0] == "hold"]
     assert holds and holds[0][1] == 1 and holds[0][2] == user_id, rows  # the agent held for the participant
-    assert holds[0][3] in ("HOF", "HOL") and holds[0][4] == 1 and holds[0][5] == "main"
+    # the protocol's participant_sex = "female" (the scene says male): Care = 1, and the kind,
+    # unhurried holder a step away holds the door and lets her pass first (Table 2: TTT, Rush F)
+    assert holds[0][3] == "HOF" and holds[0][4] == 1 and holds[0][5] == "main"
     assert held == sum(1 for r in holds if r[3] in ("HOF", "HOL") and r[4] == 1) >= 1
     assert all(r[7] >= 0 and r[6] <= 9.0 + 1e-6 for r in rows)
 
@@ -51,3 +56,12 @@ def test_schema_3_database_gets_the_door_events_table(tmp_path: Path) -> None:
     with sqlite3.connect(db) as c:
         assert c.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()[0] == SCHEMA_VERSION
         assert c.execute("SELECT action, with_user FROM door_events").fetchall() == [("HOF", 1)]
+
+
+def test_a_bad_participant_profile_is_one_line(tmp_path: Path) -> None:
+    f = tmp_path / "p.toml"
+    f.write_text((DATA / "door.toml").read_text().replace('participant_sex = "female"', 'participant_sex = "f"')
+                 .replace("door_scene.toml", str(DATA / "door_scene.toml"))
+                 .replace("../../../user_study/questionnaires", str(DATA.parents[2] / "user_study" / "questionnaires")))
+    with pytest.raises(ProtocolError, match=r"p\.toml: study\.participant_sex = 'f': expected one of 'female', 'male'"):
+        load_protocol(f)
