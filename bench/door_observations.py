@@ -9,7 +9,7 @@ measures them on ``--seeds`` seeds and prints one JSON line per observation:
   group's (§6.1);
 * ``hurried``: door_same_side with three calm (Rush 0) and three hurried (Rush 1) pedestrians:
   mean passing rank of each (Fig. 13);
-* ``double``: door_double with two a side: each side's most used leaf and its share (§6.3; leaf 0
+* ``double``: door_double with one a side: each side's most used leaf and its share (§6.3; leaf 0
   is side +1's right-hand leaf, leaf 1 side -1's);
 * ``revolving``: door_revolving: passages per minute from each side (§6.2);
 * ``deadlock``: door_opposing with ``n`` pedestrians per side for 60 s (6 + 6 and the paper's
@@ -97,7 +97,7 @@ def hurried(seeds: list[int]) -> dict[str, Any]:
 def double(seeds: list[int]) -> dict[str, Any]:
     by_side: dict[int, list[int]] = {1: [], -1: []}
     for s in seeds:
-        for e in _passes(_run(_scene("door_double", (2, 2)), s, 40.0)[0]):
+        for e in _passes(_run(_scene("door_double", (1, 1)), s, 40.0)[0]):
             by_side[e["side"]].append(e["leaf"])
     out: dict[str, Any] = {"observation": "double", "seeds": len(seeds)}
     for side, leaves in by_side.items():

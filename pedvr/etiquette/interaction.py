@@ -199,7 +199,6 @@ def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[
     for w in walkers:
         if w.leaf in (l0, l1) and w.role != PASSING:
             load[0 if w.leaf == l0 else 1] += 1
-    free = (l0 not in ds.holder and load[0] == 0, l1 not in ds.holder and load[1] == 0)
     # The leaf on the keep side of someone coming from side +1, walking along -n: its right is
     # right(d) = (d_y, -d_x) of d = -n.
     mid0 = et.leaves.hinge[l0] + 0.5 * (et.leaves.tips()[l0] - et.leaves.hinge[l0])
@@ -207,7 +206,6 @@ def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[
     right = np.array([d[1], -d[0]])
     on_right = float((mid0 - ds.centre) @ right) > 0.0
     keep_plus = (0 if on_right else 1) if et.cfg.keep == "right" else (1 if on_right else 0)
-    dd = DoubleDoor(free=free, load=(load[0], load[1]), keep_leaf_for_plus=keep_plus)
     pull_r, push_r, _ = waiting_radii("double")
     leaf_rows = (l0, l1)
     index = {c.id: c for c in cands}
@@ -218,6 +216,11 @@ def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[
         if w.role in (HOLDER, FOLLOWER) or (w.is_user and w.leaf in leaf_rows):
             c.leaf = leaf_rows.index(w.leaf) if w.leaf in leaf_rows else 0
             continue
+        # what the door looks like to this pedestrian: its own earlier choice does not make a leaf busy
+        own = [int(w.leaf == l0 and w.role != PASSING), int(w.leaf == l1 and w.role != PASSING)]
+        ld = (load[0] - own[0], load[1] - own[1])
+        dd = DoubleDoor(free=(l0 not in ds.holder and ld[0] == 0, l1 not in ds.holder and ld[1] == 0),
+                        load=ld, keep_leaf_for_plus=keep_plus)
         leader, side = choose_side(c, cands, dd, in_region=c.d_door <= max(pull_r, push_r),
                                    wait_credit=et.cfg.wait_credit)
         if leader != NONE and index[leader].leaf >= 0:

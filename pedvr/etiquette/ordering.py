@@ -18,7 +18,12 @@ holder's body stands outside the swing on its own side, so proximity to it would
 holder's own queue and groups arriving together would never interleave (§6.1 observes that they
 do). This is pedvr's reading of Alg. 1 across the door.
 
-Double doors (Alg. 3–4): a pedestrian's passing side is one of the two leaves. "The right-hand
+Double doors (Alg. 3–4): a pedestrian's passing side is one of the two leaves. Alg. 4 has a
+pedestrian with an opposite-side pedestrian prior to it adopt that pedestrian's passing side; read
+literally, two people meeting at a free double door would queue through one leaf, and §6.3 /
+Fig. 15(a) observe a two-way flow through the two right-hand doors instead. pedvr's choice: an
+opposite-side leader whose passing side is not mine, while my keep-side leaf is free, is no
+leader of mine (each passes its own door); otherwise its side is adopted. "The right-hand
 door" is the leaf on the pedestrian's ``keep`` side as it walks through (configurable:
 ``[etiquette] keep``); a leaf is *free* when nobody holds it, waits for it or walks to it; a
 leader's passing side is adopted.
@@ -170,7 +175,11 @@ def choose_side(me: Candidate, everyone: list[Candidate], door: DoubleDoor, *, i
         return init.id, _leaf_of(init, me, door)
     leader, leaf = _alg4(me, init, everyone, door, wait_credit)
     if leader != NONE:
-        return leader, _leaf_of(by_id[leader], me, door)
+        theirs = _leaf_of(by_id[leader], me, door)
+        keep = door.keep_leaf(me.side)
+        if by_id[leader].side != me.side and theirs != keep and door.free[keep]:
+            return NONE, keep  # Fig. 15(a): they pass their door, I pass mine (both keep right)
+        return leader, theirs
     return NONE, leaf
 
 

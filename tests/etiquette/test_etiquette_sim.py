@@ -158,11 +158,12 @@ def test_hurried_pedestrians_pass_earlier() -> None:
 
 
 def test_double_door_keeps_right_and_uses_both_leaves_under_load() -> None:
-    """§6.3: with few pedestrians each side mostly takes its right-hand leaf (the one on its
-    right as it walks through); with five a side, each side uses both leaves."""
+    """§6.3, Fig. 15(a): two pedestrians meeting at the double door each take their right-hand
+    leaf (the one on their right as they walk through: a two-way flow); with five a side, each
+    side uses both leaves (the freer door under load, Fig. 15(b))."""
     light: dict[int, list[int]] = {1: [], -1: []}
     for seed in (1, 2):
-        for e in _passes(_events("door_double", seed, 40.0, counts=(2, 2))):
+        for e in _passes(_events("door_double", seed, 35.0, counts=(1, 1))):
             light[e["side"]].append(e["leaf"])
     sim_leaves = Simulation(_scene("door_double")).doors
     mid_y = [float(sim_leaves.hinge[i, 1] + 0.5 * (sim_leaves.tips()[i, 1] - sim_leaves.hinge[i, 1]))
@@ -170,7 +171,7 @@ def test_double_door_keeps_right_and_uses_both_leaves_under_load() -> None:
     # side +1 is west (walking east: the right hand is -y), side -1 east (walking west: +y)
     right = {1: int(np.argmin(mid_y)), -1: int(np.argmax(mid_y))}
     for side, leaves in light.items():
-        assert len(leaves) >= 3 and leaves.count(right[side]) >= 0.65 * len(leaves), light
+        assert len(leaves) >= 3 and leaves.count(right[side]) == len(leaves), light
     busy: dict[int, set[int]] = {1: set(), -1: set()}
     for e in _passes(_events("door_double", 1, 40.0)):
         busy[e["side"]].add(e["leaf"])
