@@ -67,9 +67,12 @@ HOLD_TIMEOUT = 12.0  # s: a holder waits this long for an agent follower
 CARRIER_PATIENCE = 8.0  # s: a carrier alone at a pull side frees a hand after this long
 HELP_RANGE = 6.0  # m: a pedestrian behind a carrier this close overtakes to open the door (§4.6)
 DEADLOCK_AFTER = 20.0  # s of waiting with the doorway free: a deadlock (the metric)
+DEADLOCK_FREE_S = 3.0  # s the doorway must have stayed free for a long wait to count as a deadlock
 SENSE_USER = 0.2  # m/s: the user walking toward a door faster than this takes part in its ordering
 THANK_RANGE = 2.5  # m: a follower thanks its holder when passing this close
 LEAF_REACH = 0.9  # m: a hand farther than this from its leaf lets go
+IDLE_ANGLE = math.radians(1.2)  # rad: a holding hand's idle sway along the door's swing
+IDLE_LIFT = 0.012  # m: and up and down
 GRAB_REACH_S = 1.5  # s: a press of E or the trigger takes a handle that comes within reach this soon
 
 
@@ -170,6 +173,7 @@ class DoorEtiquette:
         self.passages = 0
         self.waits: list[float] = []
         self.deadlocks = 0
+        self._free_since = [math.nan] * len(self.doors)
         self._deadlocked: set[int] = set()
         self.thanks = 0
         self.carrier_forced = 0
@@ -614,8 +618,12 @@ class DoorEtiquette:
             else:
                 cur = self.leaf_open(leaf, w.frame)
                 a = cur + max(-0.07, min(0.07, w.want - cur))
+            lift = 0.0
+            if w.state == HOLD_DOOR:  # App. B: subtle idle noise while holding (deterministic: by id)
+                a += IDLE_ANGLE * math.sin(2.0 * math.pi * 0.31 * self.t + 1.7 * w.id)
+                lift = IDLE_LIFT * math.sin(2.0 * math.pi * 0.47 * self.t + 0.9 * w.id)
             p = hand_point(lv.hinge[leaf], float(lv.base[leaf]), w.frame.sign * a, w.p_rel)
-            b.reach_pt[r, w.arm] = (p[0], HAND_HEIGHT, p[1])
+            b.reach_pt[r, w.arm] = (p[0], HAND_HEIGHT + lift, p[1])
             b.reach_on[r, w.arm] = True
 
     def _hands(self) -> list[tuple[int, int]]:
@@ -811,17 +819,24 @@ class DoorEtiquette:
                 other.leader = NONE
 
     def _watch_deadlocks(self, crowd: CrowdState) -> None:
-        """The metric: a pedestrian waiting more than 20 s while its doorway is free."""
+        """The metric: a pedestrian waiting more than 20 s while its doorway is free. pedvr's reading
+        of "free": nobody holds or is taking the door and nobody is within 1 m of it, for the last
+        :data:`DEADLOCK_FREE_S` at least (a queue that has waited long while the door is merely
+        between two passers, a hand-over of under a second, is not deadlocked)."""
+        for k, ds in enumerate(self.dstate):
+            free = not ds.holder and not ds.mutex and not bool(
+                (np.hypot(*(crowd.pos - ds.centre).T) < 1.0).any())
+            if not free:
+                self._free_since[k] = math.nan
+            elif math.isnan(self._free_since[k]):
+                self._free_since[k] = self.t
         for w in self.walkers.values():
             if w.is_user or not w.waiting or math.isnan(w.wait_from):
                 continue
             if self.t - w.wait_from < DEADLOCK_AFTER or w.id in self._deadlocked:
                 continue
-            ds = self.dstate[w.door]
-            if ds.holder or ds.mutex:
-                continue
-            near = np.hypot(*(crowd.pos - ds.centre).T) < 1.0
-            if near.any():
+            since = self._free_since[w.door]
+            if math.isnan(since) or self.t - since < DEADLOCK_FREE_S:
                 continue
             self.deadlocks += 1
             self._deadlocked.add(w.id)

@@ -320,3 +320,26 @@ def test_the_user_meets_every_door_type_in_the_user_scene() -> None:
     events = _events("door_user", 20, 60.0)
     user_passes = {e["door"] for e in events if e["event"] == "pass" and e.get("user")}
     assert {"single", "double"} <= user_passes, events
+
+
+def test_a_holder_watches_the_user_with_its_hand_on_the_door_and_a_subtle_idle_sway(tmp_path: Path) -> None:
+    """§4.4 / App. B: while holding, the hand stays on the leaf with a small idle motion (a few
+    millimetres to a couple of centimetres), and the holder's gaze is on the user it holds for."""
+    from pedvr.body.graph import GAZE_USER
+    from pedvr.etiquette.system import HOLD_DOOR
+
+    sim = Simulation(_user_scene(tmp_path, route="[[-2.0, 0.0]]", pull=-1.0), seed=1)
+    et = sim.etiquette
+    assert et is not None
+    pts = []
+    while sim.t < 14.0:
+        sim.step()
+        w = et.walkers.get(1)
+        if w is not None and w.state == HOLD_DOOR and w.arm >= 0:
+            pts.append(sim.body.state.reach_pt[et.row(1), w.arm].copy())
+            if len(pts) == 1:
+                assert sim.body.state.gaze_kind[et.row(1)] == GAZE_USER  # watching the user
+    assert len(pts) > 90, len(pts)  # held for more than a second
+    spread = np.ptp(np.asarray(pts), axis=0)
+    assert 0.01 < float(spread[1]) < 0.03, spread  # the hand's height sways (a still hand: 0)
+    assert float(spread.max()) < 0.1, spread
