@@ -32,7 +32,7 @@ from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
 from pedvr.errors import NavigationError, SceneError, UsageError
 from pedvr.etiquette.doors import CLOSED_EPS, DoorLeaves
-from pedvr.etiquette.objects import DOOR_HOLD_EVENT
+from pedvr.etiquette.objects import DOOR_HOLD_EVENT, DOOR_HOLD_TREE
 from pedvr.etiquette.system import DoorEtiquette
 from pedvr.etiquette.user import DoorUser
 from pedvr.record import Metrics, Recording
@@ -149,6 +149,7 @@ class Simulation:
             objects=objects, user=None if self.user is None else int(self.crowd.ids[0])), bfsm=self.bfsm)
         if self.etiquette is not None:
             self.scheduler.events.setdefault(DOOR_HOLD_EVENT.name, DOOR_HOLD_EVENT)
+            self.scheduler.trees.setdefault(DOOR_HOLD_TREE.name, DOOR_HOLD_TREE)
             self.etiquette.scheduler = self.scheduler
 
         seg_a, seg_b = edges(scene.world)

@@ -11,7 +11,7 @@ Every door of a scene is a smart object named as the door (``world.doors[k].name
           the door over, FAILURE when it gave up (a user who did not come) or is not holding this
           door. Stopped (a higher-priority event took the agent), the holder lets go and goes on.
 
-When a holder decides to hold for a follower, the etiquette starts the library event
+When a holder decides to hold for a follower, the etiquette starts the event
 ``door_hold`` (:data:`DOOR_HOLD_EVENT`: tree ``door_hold``, parameters ``holder`` (agent),
 ``follower`` (actor: an agent or the user, observed) and ``door`` (object)). The event claims
 the holder, so its BFSM is suspended while it holds and resumes after, and it appears in the
@@ -25,7 +25,6 @@ import math
 from typing import TYPE_CHECKING
 
 from pedvr.behavior.leaves import GoTo, PointTarget
-from pedvr.behavior.library import trees
 from pedvr.behavior.nodes import define_tree
 from pedvr.behavior.objects import SmartObject
 from pedvr.behavior.spec import EventDef, ObjectDef
@@ -37,9 +36,12 @@ if TYPE_CHECKING:
 
 DOOR_HOLD_EVENT = EventDef(name="door_hold", tree="door_hold", priority=1, patience=5.0)
 
-trees.register("door_hold")(define_tree(
+# The event's tree. Not a library tree (pedvr.behavior.library): it needs a door's etiquette, so
+# the simulation adds it to its scheduler's trees beside the event (and the trees a scene may
+# name stay the same whatever was imported first).
+DOOR_HOLD_TREE = define_tree(
     "door_hold", {"holder": "agent", "follower": "actor", "door": "object"},
-    {"use": "holder", "object": "door", "affordance": "hold"}))
+    {"use": "holder", "object": "door", "affordance": "hold"})
 
 
 class DoorObject(SmartObject):
