@@ -343,3 +343,35 @@ def test_a_holder_watches_the_user_with_its_hand_on_the_door_and_a_subtle_idle_s
     spread = np.ptp(np.asarray(pts), axis=0)
     assert 0.01 < float(spread[1]) < 0.03, spread  # the hand's height sways (a still hand: 0)
     assert float(spread.max()) < 0.1, spread
+
+
+def test_the_user_s_hand_takes_holds_and_releases_a_door(tmp_path: Path) -> None:
+    """What E on the desktop and the trigger in VR call (``DoorEtiquette.user_hand``): a press
+    near the handle takes the leaf and opens it into its pull side; the door stays held while
+    pressed and the closer shuts it after the release; a press far from any door takes none."""
+    import math
+
+    from pedvr.crowd.user import StandingUser
+
+    scene = _user_scene(tmp_path, route="[[5.0, 0.0]]", pull=-1.0, agent="[5.0, 2.0]")
+    near = StandingUser((-0.6, 0.85), heading=math.atan2(-0.4, 0.6))  # outside the swing, facing the handle
+    sim = Simulation(scene, seed=1, user_input=near)
+    et = sim.etiquette
+    assert et is not None
+    sim.advance_to(0.5)
+    assert et.user_hand(True)
+    sim.advance_to(3.0)
+    assert et.user_leaf == 0 and sim.doors.tips()[0, 0] < -0.9  # open wide, into the west (pull) side
+    assert any(e["event"] == "open" and e.get("by") == "user" for e in et.events)
+    held_at = float(sim.doors.angle[0])
+    sim.advance_to(5.0)
+    assert float(sim.doors.angle[0]) == pytest.approx(held_at, abs=0.02)  # held
+    assert not et.user_hand(False)
+    sim.advance_to(9.0)
+    assert abs(float(sim.doors.angle[0])) < math.radians(2.0) and et.user_leaf == -1  # shut by the closer
+    far = Simulation(scene, seed=1, user_input=StandingUser((-4.0, 0.0)))
+    assert far.etiquette is not None
+    far.advance_to(0.5)
+    far.etiquette.user_hand(True)
+    far.advance_to(3.0)
+    assert far.etiquette.user_leaf == -1 and abs(float(far.doors.angle[0])) < 1e-9
