@@ -8,6 +8,7 @@
 ``pedvr bench place``          PLACE planning time per demonstration; step times with and without
 ``pedvr sweep SPEC.toml``      many headless runs on Dask (:mod:`pedvr.sweep`)
 ``pedvr bench sim``            a whole simulation step with full bodies (``--load K`` beside it)
+``pedvr bench doors``          a whole step of the 4-door building with door etiquette (16 and 64)
 
 Errors a user can cause print as ``pedvr: error: ...`` lines and a non-zero
 exit code, never a traceback.
@@ -178,6 +179,12 @@ def build_parser() -> argparse.ArgumentParser:
     sb.add_argument("--load", type=int, action="append", default=None, metavar="K",
                     help="busy processes beside the timed steps (repeatable: one run per value; default 0)")
     sb.add_argument("--json", action="store_true")
+    dr = bsub.add_parser("doors", help="a whole step of the 4-door building with door etiquette, full bodies")
+    dr.add_argument("--agents", type=_positive(int), action="append", default=None,
+                    help="pedestrians in the building (repeatable; default 16 and 64)")
+    dr.add_argument("--steps", type=_positive(int), default=900, help="timed steps (default: %(default)s)")
+    dr.add_argument("--warmup", type=int, default=300, help="untimed steps first (default: %(default)s)")
+    dr.add_argument("--json", action="store_true")
     rb = bsub.add_parser("render", help="crowd rendering cost, stereo, offscreen (EGL)")
     rb.add_argument("--agents", type=_positive(int), action="extend", nargs="+", default=None)
     rb.add_argument("--width", type=_positive(int), default=1280)
@@ -373,6 +380,12 @@ def _bench(args: argparse.Namespace) -> int:
 
         _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=k)
                         for n in args.agents or [100, 1000] for k in args.load or [0]], args.json)
+        return 0
+    if args.bench_command == "doors":
+        from pedvr.etiquette.bench import run_doors_bench
+
+        _print_results([run_doors_bench(n, steps=args.steps, warmup=args.warmup)
+                        for n in args.agents or [16, 64]], args.json)
         return 0
     if args.bench_command == "body":
         from pedvr.body.bench import run_body_bench

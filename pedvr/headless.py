@@ -33,6 +33,8 @@ def save_recording(sim: Simulation, scene: SceneConfig, summary: dict[str, objec
     meta = {k: summary[k] for k in ("scene", "scene_hash", "seed", "condition", "responsibility",
                                     "personal_space_m", "user_walk", "dt")}
     meta["source"] = scene.source
+    if summary.get("door_events"):  # door etiquette: who held for whom, HOF/HOL/NH, waits, thank-yous
+        meta["door_events"] = summary["door_events"]
     assert sim.recording is not None
     sim.recording.save(path, meta)
 

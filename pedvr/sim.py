@@ -23,6 +23,7 @@ from pedvr.behavior.context import Context
 from pedvr.behavior.objects import make_objects
 from pedvr.behavior.scheduler import Scheduler
 from pedvr.body import FullBody
+from pedvr.body import skeleton as sk
 from pedvr.body.model import GestureSets
 from pedvr.crowd.encounter import UserEncounters
 from pedvr.crowd.footprint import shoulder_twist
@@ -30,7 +31,10 @@ from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
 from pedvr.errors import NavigationError, SceneError, UsageError
-from pedvr.etiquette.doors import CLOSED, DoorLeaves
+from pedvr.etiquette.doors import CLOSED_EPS, DoorLeaves
+from pedvr.etiquette.objects import DOOR_HOLD_EVENT, DOOR_HOLD_TREE
+from pedvr.etiquette.system import DoorEtiquette
+from pedvr.etiquette.user import DoorUser
 from pedvr.record import Metrics, Recording
 from pedvr.scene.config import CONDITIONS, USER_WALKS, AgentProfile, SceneConfig, SequenceGoal, Spawn
 from pedvr.world import NavMesh, Visibility, edges, obstacle_set, walkable_area
@@ -104,6 +108,10 @@ class Simulation:
         gestures = GestureSets(by_state={n: st.gestures for n, st in scene.behavior.states.items()
                                          if st.gestures is not None})
         self.body = FullBody(rng=self.rng, gestures=gestures, navigate=self._navigate)
+        # Huang & Terzopoulos: door and doorway etiquette (pedvr.etiquette), when there are doors
+        self.etiquette = (DoorEtiquette(scene, leaves=self.doors, body=self.body, rng=self.rng,
+                                        replan=self._replan)
+                          if scene.world.doors and scene.etiquette.enabled else None)
 
         self.crowd = CrowdState.empty()
         self.behavior = BehaviorState.rows(0)
@@ -132,11 +140,18 @@ class Simulation:
         for k, spawn in enumerate(scene.spawns):
             self._spawn(k, spawn)
         # ADAPT §6: personal trees, events, smart objects and triggers (pedvr.behavior.scheduler)
+        objects = make_objects(scene.behavior.objects)
+        if self.etiquette is not None:  # doors are smart objects; a holder and its follower, an event
+            objects.update(self.etiquette.smart_objects())
         self.scheduler = Scheduler(scene.behavior, Context(
             crowd=self.crowd, behavior=self.behavior, body=self.body, visibility=self.visibility,
             walkable=self.goal_mesh, rng=self.rng, goal_sets=scene.behavior.goal_sets,
-            objects=make_objects(scene.behavior.objects),
-            user=None if self.user is None else int(self.crowd.ids[0]), world=scene.world), bfsm=self.bfsm)
+            objects=objects, user=None if self.user is None else int(self.crowd.ids[0]), world=scene.world),
+            bfsm=self.bfsm)
+        if self.etiquette is not None:
+            self.scheduler.events.setdefault(DOOR_HOLD_EVENT.name, DOOR_HOLD_EVENT)
+            self.scheduler.trees.setdefault(DOOR_HOLD_TREE.name, DOOR_HOLD_TREE)
+            self.etiquette.scheduler = self.scheduler
 
         seg_a, seg_b = edges(scene.world)
         self.metrics = Metrics(seg_a=seg_a, seg_b=seg_b, inside=self._inside_obstacle,
@@ -168,6 +183,11 @@ class Simulation:
             pts.append(leg[1:])
             here = target
         path = np.concatenate(pts)
+        if self.etiquette is not None and self.user_walk == "straight":
+            # at doors the scripted user opens (and, with user.door_hold, holds) them as a person would
+            return DoorUser(path, speed=u.speed, heading=u.heading, radius=u.radius, hold=u.door_hold,
+                            etiquette=self.etiquette,
+                            perceive=lambda: (self.crowd.pos, self.crowd.radius, self.crowd.is_user))
         if self.user_walk == "reactive":
             def perceive() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
                 c = self.crowd
@@ -202,8 +222,15 @@ class Simulation:
             is_user=np.full(n, is_user), limits=np.tile(np.asarray(limits, np.float64), (n, 1)),
         )
         first = len(self.crowd)
+        prof = list(self.scene.profiles.values())[profile] if profile >= 0 else None
+        dims = None
+        if prof is not None and prof.sex:  # a profile that says who its agents are (door etiquette's Care)
+            dims = sk.draw_dims(self.body.rng, n, sex=sk.SEX_FEMALE if prof.sex == "female" else sk.SEX_MALE)
         rows.pref_speed *= self.body.append(n, ids=ids, pos=rows.pos, heading=rows.heading, is_user=is_user,
-                                            limits=rows.limits)
+                                            limits=rows.limits, dims=dims)
+        if self.etiquette is not None:
+            self.etiquette.append(ids, profile=prof, is_user=is_user,
+                                  female=self.body.state.dims[first:first + n, sk.DIM_SEX] == sk.SEX_FEMALE)
         self.crowd.append(rows)
         self.encounters.append(n)
         self.behavior.append(BehaviorState.rows(n))
@@ -222,12 +249,16 @@ class Simulation:
     def _spawn(self, k: int, spawn: Spawn) -> None:
         prof = self.scene.profiles[spawn.profile]
         pts = list(spawn.positions) if spawn.positions else self._place(k, spawn, prof.radius)
+        first_id = self._next_id
         for p in pts:
             heading = np.nan if spawn.facing is None else spawn.facing
             self._add_rows(1, pos=np.asarray([p]), radius=prof.radius, pref_speed=prof.pref_speed,
                            max_speed=prof.max_speed, limits=_limits_row(prof), is_user=False,
                            heading=np.asarray([heading]), state=spawn.state, sequence=spawn.goal_sequence,
                            profile=list(self.scene.profiles).index(spawn.profile))
+        if spawn.friends and self.etiquette is not None:  # consecutive pairs walk together (§4.6)
+            for a in range(first_id, self._next_id - 1, 2):
+                self.etiquette.pair_friends(a, a + 1)
 
     def _place(self, k: int, spawn: Spawn, radius: float) -> list[tuple[float, float]]:
         """Draw ``spawn.count`` free positions in the spawn's region with the run's rng."""
@@ -313,6 +344,8 @@ class Simulation:
         for row in np.flatnonzero(d.goal_changed & ~d.leaving):
             self._replan(int(row))
         self._leaving = d.leaving
+        if self.etiquette is not None:  # doorway ordering and the door interaction states
+            self.etiquette.decide(self.t, self.crowd, self.paths, self.cursor)
         for back in self.scheduler.tick(self.t):  # agents an event gave back to their BFSM
             self._replan(back)
 
@@ -390,6 +423,8 @@ class Simulation:
         self.cursor = cursor
         crowd.pref_vel = np.where(crowd.is_user[:, None], crowd.vel, pref_vel)
         crowd.pref_heading = np.where(crowd.is_user, crowd.heading, pref_heading)
+        if self.etiquette is not None:  # pedestrians at a door go where the door interaction says
+            self.etiquette.steer(crowd)
 
     def _targets(self, pts: np.ndarray, starts: np.ndarray, lens: np.ndarray,
                  cursor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -412,12 +447,15 @@ class Simulation:
         pref, short, to_user = self.encounters.steer(
             pos=crowd.pos, vel=crowd.vel, pref_vel=pref, radius=crowd.radius,
             responsibility=crowd.responsibility, is_user=crowd.is_user, dt=self.dt,
-            engaged=self.scheduler.engaged_with_user())
+            engaged=self.scheduler.engaged_with_user() if self.etiquette is None
+            else self.scheduler.engaged_with_user() | self.etiquette.engaged_with_user(crowd))
         saved = crowd.pref_vel
         crowd.pref_vel = pref
         if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)
             self.steering.set_moving_segments(self.doors.hinge, self.doors.tips())
         self._new_vel = self.steering.compute_velocities(crowd, self.dt)
+        if self.etiquette is not None:  # revolving-door riders move with their compartment
+            self.etiquette.carry(self._new_vel, crowd)
         crowd.pref_vel = saved
         self._pinned = self.scheduler.pinned()  # seated bodies do not slide (contacts move the others)
         self._new_vel[self._pinned] = 0.0
@@ -427,6 +465,8 @@ class Simulation:
     def _animate(self) -> None:
         """The body turns commanded velocities into root motion; contacts are resolved; bodies are posed."""
         root, heading = self.body.animate(self.crowd, self._new_vel, self.dt, coupled=self.coupled)
+        if self.etiquette is not None:  # holders stepping round a door keep facing it (App. C)
+            heading = self.etiquette.face(heading, self.crowd.heading, self.crowd, self.dt)
         self.metrics.observe_user_contact(self.crowd, root)
         self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user,
                                                     turn=self.crowd.turn, torso=self.crowd.torso,
@@ -445,9 +485,20 @@ class Simulation:
         """Door leaves yield to the bodies' new discs, then bodies yield to leaves that cannot
         (:mod:`pedvr.etiquette.doors`); before the bodies are posed, so the body stays the truth."""
         crowd, doors = self.crowd, self.doors
-        was_closed = doors.phase == CLOSED
+        # a leaf counts as opened when it leaves its closed position (a hand may have taken it in
+        # the decide phase already); a revolving door when it starts turning from rest
+        was_closed = ~doors.panel & (np.abs(doors.angle) < CLOSED_EPS)
+        was_still = doors.revolvers.omega == 0.0
         vel = np.where(crowd.is_user[:, None], crowd.vel, self._new_vel)
-        doors.step(self.dt, root, vel, crowd.radius, fixed=crowd.is_user)
+        et = self.etiquette
+        if et is not None:  # the holders' hands lead their leaves (App. A's f_a)
+            et.user_reach(crowd)
+            et.before_doors(crowd)
+        doors.step(self.dt, root, vel, crowd.radius, fixed=crowd.is_user,
+                   auto=None if et is None else et.auto_open(crowd),
+                   carried=None if et is None else et.carried(crowd))
+        if et is not None:  # and the leaves lead the hands (f_pabs)
+            et.after_doors(crowd)
         pushed, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
         if len(root):
             self.metrics.door_push = max(self.metrics.door_push, float(np.hypot(*(pushed - root).T).max()))
@@ -456,7 +507,8 @@ class Simulation:
                                                   turn=crowd.turn, torso=crowd.torso, pinned=self._pinned)
             root, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
         self.metrics.door_overlap = max(self.metrics.door_overlap, overlap)
-        self.metrics.door_openings += int(np.count_nonzero(was_closed & (doors.phase != CLOSED)))
+        self.metrics.door_openings += int(np.count_nonzero(was_closed & (np.abs(doors.angle) >= CLOSED_EPS))
+                                          + np.count_nonzero(was_still & (doors.revolvers.omega != 0.0)))
         return root
 
     def _sync(self) -> None:
@@ -523,6 +575,8 @@ class Simulation:
         self.crowd.keep(keep)
         self.encounters.keep(keep)
         self.body.keep(keep)
+        if self.etiquette is not None:
+            self.etiquette.keep(keep)
         self.behavior.keep(keep)
         self.paths = [p for p, k in zip(self.paths, keep, strict=True) if k]
         self.sequences = [s for s, k in zip(self.sequences, keep, strict=True) if k]
@@ -552,4 +606,8 @@ class Simulation:
         })
         out.update(self.metrics.body_summary(slides=self.body.skate.slides(), steps=self.body.step_log))
         out.update(self.scheduler.summary())
+        if self.etiquette is not None:
+            out.update(self.etiquette.summary())
+        else:
+            out.update(DoorEtiquette.empty_summary())
         return out

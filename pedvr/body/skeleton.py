@@ -102,22 +102,24 @@ def depth_of(node: int) -> int:
     return d
 
 
-def draw_dims(rng: np.random.Generator, n: int) -> np.ndarray:
+def draw_dims(rng: np.random.Generator, n: int, *, sex: float | None = None) -> np.ndarray:
     """Draw ``(n, N_DIMS)`` body dimensions: height, sex, build, scale.
 
-    Sex is female with probability 0.5; heights are normal (men 1.76 ± 0.07 m,
-    women 1.63 ± 0.065 m) clipped to ``HEIGHT_RANGE``; build is uniform in
-    [0, 1] (0 slender, 1 heavy). Draw order (documented so runs reproduce):
-    ``sex (n), height z (n), build (n)``.
+    Sex is female with probability 0.5 (or ``sex``, ``SEX_MALE`` / ``SEX_FEMALE``, when a
+    scene profile sets it: the draw is made all the same, so the stream stays aligned);
+    heights are normal (men 1.76 ± 0.07 m, women 1.63 ± 0.065 m) clipped to
+    ``HEIGHT_RANGE``; build is uniform in [0, 1] (0 slender, 1 heavy). Draw order
+    (documented so runs reproduce): ``sex (n), height z (n), build (n)``.
     """
-    sex = (rng.random(n) < 0.5).astype(np.float64)
+    drawn = (rng.random(n) < 0.5).astype(np.float64)
+    sexes = drawn if sex is None else np.full(n, float(sex))
     z = rng.standard_normal(n)
-    height = np.where(sex == SEX_FEMALE, 1.63 + 0.065 * z, 1.76 + 0.07 * z)
+    height = np.where(sexes == SEX_FEMALE, 1.63 + 0.065 * z, 1.76 + 0.07 * z)
     height = np.clip(height, *HEIGHT_RANGE)
     build = rng.random(n)
     out = np.empty((n, N_DIMS))
     out[:, DIM_HEIGHT] = height
-    out[:, DIM_SEX] = sex
+    out[:, DIM_SEX] = sexes
     out[:, DIM_BUILD] = build
     out[:, DIM_SCALE] = height / REFERENCE_HEIGHT
     return out

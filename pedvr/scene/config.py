@@ -41,28 +41,78 @@ class Obstacle:
     occlusion: float = 1.0
 
 
-DOOR_KINDS = ("single", "double")
+DOOR_KINDS = ("single", "double", "revolving")
+DOOR_SWINGS = ("one_way", "both_ways")
+DOOR_ROTATIONS = ("ccw", "cw")
 
 
 @dataclass(frozen=True)
 class Door:
-    """A sprung, double-acting hinged door filling a doorway (Huang & Terzopoulos §4, §4.5.2).
+    """A sprung hinged door or a revolving door filling a doorway (Huang & Terzopoulos §4, §4.5).
 
     ``span`` runs from one jamb to the other across the doorway; the doorway
     itself must be a gap between obstacles (walls), since the simulation
-    navigates through it like any free space. ``single``: one leaf hinged at
-    ``span[0]``; ``double``: two mirrored leaves hinged at both jambs, meeting
-    in the middle (the paper's double door is "two juxtaposed sprung single
-    hinged doors"). ``height`` is the leaf's, for drawing.
+    navigates through it like any free space. Sides: ``+1`` is the left of
+    ``span[0] -> span[1]``, ``-1`` its right.
+
+    ``single``: one leaf hinged at ``span[hinge]``; ``double``: two mirrored
+    leaves hinged at both jambs, meeting in the middle (the paper's double
+    door is "two juxtaposed sprung single hinged doors", §4.5.2);
+    ``revolving``: four panels turning about the middle of ``span`` (its
+    diameter), inside a drum whose two curved walls the scene loader adds to
+    the world's obstacles (§4.5.1). ``swing``: ``one_way`` leaves open only
+    into their pull side ``pull`` (the paper's sprung door: pulled by the
+    handle from that side, pushed by the bar from the other), ``both_ways``
+    leaves are double-acting (pushed open from either side). ``closing_speed``
+    (rad/s) caps the closer; ``sensing_range`` (m) is how far from the door
+    pedestrians take part in its doorway ordering (§4.2). ``rotation`` is the
+    revolving door's sense, seen from above (``ccw``: people keep right).
+    ``height`` is the leaf's, for drawing; ``name`` names the door's smart
+    object (``door_<k>`` by default).
     """
 
     span: tuple[Vec2, Vec2]
     kind: str = "single"
     height: float = 2.1
+    swing: str = "one_way"
+    hinge: int = 0
+    pull: int = 1
+    closing_speed: float = math.radians(120.0)
+    sensing_range: float = 8.0
+    rotation: str = "ccw"
+    name: str = ""
 
     @property
     def width(self) -> float:
         return math.dist(self.span[0], self.span[1])
+
+
+ETIQUETTE_DECISIONS = ("meu", "sampled")
+KEEP_SIDES = ("right", "left")
+CARRYING = ("none", "box", "perambulator")
+SEXES = ("female", "male")
+
+
+@dataclass(frozen=True)
+class EtiquetteConfig:
+    """Doorway etiquette for every door of the scene (Huang & Terzopoulos §4–5; ``[etiquette]``).
+
+    ``enabled`` False: no ordering or holding, every walker pushes doors open
+    as it reaches them (the NH pusher of App. B.3). ``decisions``: ``meu``
+    takes the most probable holding action (§5.2), ``sampled`` draws it with
+    the simulation's generator. ``keep``: the door of a double door people
+    prefer (§4.5.2, "right-hand preference"). ``wait_credit`` (m/s): in
+    Alg. 1's proximity ``E(d_leader, t_wait) = d_leader - wait_credit * t_wait``
+    each second waited counts as that many metres closer. ``user_patience``
+    (s): an agent holding a door for the user who stops coming gives up after
+    this long.
+    """
+
+    enabled: bool = True
+    decisions: str = "meu"
+    keep: str = "right"
+    wait_credit: float = 0.5
+    user_patience: float = 4.0
 
 
 MARKING_KINDS = ("crosswalk",)
@@ -130,6 +180,13 @@ class AgentProfile:
     # Drawing only (issue 16): characters an agent of this profile is drawn as, picked per agent:
     # "builtin" (the procedural character) or glTF/VRM files; empty: the procedural character.
     characters: tuple[str, ...] = ()
+    # Door etiquette (Huang & Terzopoulos §5.1.3, §4.6): Kindness and Rush as uniform ranges
+    # [lo, hi] drawn per agent (lo == hi: fixed), the body's sex ("female", "male", or "" drawn
+    # 50/50 by the body), and what the agent carries ("none", "box", "perambulator").
+    kindness: tuple[float, float] = (0.2, 0.9)
+    rush: tuple[float, float] = (0.0, 0.6)
+    sex: str = ""
+    carrying: str = "none"
 
 
 @dataclass(frozen=True)
@@ -245,6 +302,7 @@ class Spawn:
     region: tuple[str, tuple[float, ...]] | None = None
     facing: float | None = None
     goal_sequence: tuple[SequenceGoal, ...] = ()  # for the "sequence" goal selector
+    friends: bool = False  # consecutive pairs of this spawn walk together (Huang & Terzopoulos §4.6)
 
 
 USER_WALKS = ("straight", "reactive")
@@ -270,6 +328,11 @@ class UserConfig:
     sphere_radius: float = 0.5
     enabled: bool = True
     walk: str = "straight"
+    # Door etiquette (Huang & Terzopoulos Table 3): what agents read for the user's Care, and
+    # whether the scripted user holds doors it opens for this long (s; 0: it walks through).
+    sex: str = "male"
+    carrying: str = "none"
+    door_hold: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -292,6 +355,7 @@ class SceneConfig:
     description: str = ""
     content_hash: str = ""
     bone_map: dict[str, str] = field(default_factory=dict)  # avatars' bone name -> pedvr joint
+    etiquette: EtiquetteConfig = field(default_factory=EtiquetteConfig)  # door etiquette ([etiquette])
     @property
     def decision_every(self) -> int:
         """Steps between behavior decisions (30 Hz at the default 90 Hz step)."""

@@ -21,14 +21,21 @@ from pedvr.behavior.declare import Interactions
 from pedvr.behavior.goals import selectors, validate_params
 from pedvr.errors import SceneError
 from pedvr.scene.config import (
+    CARRYING,
     DOOR_KINDS,
+    DOOR_ROTATIONS,
+    DOOR_SWINGS,
+    ETIQUETTE_DECISIONS,
     FLOORS,
     GESTURE_CLIPS,
+    KEEP_SIDES,
     MARKING_KINDS,
+    SEXES,
     USER_WALKS,
     AgentProfile,
     BehaviorConfig,
     Door,
+    EtiquetteConfig,
     GoalSelector,
     GoalSet,
     Marking,
@@ -152,7 +159,8 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
     """Validate a parsed TOML document; raise one SceneError with all problems. ``base`` is the
     folder the scene's relative file patterns (avatars) are resolved in (default: the working one)."""
     c = _Checker(source)
-    c.known(data, "", ("scene", "world", "steering", "gaze", "agents", "behavior", "user", "characters"))
+    c.known(data, "", ("scene", "world", "steering", "gaze", "agents", "behavior", "user", "characters",
+                       "etiquette"))
 
     scene = c.table(data, "scene", "scene", required=True) or {}
     c.known(scene, "scene", ("name", "description", "seed", "duration", "dt"))
@@ -185,6 +193,7 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
         bone_map = {}
     spawns = _spawns(c, agents.get("spawns", MISSING), profiles, behavior, world)
     user = _user(c, c.table(data, "user", "user", required=True) or {}, world)
+    etiquette = _etiquette(c, c.table(data, "etiquette", "etiquette", required=False) or {})
 
     if c.problems:
         raise SceneError(c.problems)
@@ -194,7 +203,8 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
     return SceneConfig(name=name, source=source, seed=seed, dt=dt, duration=duration, world=world,
                        profiles=profiles, spawns=spawns, behavior=behavior, user=user,
                        steering=steering, gaze_distance=gaze_distance, gaze_speed=gaze_speed,
-                       description=description, content_hash=content_hash, bone_map=dict(bone_map))
+                       description=description, content_hash=content_hash, bone_map=dict(bone_map),
+                       etiquette=etiquette)
 
 
 def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
@@ -272,12 +282,61 @@ def _markings(c: _Checker, raw: object) -> tuple[Marking, ...]:
     return tuple(out)
 
 
-DOOR_WIDTH = {"single": (0.7, 1.6), "double": (1.2, 3.2)}  # m, jamb to jamb
+DOOR_WIDTH = {"single": (0.7, 1.6), "double": (1.2, 3.2), "revolving": (1.6, 3.6)}  # m, jamb to jamb
+_DOOR_KEYS = ("kind", "span", "at", "width", "along_deg", "height", "swing", "hinge", "pull_side",
+              "closing_speed_deg", "sensing_range", "rotation", "name")
+DRUM_WALL = 0.1  # m: thickness of a revolving door's drum wall
+DRUM_ARC = 45.0  # degrees either side of the wall line the drum wall covers (the openings are the rest)
+
+
+def _door_span(c: _Checker, d: dict[str, Any], path: str) -> tuple[Vec2, Vec2] | None:
+    """``span = [[x0, y0], [x1, y1]]``, or ``at``, ``width`` and ``along_deg`` (the wall's direction)."""
+    alt = [k for k in ("at", "width", "along_deg") if k in d]
+    if "span" in d and alt:
+        c.bad(f"{path}.{alt[0]}", d[alt[0]], "give either span or at, width and along_deg")
+        return None
+    if "span" not in d:
+        if len(alt) != 3:
+            c.bad(f"{path}.span", MISSING, "required [[x0, y0], [x1, y1]] (or at, width and along_deg)")
+            return None
+        at = c.point(d["at"], f"{path}.at")
+        width = c.number(d, "width", f"{path}.width", check=lambda x: x > 0, expect="> 0 m")
+        along = c.number(d, "along_deg", f"{path}.along_deg")
+        if at is None or width is None or along is None:
+            return None
+        ux, uy = math.cos(math.radians(along)), math.sin(math.radians(along))
+        return ((at[0] - 0.5 * width * ux, at[1] - 0.5 * width * uy),
+                (at[0] + 0.5 * width * ux, at[1] + 0.5 * width * uy))
+    pts = c.points(d, "span", f"{path}.span", minimum=2)
+    if pts is None:
+        return None
+    if len(pts) != 2:
+        c.bad(f"{path}.span", d["span"], "expected two jambs [[x0, y0], [x1, y1]]")
+        return None
+    return (pts[0], pts[1])
+
+
+def drum_walls(door: Door) -> list[Obstacle]:
+    """The two curved walls of a revolving door's drum (§4.5.1): arcs of radius half the span
+    about its middle, :data:`DRUM_ARC` degrees either side of the wall line, so the drum is
+    open toward both sides of the wall."""
+    a, b = door.span
+    cx, cy = 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])
+    base = math.atan2(b[1] - a[1], b[0] - a[0])
+    r = 0.5 * door.width
+    out = []
+    for centre in (base, base + math.pi):
+        ang = [centre + math.radians(DRUM_ARC) * (k / 6.0 - 1.0) for k in range(13)]
+        outer = [(cx + (r + DRUM_WALL) * math.cos(t), cy + (r + DRUM_WALL) * math.sin(t)) for t in ang]
+        inner = [(cx + r * math.cos(t), cy + r * math.sin(t)) for t in reversed(ang)]
+        out.append(Obstacle(vertices=tuple(outer + inner), kind="wall", height=door.height + 0.3))
+    return out
 
 
 def _doors(c: _Checker, raw: object, bounds: tuple[Vec2, Vec2] | None,
            obstacles: list[Obstacle]) -> tuple[Door, ...]:
-    """``[[world.doors]]``: each a doorway span in a gap between obstacles (see :class:`Door`)."""
+    """``[[world.doors]]``: each a doorway span in a gap between obstacles (see :class:`Door`).
+    A revolving door's drum walls are appended to ``obstacles``."""
     from shapely.geometry import LineString
     from shapely.ops import substring
 
@@ -287,41 +346,94 @@ def _doors(c: _Checker, raw: object, bounds: tuple[Vec2, Vec2] | None,
     solid = [Polygon(o.vertices) for o in obstacles]
     out: list[Door] = []
     spans: list[tuple[str, LineString]] = []
+    names: set[str] = set()
     for i, d in enumerate(raw):
         path = f"world.doors[{i}]"
         if not isinstance(d, dict):
             c.bad(path, d, "expected a table")
             continue
-        c.known(d, path, ("kind", "span", "height"))
+        c.known(d, path, _DOOR_KEYS)
         kind = c.string(d, "kind", f"{path}.kind", required=False, default="single", choices=DOOR_KINDS)
         height = c.number(d, "height", f"{path}.height", required=False, default=2.1,
                           check=lambda x: 1.5 <= x <= 4.0, expect="in [1.5, 4] m")
-        pts = c.points(d, "span", f"{path}.span", minimum=2)
-        if pts is None or kind is None or height is None:
-            continue
-        if len(pts) != 2:
-            c.bad(f"{path}.span", d["span"], "expected two jambs [[x0, y0], [x1, y1]]")
+        swing = c.string(d, "swing", f"{path}.swing", required=False, default="one_way", choices=DOOR_SWINGS)
+        hinge_name = c.string(d, "hinge", f"{path}.hinge", required=False, default="start",
+                              choices=("start", "end"))
+        closing = c.number(d, "closing_speed_deg", f"{path}.closing_speed_deg", required=False,
+                           default=120.0, check=lambda x: 10.0 <= x <= 720.0, expect="in [10, 720] deg/s")
+        sensing = c.number(d, "sensing_range", f"{path}.sensing_range", required=False, default=8.0,
+                           check=lambda x: 2.0 <= x <= 50.0, expect="in [2, 50] m")
+        rotation = c.string(d, "rotation", f"{path}.rotation", required=False, default="ccw",
+                            choices=DOOR_ROTATIONS)
+        name = c.string(d, "name", f"{path}.name", required=False, default=f"door_{i}")
+        if name is not None:
+            if name in names:
+                c.bad(f"{path}.name", name, "another door has this name")
+            names.add(name)
+        span = _door_span(c, d, path)
+        if kind == "revolving":
+            for key in ("swing", "hinge", "pull_side", "closing_speed_deg"):
+                if key in d:
+                    c.bad(f"{path}.{key}", d[key], "a revolving door has no leaves to swing")
+        elif "rotation" in d:
+            c.bad(f"{path}.rotation", d["rotation"], "only a revolving door rotates")
+        if kind != "single" and "hinge" in d:
+            c.bad(f"{path}.hinge", d["hinge"], "only a single door has one hinge")
+        pull = 1
+        if span is not None and kind != "revolving" and swing == "one_way":
+            ps = d.get("pull_side", MISSING)
+            if ps is MISSING:
+                c.bad(f"{path}.pull_side", ps, "required for a one-way door: a point [x, y] on the side "
+                      "it is pulled open from (or swing = \"both_ways\")")
+                span = None
+            else:
+                q = c.point(ps, f"{path}.pull_side")
+                side = 0.0 if q is None else ((span[1][0] - span[0][0]) * (q[1] - span[0][1])
+                                              - (span[1][1] - span[0][1]) * (q[0] - span[0][0]))
+                if q is not None and abs(side) < 1e-9:
+                    c.bad(f"{path}.pull_side", ps, "lies on the door's line; give a point on one side")
+                    span = None
+                elif q is None:
+                    span = None
+                else:
+                    pull = 1 if side > 0 else -1
+        elif "pull_side" in d and swing == "both_ways":
+            c.bad(f"{path}.pull_side", d["pull_side"], "a double-acting door (swing = \"both_ways\") has no "
+                  "pull side")
+        if span is None or kind is None or height is None or swing is None or hinge_name is None \
+                or closing is None or sensing is None or rotation is None or name is None:
             continue
         lo, hi = DOOR_WIDTH[kind]
-        width = math.dist(pts[0], pts[1])
+        width = math.dist(span[0], span[1])
+        key = f"{path}.span" if "span" in d else f"{path}.width"
+        shown = d["span"] if "span" in d else d.get("width")
         if not lo <= width <= hi:
-            c.bad(f"{path}.span", d["span"],
-                  f"a {kind} door is {lo:g} to {hi:g} m wide; this is {width:.2f} m")
+            c.bad(key, shown, f"a {kind} door is {lo:g} to {hi:g} m wide; this is {width:.2f} m")
             continue
-        line = LineString(pts)
+        line = LineString(span)
         if bounds is not None and not box(*bounds[0], *bounds[1]).contains(line):
-            c.bad(f"{path}.span", d["span"], "lies outside world.bounds")
+            c.bad(key, shown, "lies outside world.bounds")
             continue
         inner = substring(line, 0.05, width - 0.05)  # jambs may sit a little inside the walls
         if any(p.intersects(inner) for p in solid):
-            c.bad(f"{path}.span", d["span"], "crosses an obstacle; a door fills a gap between obstacles")
+            c.bad(key, shown, "crosses an obstacle; a door fills a gap between obstacles")
             continue
         clash = next((k for k, s in spans if s.distance(line) < 0.5 * (width + s.length)), None)
         if clash is not None:
-            c.bad(f"{path}.span", d["span"], f"its leaves would swing into those of {clash}")
+            c.bad(key, shown, f"its leaves would swing into those of {clash}")
             continue
         spans.append((path, line))
-        out.append(Door(span=(pts[0], pts[1]), kind=kind, height=height))
+        door = Door(span=span, kind=kind, height=height, swing=swing, hinge=0 if hinge_name == "start" else 1,
+                    pull=pull, closing_speed=math.radians(closing), sensing_range=sensing,
+                    rotation=rotation, name=name)
+        if kind == "revolving":
+            drum = drum_walls(door)
+            if bounds is not None and not all(box(*bounds[0], *bounds[1]).contains(Polygon(o.vertices))
+                                              for o in drum):
+                c.bad(key, shown, "its drum lies outside world.bounds")
+                continue
+            obstacles.extend(drum)
+        out.append(door)
     return tuple(out)
 
 
@@ -418,7 +530,8 @@ def _or(v: float | None, d: float) -> float:
     return d if v is None else v
 
 
-_PROFILE_KEYS = ("inherit", "radius", "pref_speed", "max_speed", "limits", "characters")
+_PROFILE_KEYS = ("inherit", "radius", "pref_speed", "max_speed", "limits", "characters", "kindness", "rush",
+                 "sex", "carrying")
 AVATAR_SUFFIXES = (".glb", ".gltf", ".vrm")
 _LIMIT_KEYS = ("max_accel", "max_decel", "turn_rate_standing", "turn_rate_walking",
                "max_backward_speed", "max_sideways_speed")
@@ -510,10 +623,53 @@ def _profiles(c: _Checker, raw: dict[str, Any], base: Path | None = None) -> dic
                                 default=getattr(d, k), check=pos, expect="> 0") for k in _LIMIT_KEYS}
             lim = MotionLimits(**{k: (v if v is not None else getattr(d, k)) for k, v in vals.items()})
         chars = _characters(c, m["characters"], f"{path}.characters", base) if "characters" in m else ()
+        d_prof = AgentProfile(name=name)
+        kindness = _trait(c, m, "kindness", path, d_prof.kindness)
+        rush = _trait(c, m, "rush", path, d_prof.rush)
+        sex = c.string(m, "sex", f"{path}.sex", required=False, default="", choices=SEXES)
+        carrying = c.string(m, "carrying", f"{path}.carrying", required=False, default="none",
+                            choices=CARRYING)
         if radius is not None and pref is not None and mx is not None:
             out[name] = AgentProfile(name=name, radius=radius, pref_speed=pref, max_speed=mx,
-                                     limits=lim, characters=chars)
+                                     limits=lim, characters=chars, kindness=kindness, rush=rush,
+                                     sex=sex or "", carrying=carrying or "none")
     return out
+
+
+def _trait(c: _Checker, m: dict[str, Any], key: str, path: str,
+           default: tuple[float, float]) -> tuple[float, float]:
+    """A personality factor of Huang & Terzopoulos §5.1.3 in [0, 1]: a number, or
+    ``{uniform = [lo, hi]}`` drawn per agent."""
+    v = m.get(key, MISSING)
+    if v is MISSING:
+        return default
+    if is_num(v) and 0.0 <= float(v) <= 1.0:
+        return (float(v), float(v))
+    if (isinstance(v, dict) and list(v) == ["uniform"] and isinstance(v["uniform"], list)
+            and len(v["uniform"]) == 2 and all(is_num(x) for x in v["uniform"])
+            and 0.0 <= v["uniform"][0] <= v["uniform"][1] <= 1.0):
+        return (float(v["uniform"][0]), float(v["uniform"][1]))
+    c.bad(f"{path}.{key}", v, "expected a number in [0, 1] or {uniform = [lo, hi]} with 0 <= lo <= hi <= 1")
+    return default
+
+
+def _etiquette(c: _Checker, e: dict[str, Any]) -> EtiquetteConfig:
+    """``[etiquette]``: door etiquette for the scene's doors (see :class:`EtiquetteConfig`)."""
+    d = EtiquetteConfig()
+    c.known(e, "etiquette", ("enabled", "decisions", "keep", "wait_credit", "user_patience"))
+    return EtiquetteConfig(
+        enabled=c.boolean(e, "enabled", "etiquette.enabled", default=d.enabled),
+        decisions=c.string(e, "decisions", "etiquette.decisions", required=False, default=d.decisions,
+                           choices=ETIQUETTE_DECISIONS) or d.decisions,
+        keep=c.string(e, "keep", "etiquette.keep", required=False, default=d.keep,
+                      choices=KEEP_SIDES) or d.keep,
+        wait_credit=_or(c.number(e, "wait_credit", "etiquette.wait_credit", required=False,
+                                 default=d.wait_credit, check=lambda x: 0.0 <= x <= 5.0,
+                                 expect="in [0, 5] m/s"), d.wait_credit),
+        user_patience=_or(c.number(e, "user_patience", "etiquette.user_patience", required=False,
+                                   default=d.user_patience, check=lambda x: 0.5 <= x <= 60.0,
+                                   expect="in [0.5, 60] s"), d.user_patience),
+    )
 
 
 def _behavior(c: _Checker, b: dict[str, Any], world: WorldConfig | None) -> BehaviorConfig | None:
@@ -692,7 +848,8 @@ def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
         if not isinstance(s, dict):
             c.bad(path, s, "expected a table")
             continue
-        c.known(s, path, ("profile", "state", "positions", "count", "region", "facing_deg"))
+        c.known(s, path, ("profile", "state", "positions", "count", "region", "facing_deg", "friends"))
+        friends = c.boolean(s, "friends", f"{path}.friends", default=False)
         profile = c.string(s, "profile", f"{path}.profile")
         if profile is not None and profile not in profiles:
             c.bad(f"{path}.profile", profile, f"unknown profile; known: {', '.join(sorted(profiles))}")
@@ -713,9 +870,12 @@ def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
         else:
             count = c.whole(s, "count", f"{path}.count", minimum=1) or 0
             region = _region(c, s["region"], f"{path}.region")
+        if friends and (len(positions) or count) % 2:
+            c.bad(f"{path}.friends", True, "friends walk in pairs: the spawn needs an even number of agents")
         if profile in profiles and state is not None and (positions or count):
             out.append(Spawn(profile=profile, state=state, positions=positions, count=count,
-                             region=region, facing=None if facing is None else math.radians(facing)))
+                             region=region, facing=None if facing is None else math.radians(facing),
+                             friends=bool(friends)))
     return tuple(out)
 
 
@@ -750,7 +910,11 @@ def _blocked(world: WorldConfig | None) -> Any:
 
 def _user(c: _Checker, u: dict[str, Any], world: WorldConfig | None) -> UserConfig | None:
     c.known(u, "user", ("start", "heading_deg", "radius", "speed", "route", "sphere_radius",
-                        "enabled", "walk"))
+                        "enabled", "walk", "sex", "carrying", "door_hold"))
+    sex = c.string(u, "sex", "user.sex", required=False, default="male", choices=SEXES)
+    carrying = c.string(u, "carrying", "user.carrying", required=False, default="none", choices=CARRYING)
+    door_hold = c.number(u, "door_hold", "user.door_hold", required=False, default=0.0,
+                         check=lambda x: 0.0 <= x <= 60.0, expect="in [0, 60] s")
     s = u.get("start", MISSING)
     start = c.point(s, "user.start") if s is not MISSING else None
     if s is MISSING:
@@ -776,4 +940,5 @@ def _user(c: _Checker, u: dict[str, Any], world: WorldConfig | None) -> UserConf
     if start is None or heading is None or radius is None or speed is None or sphere is None:
         return None
     return UserConfig(start=start, heading=math.radians(heading), radius=radius, speed=speed,
-                      route=route, sphere_radius=sphere, enabled=enabled, walk=walk)
+                      route=route, sphere_radius=sphere, enabled=enabled, walk=walk, sex=sex or "male",
+                      carrying=carrying or "none", door_hold=door_hold or 0.0)

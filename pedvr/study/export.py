@@ -50,6 +50,7 @@ TABLE_FILES = (
     "gaze_events",
     "contacts",
     "demonstrations",
+    "door_events",
 )
 # Trials whose samples are superseded by a rerun (see the module docstring).
 RERUN_OUTCOMES = ("interrupted", "aborted")
@@ -89,6 +90,7 @@ def read_table(store: StudyStore, table: str) -> pd.DataFrame:
         "gaze_events": "trial_id, frame, agent_id",
         "demonstrations": "trial_id, frame, demo_id",
         "contacts": "trial_id, frame, agent_a, agent_b",
+        "door_events": "trial_id, frame, agent_id",
         "agent_samples": "trial_id, frame, agent_id",
     }[table]
     if table == "samples":

@@ -10,8 +10,6 @@ questionnaire scores, the report tables them, and the export writes them
     @register_measure("doors_held_for_user", unit="count", label="doors held for the participant")
     def _doors_held(r: TrialRecord) -> float | None: ...
 
-(door etiquette will add its own once it records events; ``doors held for the
-participant`` is not measured yet).
 
 Definitions (choices where the issue leaves room, stated once here):
 
@@ -51,6 +49,10 @@ Definitions (choices where the issue leaves room, stated once here):
                       exhibit was within :data:`WATCH_HALF_FOV_DEG` of the head's yaw (about a
                       headset's horizontal field of view, 100–110°). Each demonstration counts once.
                       0 when the trial had no demonstration.
+``doors_held_for_participant``  doors an agent held open for the participant in the trial: the
+                      agent decided HOF or HOL for the participant (``door_events`` rows ``hold``
+                      with the user, action HOF or HOL), whether or not the participant then came
+                      (Huang & Terzopoulos §5; a study can ask whether participants noticed courtesy).
 """
 
 from __future__ import annotations
@@ -101,6 +103,7 @@ class TrialRecord:
     gaze_starts: int
     demo_gaze_starts: int = 0
     strokes: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    doors_held_for_user: int = 0
 
 
 @dataclass(frozen=True)
@@ -237,6 +240,9 @@ def _watched(r: TrialRecord) -> float | None:
     off = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - r.head_yaw[k])))
     seen = near & (np.abs(off) <= math.radians(WATCH_HALF_FOV_DEG))
     return float(len(set(r.strokes[seen, 1].astype(np.int64).tolist())))
+@register_measure("doors_held_for_participant", unit="count", label="doors held for the participant")
+def _doors_held(r: TrialRecord) -> float | None:
+    return float(r.doors_held_for_user)
 
 
 def yaw_of(qw: np.ndarray, qx: np.ndarray, qy: np.ndarray, qz: np.ndarray) -> np.ndarray:
@@ -262,6 +268,12 @@ def load_trials(store: StudyStore, trial_ids: list[int] | None = None) -> Iterat
         store.db.execute(
             "SELECT trial_id, COUNT(*) FROM gaze_events WHERE event = 'start' AND target = 'user' "
             "AND source = 'demonstration' GROUP BY trial_id"
+        ).fetchall()
+    )
+    held = dict(
+        store.db.execute(
+            "SELECT trial_id, COUNT(*) FROM door_events WHERE event = 'hold' AND with_user = 1 "
+            "AND action IN ('HOF', 'HOL') GROUP BY trial_id"
         ).fetchall()
     )
     for tid, outcome, sim_time_s in trials.fetchall():
@@ -302,6 +314,7 @@ def load_trials(store: StudyStore, trial_ids: list[int] | None = None) -> Iterat
             gaze_starts=int(gaze.get(tid, 0)),
             demo_gaze_starts=int(demo_gaze.get(tid, 0)),
             strokes=strokes,
+            doors_held_for_user=int(held.get(tid, 0)),
         )
 
 

@@ -97,6 +97,8 @@ class Protocol:
     source: str
     content_hash: str
     base_dir: Path = Path(".")
+    participant_sex: str = ""  # "" keeps the scene's [user] sex (door etiquette's Care)
+    participant_carrying: str = ""  # "" keeps the scene's [user] carrying
 
     def scene_path(self, scene: str) -> Path:
         """The file a trial's scene reference names (:func:`scene_path`)."""
@@ -188,7 +190,8 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
     c.known(
         s,
         "study",
-        ("name", "title", "seed", "conditions", "labels", "comparisons", "questionnaire_dir", "eye_height_m"),
+        ("name", "title", "seed", "conditions", "labels", "comparisons", "questionnaire_dir", "eye_height_m",
+         "participant_sex", "participant_carrying"),
     )
     name = c.string(s, "name", "study.name")
     if name is not None and not _ID.match(name):
@@ -215,6 +218,13 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
         check=lambda x: 0.5 <= x <= 2.5,
         expect="in [0.5, 2.5] m",
     )
+    # Door etiquette (issue 14): who agents holding a door see in the participant (Care, Huang &
+    # Terzopoulos Table 3); "" keeps each scene's [user] sex and carrying.
+    from pedvr.scene.config import CARRYING, SEXES
+
+    p_sex = c.string(s, "participant_sex", "study.participant_sex", required=False, default="", choices=SEXES)
+    p_carrying = c.string(s, "participant_carrying", "study.participant_carrying", required=False, default="",
+                          choices=CARRYING)
     qdir_name = c.string(
         s, "questionnaire_dir", "study.questionnaire_dir", required=False, default="questionnaires"
     )
@@ -440,6 +450,8 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
         source=source,
         content_hash=content_hash,
         base_dir=base_dir,
+        participant_sex=p_sex or "",
+        participant_carrying=p_carrying or "",
     )
 
 

@@ -396,6 +396,10 @@ class Session:
         assert spec is not None and self.session_id is not None
         scene_file = self.protocol.scene_path(spec.scene)
         scene = load_any(scene_file, seed=spec.seed)
+        if self.protocol.participant_sex or self.protocol.participant_carrying:  # door etiquette's Care
+            u = scene.user
+            scene = replace(scene, user=replace(u, sex=self.protocol.participant_sex or u.sex,
+                                                carrying=self.protocol.participant_carrying or u.carrying))
         user_input = self.participant.trial_input(trial=spec, scene=scene)
         sim = Simulation(
             scene,
@@ -505,6 +509,8 @@ class _SampleRecorder:
         self.agents: list[tuple[Any, ...]] = []
         self.contacts: list[tuple[Any, ...]] = []
         self.gaze: list[tuple[Any, ...]] = []
+        self.doors: list[tuple[Any, ...]] = []
+        self._doors_seen = 0
         self.min_distance: float | None = None
         self.contact_count = 0
         self.gaze_count = 0
@@ -541,6 +547,13 @@ class _SampleRecorder:
                      str(ev["event"]), float(ev["x"]), float(ev["y"]), ev.get("outcome"))
                 )
         self._demo_seen = len(demos)
+        # Door etiquette's events since the last frame (who held a door for whom, HOF/HOL/NH, waits,
+        # thank-yous; pedvr.etiquette.system.DoorEtiquette.events), at this frame.
+        etiquette = getattr(sim, "etiquette", None)
+        if etiquette is not None:
+            self.doors.extend(door_row(self.trial_id, frame, ev, etiquette.user_id)
+                              for ev in etiquette.events[self._doors_seen :])
+            self._doors_seen = len(etiquette.events)
         pos, rad, ids, is_user = crowd.pos, crowd.radius, crowd.ids, crowd.is_user
         nearest = None
         user = np.flatnonzero(is_user)
@@ -585,11 +598,26 @@ class _SampleRecorder:
         """Commit the buffered rows. The buffers are emptied first, so a flush cut short by a signal
         loses at most this chunk and a second flush never writes a row twice."""
         samples, agents, contacts, gaze = self.samples, self.agents, self.contacts, self.gaze
-        demos = self.demonstrations
-        self.samples, self.agents, self.contacts, self.gaze, self.demonstrations = [], [], [], [], []
-        if samples or agents or contacts or gaze or demos:
+        demos, doors = self.demonstrations, self.doors
+        self.samples, self.agents, self.contacts, self.gaze = [], [], [], []
+        self.demonstrations, self.doors = [], []
+        if samples or agents or contacts or gaze or demos or doors:
             self.store.write_samples(samples=samples, agents=agents, contacts=contacts, gaze=gaze,
-                                     demonstrations=demos)
+                                     demonstrations=demos, doors=doors)
+
+
+def door_row(trial_id: int, frame: int, ev: dict[str, Any], user: int | None) -> tuple[Any, ...]:
+    """One door event as a ``door_events`` row: the door, what happened, the agent it happened to,
+    the other pedestrian (its follower or holder), the holding action, whether the user is one of
+    the two, and the rest as JSON."""
+    other = ev.get("follower", ev.get("holder"))
+    with_user = bool(ev.get("for_user") or ev.get("to_user") or ev.get("user")) or (
+        user is not None and user in (ev.get("agent"), other))
+    named = ("t", "event", "door", "agent", "follower", "holder", "action")
+    rest = {k: v for k, v in ev.items() if k not in named}
+    return (trial_id, frame, float(ev["t"]), str(ev["door"]), str(ev["event"]), int(ev["agent"]),
+            None if other is None else int(other), ev.get("action"), int(with_user),
+            json.dumps(rest, sort_keys=True) if rest else None)
 
 
 MAX_DIFFERENCES = 12  # lines of a plan mismatch message before "... and N more"

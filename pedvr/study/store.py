@@ -44,7 +44,8 @@ from pedvr.study.errors import ParticipantExistsError, StudyStoreError
 # 3: answers.response_time_s, samples.spheres (the red spheres reached so far);
 # 4: gaze_events.source ('rule': the PedVR gaze rule; 'demonstration': a demonstrator looking the
 #    participant in the eyes) and the demonstrations table (pedvr.demonstrator)
-SCHEMA_VERSION = "4"
+# 5: door_events (door etiquette: who held a door for whom, HOF/HOL/NH, waits, thank-yous)
+SCHEMA_VERSION = "5"
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -101,10 +102,14 @@ CREATE TABLE IF NOT EXISTS demonstrations (
     trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, demo_id INTEGER NOT NULL,
     agent_id INTEGER NOT NULL, exhibit TEXT NOT NULL, event TEXT NOT NULL, x REAL NOT NULL, y REAL NOT NULL,
     outcome TEXT);
+CREATE TABLE IF NOT EXISTS door_events (
+    trial_id INTEGER NOT NULL, frame INTEGER NOT NULL, sim_t REAL NOT NULL, door TEXT NOT NULL,
+    event TEXT NOT NULL, agent_id INTEGER NOT NULL, other_id INTEGER, action TEXT,
+    with_user INTEGER NOT NULL, detail TEXT);
 """
 # Tables added by each schema version (created by the migration; an older file read read-only gets an
 # empty temporary one).
-ADDED_TABLES = {"4": ("demonstrations",)}
+ADDED_TABLES = {"4": ("demonstrations",), "5": ("door_events",)}
 
 # Columns added by each schema version: (table, column, SQL type and default, value read from older files).
 ADDED_COLUMNS = {
@@ -114,6 +119,7 @@ ADDED_COLUMNS = {
         ("samples", "spheres", "INTEGER", "NULL"),
     ),
     "4": (("gaze_events", "source", "TEXT NOT NULL DEFAULT 'rule'", "'rule'"),),
+    "5": (),  # a new table only (ADDED_TABLES)
 }
 
 TABLES = (
@@ -128,6 +134,7 @@ TABLES = (
     "answers",
     "events",
     "demonstrations",
+    "door_events",
 )
 
 
@@ -473,6 +480,7 @@ class StudyStore:
         contacts: list[tuple[Any, ...]],
         gaze: list[tuple[Any, ...]],
         demonstrations: Sequence[tuple[Any, ...]] = (),
+        doors: Sequence[tuple[Any, ...]] = (),
     ) -> None:
         """Commit one chunk of per-frame rows. A gaze row without a source (six values) is the gaze rule's."""
         gaze = [g if len(g) == 7 else (*g, "rule") for g in gaze]
@@ -484,6 +492,7 @@ class StudyStore:
                                 "source) VALUES (?, ?, ?, ?, ?, ?, ?)", gaze)
             self.db.executemany("INSERT INTO demonstrations VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                                 demonstrations)
+            self.db.executemany("INSERT INTO door_events VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", doors)
 
     def finish_trial(self, trial_id: int, **row: Any) -> None:
         row = dict(row)

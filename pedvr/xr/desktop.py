@@ -131,6 +131,8 @@ class DesktopPresenter:
         monitor = glfw.get_primary_monitor()
         mode = glfw.get_video_mode(monitor) if monitor else None
         self.period = 1.0 / (mode.refresh_rate if mode and mode.refresh_rate else 60.0)
+        self.door_presses = 0
+        self.holding_door = False
         glfw.set_key_callback(self.window, self._on_key)
         glfw.set_mouse_button_callback(self.window, self._on_button)
         glfw.set_cursor_pos_callback(self.window, self._on_cursor)
@@ -149,6 +151,8 @@ class DesktopPresenter:
             self._capture(False)
         elif key == glfw.KEY_H:
             self.show_hud = not self.show_hud
+        elif key == glfw.KEY_E:
+            self.door_presses += 1  # take (or let go of) the door whose handle is within reach
         else:
             name = glfw.get_key_name(key, scancode)
             if name in MODE_KEYS:
@@ -225,6 +229,10 @@ class DesktopPresenter:
         return FrameTiming(display_time=now + self.period, period=self.period)
 
     def render(self, sim: Simulation) -> None:
+        if self.door_presses and sim is not None and sim.etiquette is not None:  # E: a hand on a door
+            for _ in range(self.door_presses):
+                self.holding_door = sim.etiquette.user_hand(not self.holding_door)
+        self.door_presses = 0
         snap = Snapshot.from_sim(sim)
         r = self.renderer
         r.begin_frame()

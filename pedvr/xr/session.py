@@ -199,6 +199,7 @@ class XrPresenter:
         self.controls = Controls()
         self.triggers = 0
         self.menus = 0
+        self.holding_door = False
 
     @property
     def closed(self) -> bool:
@@ -252,6 +253,9 @@ class XrPresenter:
         return out
 
     def render(self, sim: Simulation) -> None:
+        if self.controls.trigger and sim is not None and sim.etiquette is not None:
+            # the trigger takes (or lets go of) the door whose handle is within reach of the user
+            self.holding_door = sim.etiquette.user_hand(not self.holding_door)
         if self.update is not None:
             self.update(sim)
         for i, eye in enumerate(self.eye_views()):

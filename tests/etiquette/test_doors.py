@@ -11,6 +11,7 @@ import pytest
 from pedvr.etiquette.doors import (
     BOUNCE_ANGLE,
     CLOSED,
+    HAND_SPEED,
     HELD,
     MAX_ANGLE,
     PASSAGE_ANGLE,
@@ -24,9 +25,9 @@ DT = 1 / 90
 R = 0.25
 
 
-def _leaves(kind: str = "single", width: float = 1.0) -> DoorLeaves:
+def _leaves(kind: str = "single", width: float = 1.0, swing: str = "both_ways", pull: int = 1) -> DoorLeaves:
     """A door in the line y = 0, from x = -w/2 to x = +w/2 (the + side of its first leaf is +y)."""
-    door = Door(span=((-width / 2, 0.0), (width / 2, 0.0)), kind=kind)
+    door = Door(span=((-width / 2, 0.0), (width / 2, 0.0)), kind=kind, swing=swing, pull=pull)
     return DoorLeaves.of_world(WorldConfig(bounds=((-5.0, -5.0), (5.0, 5.0)), doors=(door,)))
 
 
@@ -171,3 +172,140 @@ def test_the_user_always_gets_through_a_leaf_pinned_by_someone_else() -> None:
     np.testing.assert_allclose(out[0], user)  # the user did not move
     assert deepest <= 1e-9  # and nobody is inside the leaf any more: the walker was moved
     assert np.linalg.norm(out[1] - walker) > 0.01
+
+
+# -- one-way leaves: a pull side and a push side (App. B.2) -------------------------------------------
+
+
+def test_one_way_leaf_opens_only_into_its_pull_side() -> None:
+    leaves = _leaves(swing="one_way", pull=1)  # pulled from +y, pushed from -y
+    assert leaves.swing[0] == 1
+    # Walking in from the push side pushes it open toward the pull side.
+    trace = _walk(leaves, (0.0, -3.0), (0.0, 1.3), 4.0)
+    assert max(a[0] for _, _, a, _ in trace) >= math.radians(70)
+    assert min(a[0] for _, _, a, _ in trace) >= 0.0
+    assert max(o for *_, o in trace) <= 1e-9
+
+
+def test_nobody_walks_through_a_closed_one_way_leaf_from_its_pull_side() -> None:
+    leaves = _leaves(swing="one_way", pull=1)
+    pos = np.array([[0.1, 1.5]])
+    v = np.array([[0.0, -1.3]])
+    rad = np.array([R])
+    for _ in range(round(2.5 / DT)):
+        pos = pos + v * DT
+        leaves.step(DT, pos, v, rad)
+        pos, _ = leaves.push_out(pos, rad, np.array([True]))
+    assert leaves.angle[0] == 0.0  # never opened: it takes a hand from this side
+    assert pos[0, 1] >= R - 1e-9  # and the walker is still on its side of the closed leaf
+
+
+def test_mirrored_double_door_leaves_open_the_same_way() -> None:
+    leaves = _leaves("double", 1.8, swing="one_way", pull=-1)  # pulled from -y
+    assert list(leaves.swing) == [-1, 1]  # hinge at -x turns clockwise to -y, hinge at +x counter-clockwise
+    trace = _walk(leaves, (0.0, 3.0), (0.0, -1.3), 2.6)  # pushed from +y
+    assert max(o for *_, o in trace) <= 1e-9
+    assert (leaves.tips()[:, 1] < -0.5).all()
+
+
+# -- the hand (App. A): automatic opening, the hand leading, bounce with p_stop -----------------------
+
+
+def test_a_hand_opens_holds_and_releases_a_leaf() -> None:
+    leaves = _leaves(swing="one_way", pull=1)
+    nobody = np.zeros((0, 2))
+    leaves.grab(0, open_to=math.radians(90))
+    for _ in range(round(1.0 / DT)):
+        leaves.step(DT, nobody, nobody, np.zeros(0))
+    assert leaves.angle[0] == pytest.approx(math.radians(90))
+    # The hand leads: the leaf follows f_a of where the hand is, at most HAND_SPEED.
+    hand = hand_point(leaves.hinge[0], float(leaves.base[0]), math.radians(60), 0.9)
+    leaves.hand(0, hand_angle(leaves.hinge[0], float(leaves.base[0]), hand))
+    leaves.step(DT, nobody, nobody, np.zeros(0))
+    assert math.radians(90) - leaves.angle[0] == pytest.approx(HAND_SPEED * DT)
+    for _ in range(30):
+        leaves.step(DT, nobody, nobody, np.zeros(0))
+    assert leaves.angle[0] == pytest.approx(math.radians(60))
+    # Released with a stop at 40 degrees: it bounces, closes, halts at the stop.
+    leaves.release(0, stop=math.radians(40))
+    peak = 0.0
+    for _ in range(round(3.0 / DT)):
+        leaves.step(DT, nobody, nobody, np.zeros(0))
+        peak = max(peak, leaves.angle[0])
+    assert peak == pytest.approx(math.radians(60) + BOUNCE_ANGLE)
+    assert leaves.angle[0] == pytest.approx(math.radians(40))
+    # Caught again while closing (App. B.2: the next holder interrupts the closing).
+    leaves.release(0, bounce=0.0)
+    for _ in range(20):
+        leaves.step(DT, nobody, nobody, np.zeros(0))
+    assert 0.0 < leaves.angle[0] < math.radians(40)
+    leaves.grab(0, open_to=math.radians(80))
+    for _ in range(round(1.0 / DT)):
+        leaves.step(DT, nobody, nobody, np.zeros(0))
+    assert leaves.angle[0] == pytest.approx(math.radians(80)) and leaves.phase[0] == HELD
+
+
+def test_the_closer_never_exceeds_the_closing_speed() -> None:
+    door = Door(span=((-0.5, 0.0), (0.5, 0.0)), swing="one_way", closing_speed=math.radians(30))
+    leaves = DoorLeaves.of_world(WorldConfig(bounds=((-5.0, -5.0), (5.0, 5.0)), doors=(door,)))
+    leaves.angle[0] = math.radians(90)
+    leaves.side[0] = 1
+    leaves.release(0, bounce=0.0)
+    prev = leaves.angle[0]
+    nobody = np.zeros((0, 2))
+    for _ in range(round(2.0 / DT)):
+        leaves.step(DT, nobody, nobody, np.zeros(0))
+        assert prev - leaves.angle[0] <= math.radians(30) * DT + 1e-12
+        prev = leaves.angle[0]
+    assert leaves.angle[0] == pytest.approx(math.radians(90 - 60), abs=math.radians(1))
+
+
+def test_a_hand_never_swings_a_leaf_into_someone() -> None:
+    leaves = _leaves(swing="one_way", pull=1)
+    bystander = np.array([[0.0, 0.6]])  # in the swing on the pull side
+    leaves.grab(0, open_to=math.radians(90))
+    for _ in range(round(1.0 / DT)):
+        leaves.step(DT, bystander, np.zeros((1, 2)), np.array([R]))
+    assert _overlap(leaves, bystander, np.array([R])) <= 1e-9
+    assert leaves.angle[0] < math.radians(60)
+
+
+# -- revolving doors (§4.5.1) ----------------------------------------------------------------------
+
+
+def _revolving() -> DoorLeaves:
+    door = Door(span=((-1.1, 0.0), (1.1, 0.0)), kind="revolving")
+    return DoorLeaves.of_world(WorldConfig(bounds=((-5.0, -5.0), (5.0, 5.0)), doors=(door,)))
+
+
+def test_a_revolving_door_turns_only_when_pushed_and_never_into_anyone() -> None:
+    leaves = _revolving()
+    assert len(leaves) == 4 and leaves.panel.all() and len(leaves.revolvers) == 1
+    nobody = np.zeros((0, 2))
+    for _ in range(90):
+        leaves.step(DT, nobody, nobody, np.zeros(0))
+    assert leaves.revolvers.rotation[0] == 0.0  # nobody pushes: it stands
+    leaves.revolvers.push[0] = 0.5
+    for _ in range(180):
+        leaves.step(DT, nobody, nobody, np.zeros(0))
+    assert leaves.revolvers.rotation[0] > 0.5  # pushed counter-clockwise
+    assert np.allclose(leaves.angle, leaves.revolvers.rotation[0])
+    # Someone standing still in a compartment that nobody carries stops the door short of them.
+    mid = leaves.revolvers.compartment_angle(0, 0)
+    standing = 0.65 * np.array([[math.cos(mid), math.sin(mid)]])
+    for _ in range(360):
+        leaves.step(DT, standing, np.zeros((1, 2)), np.array([R]))
+        assert _overlap(leaves, standing, np.array([R])) <= 1e-9
+    assert abs(leaves.revolvers.omega[0]) < 1e-9
+    # Carried, the same person rides along: the door turns again.
+    before = leaves.revolvers.rotation[0]
+    leaves.step(DT, standing, np.zeros((1, 2)), np.array([R]), carried=np.array([True]))
+    assert leaves.revolvers.rotation[0] > before
+
+
+def test_the_user_pushes_a_revolving_door_out_of_the_way() -> None:
+    leaves = _revolving()
+    # The user stands across panel 0 (along +x at rest).
+    user = np.array([[0.7, 0.05]])
+    leaves.step(DT, user, np.zeros((1, 2)), np.array([R]), fixed=np.array([True]))
+    assert _overlap(leaves, user, np.array([R])) <= 1e-9

@@ -116,3 +116,30 @@ def test_a_doors_array_of_the_wrong_shape_is_refused(door_renderer: Renderer) ->
     snap = Snapshot.of_agents(pos=np.zeros((0, 2)), heading=np.zeros(0), doors=np.zeros((2, 5)))
     with pytest.raises(ValueError, match=r"doors shape \(2, 5\): expected \(1, 5\)"):
         door_renderer.update(snap)
+
+
+# A revolving door (issue 14) in the same wall: its four panels are drawn like leaves, turned
+# with the door.
+REVOLVING = WorldConfig(
+    bounds=((-6.0, -6.0), (8.0, 6.0)),
+    obstacles=(_wall(2.9, -6.0, 3.1, -1.1), _wall(2.9, 1.1, 3.1, 6.0)),
+    doors=(Door(span=((3.0, -1.1), (3.0, 1.1)), kind="revolving"),),
+)
+
+
+def test_revolving_door_panels_are_drawn_where_the_door_has_turned(ctx: moderngl.Context) -> None:
+    r = Renderer(ctx, world=REVOLVING, shadows=False)
+    try:
+        leaves = DoorLeaves.of_world(REVOLVING)
+        assert len(leaves) == 4 and leaves.panel.all()
+        still = _render(r, leaves.pose())
+        leaves.angle[:] = math.radians(45.0)
+        turned = _render(r, leaves.pose())
+        leaves.angle[:] = math.radians(90.0)  # a quarter turn: the same cross again
+        quarter = _render(r, leaves.pose())
+    finally:
+        r.release()
+    rows, cols = _doorway_box()
+    changed = (np.abs(still[rows, cols] - turned[rows, cols]).max(axis=2) > 12).mean()
+    assert changed > 0.05  # the panels moved across the doorway
+    assert np.abs(still - quarter).max() <= 2  # four panels 90 degrees apart look the same

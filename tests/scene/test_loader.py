@@ -80,21 +80,51 @@ def test_state_gesture_sets_reach_the_body(tmp_path: Path) -> None:
 DOORWAY = [{"kind": "wall", "wall": [[0.0, -5.0], [0.0, -0.5]]}, {"kind": "wall", "wall": [[0.0, 0.5], [0.0, 5.0]]}]
 
 
+PULL = {"pull_side": [-1.0, 0.0]}
+
+
 @pytest.mark.parametrize("door, message", [
-    ({"span": [[0.0, -0.5], [0.0, 0.5]], "kind": "revolving"},
-     r"world\.doors\[0\]\.kind = 'revolving': expected one of single, double$"),
-    ({"kind": "single"}, r"world\.doors\[0\]\.span = <missing>: required list of at least 2 \[x, y\] points"),
-    ({"span": [[0.0, -0.5], [0.0, 0.5], [0.0, 1.0]]},
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "kind": "sliding", **PULL},
+     r"world\.doors\[0\]\.kind = 'sliding': expected one of single, double, revolving$"),
+    ({"kind": "single"},
+     r"world\.doors\[0\]\.span = <missing>: required \[\[x0, y0\], \[x1, y1\]\] \(or at, width and along_deg\)"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5], [0.0, 1.0]], **PULL},
      r"world\.doors\[0\]\.span = .*: expected two jambs \[\[x0, y0\], \[x1, y1\]\]"),
-    ({"span": [[0.0, -1.0], [0.0, 1.0]]},
+    ({"span": [[0.0, -1.0], [0.0, 1.0]], **PULL},
      r"world\.doors\[0\]\.span = .*: a single door is 0\.7 to 1\.6 m wide; this is 2\.00 m"),
-    ({"span": [[0.0, -0.5], [0.0, 0.5]], "kind": "double"},
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "kind": "double", **PULL},
      r"world\.doors\[0\]\.span = .*: a double door is 1\.2 to 3\.2 m wide; this is 1\.00 m"),
-    ({"span": [[0.0, -1.2], [0.0, -0.2]]},
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "kind": "revolving"},
+     r"world\.doors\[0\]\.span = .*: a revolving door is 1\.6 to 3\.6 m wide; this is 1\.00 m"),
+    ({"span": [[0.0, -1.2], [0.0, -0.2]], **PULL},
      r"world\.doors\[0\]\.span = .*: crosses an obstacle; a door fills a gap between obstacles"),
-    ({"span": [[4.8, 0.0], [5.8, 0.0]]}, r"world\.doors\[0\]\.span = .*: lies outside world\.bounds"),
-    ({"span": [[0.0, -0.5], [0.0, 0.5]], "height": 9}, r"world\.doors\[0\]\.height = 9: must be in \[1\.5, 4\] m"),
-    ({"span": [[0.0, -0.5], [0.0, 0.5]], "hinge": "left"}, r"world\.doors\[0\]\.hinge = 'left': unknown key"),
+    ({"span": [[4.8, 0.0], [5.8, 0.0]], "swing": "both_ways"},
+     r"world\.doors\[0\]\.span = .*: lies outside world\.bounds"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "height": 9, **PULL},
+     r"world\.doors\[0\]\.height = 9: must be in \[1\.5, 4\] m"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "hinge": "left", **PULL},
+     r"world\.doors\[0\]\.hinge = 'left': expected one of start, end"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]]},
+     r"world\.doors\[0\]\.pull_side = <missing>: required for a one-way door: a point \[x, y\] on the side "
+     r"it is pulled open from \(or swing = \"both_ways\"\)$"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "pull_side": [0.0, 2.0]},
+     r"world\.doors\[0\]\.pull_side = \[0\.0, 2\.0\]: lies on the door's line; give a point on one side"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "swing": "both_ways", **PULL},
+     r"world\.doors\[0\]\.pull_side = .*: a double-acting door \(swing = \"both_ways\"\) has no pull side"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "swing": "sideways"},
+     r"world\.doors\[0\]\.swing = 'sideways': expected one of one_way, both_ways"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "rotation": "ccw", **PULL},
+     r"world\.doors\[0\]\.rotation = 'ccw': only a revolving door rotates"),
+    ({"span": [[0.0, -1.0], [0.0, 1.0]], "kind": "revolving", **PULL},
+     r"world\.doors\[0\]\.pull_side = .*: a revolving door has no leaves to swing"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "closing_speed_deg": 5, **PULL},
+     r"world\.doors\[0\]\.closing_speed_deg = 5: must be in \[10, 720\] deg/s"),
+    ({"span": [[0.0, -0.5], [0.0, 0.5]], "sensing_range": 100, **PULL},
+     r"world\.doors\[0\]\.sensing_range = 100: must be in \[2, 50\] m"),
+    ({"at": [0.0, 0.0], "width": 1.0, **PULL},
+     r"world\.doors\[0\]\.span = <missing>: required \[\[x0, y0\], \[x1, y1\]\] \(or at, width and along_deg\)"),
+    ({"at": [0.0, 0.0], "span": [[0.0, -0.5], [0.0, 0.5]], **PULL},
+     r"world\.doors\[0\]\.at = \[0\.0, 0\.0\]: give either span or at, width and along_deg"),
 ])
 def test_each_door_problem_has_its_message(tmp_path: Path, door: dict, message: str) -> None:
     with pytest.raises(SceneError, match=message):
@@ -102,7 +132,7 @@ def test_each_door_problem_has_its_message(tmp_path: Path, door: dict, message: 
 
 
 def test_doors_whose_leaves_would_meet_are_refused(tmp_path: Path) -> None:
-    doors = [{"span": [[0.0, -0.5], [0.0, 0.5]]}, {"span": [[0.2, -0.5], [1.2, -0.5]]}]
+    doors = [{"span": [[0.0, -0.5], [0.0, 0.5]], **PULL}, {"span": [[0.2, -0.5], [1.2, -0.5]], "swing": "both_ways"}]
     with pytest.raises(SceneError, match=r"world\.doors\[1\]\.span = .*: its leaves would swing into those "
                                          r"of world\.doors\[0\]"):
         load_scene(write(tmp_path, patched(world__obstacles=DOORWAY, world__doors=doors)))
@@ -110,9 +140,60 @@ def test_doors_whose_leaves_would_meet_are_refused(tmp_path: Path) -> None:
 
 def test_a_good_door_loads(tmp_path: Path) -> None:
     s = load_scene(write(tmp_path, patched(world__obstacles=DOORWAY,
-                                           world__doors=[{"kind": "single", "span": [[0.0, -0.5], [0.0, 0.5]]}])))
+                                           world__doors=[{"kind": "single", "span": [[0.0, -0.5], [0.0, 0.5]],
+                                                          "pull_side": [-1.0, 0.2], "hinge": "end"}])))
     (door,) = s.world.doors
     assert door.kind == "single" and door.width == pytest.approx(1.0) and door.height == 2.1
+    # span[0] -> span[1] runs +y; its left is -x, where the pull side is.
+    assert door.swing == "one_way" and door.pull == 1 and door.hinge == 1 and door.name == "door_0"
+
+
+def test_a_revolving_door_gets_its_drum(tmp_path: Path) -> None:
+    wall = [{"kind": "wall", "wall": [[0.0, -5.0], [0.0, -1.1]]}, {"kind": "wall", "wall": [[0.0, 1.1], [0.0, 5.0]]}]
+    s = load_scene(write(tmp_path, patched(world__obstacles=wall, world__doors=[
+        {"kind": "revolving", "at": [0.0, 0.0], "width": 2.2, "along_deg": 90, "name": "main"}])))
+    (door,) = s.world.doors
+    assert door.kind == "revolving" and door.width == pytest.approx(2.2) and door.name == "main"
+    assert len(s.world.obstacles) == 4  # the two walls and the drum's two curved walls
+    from shapely.geometry import Point, Polygon
+
+    drum = [Polygon(o.vertices) for o in s.world.obstacles[2:]]
+    assert all(d.is_valid for d in drum)
+    # The drum closes the door's sides along the wall and leaves both sides of the wall open.
+    assert any(d.distance(Point(0.0, 1.15)) < 0.06 for d in drum)
+    assert not any(d.distance(Point(1.1, 0.0)) < 0.2 or d.distance(Point(-1.1, 0.0)) < 0.2 for d in drum)
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"etiquette": {"keep": "middle"}}, r"etiquette\.keep = 'middle': expected one of right, left"),
+    ({"etiquette": {"decisions": "coin"}}, r"etiquette\.decisions = 'coin': expected one of meu, sampled"),
+    ({"etiquette": {"wait_credit": -1}}, r"etiquette\.wait_credit = -1: must be in \[0, 5\] m/s"),
+    ({"etiquette": {"patience": 3}}, r"etiquette\.patience = 3: unknown key"),
+    ({"agents__profiles__adult__kindness": 1.5},
+     r"agents\.profiles\.adult\.kindness = 1\.5: expected a number in \[0, 1\] or \{uniform = \[lo, hi\]\}"),
+    ({"agents__profiles__adult__rush": {"uniform": [0.8, 0.2]}},
+     r"agents\.profiles\.adult\.rush = \{\.\.\.\}: expected a number in \[0, 1\] or \{uniform"),
+    ({"agents__profiles__adult__carrying": "bag"},
+     r"agents\.profiles\.adult\.carrying = 'bag': expected one of none, box, perambulator"),
+    ({"agents__profiles__adult__sex": "x"}, r"agents\.profiles\.adult\.sex = 'x': expected one of female, male"),
+    ({"user__door_hold": -2}, r"user\.door_hold = -2: must be in \[0, 60\] s"),
+    ({"user__carrying": "pram"}, r"user\.carrying = 'pram': expected one of none, box, perambulator"),
+])
+def test_each_etiquette_problem_has_its_message(tmp_path: Path, changes: dict, message: str) -> None:
+    data = patched(**{k: v for k, v in changes.items() if k != "etiquette"})
+    if "etiquette" in changes:
+        data["etiquette"] = changes["etiquette"]
+    with pytest.raises(SceneError, match=message):
+        load_scene(write(tmp_path, data))
+
+
+def test_friends_come_in_pairs(tmp_path: Path) -> None:
+    data = patched(agents__spawns__0__friends=True)
+    n = len(data["agents"]["spawns"][0].get("positions", [])) or data["agents"]["spawns"][0].get("count", 0)
+    if n % 2 == 0:
+        data["agents"]["spawns"][0]["positions"] = data["agents"]["spawns"][0]["positions"][:1]
+    with pytest.raises(SceneError, match=r"agents\.spawns\[0\]\.friends = true: friends walk in pairs"):
+        load_scene(write(tmp_path, data))
 
 
 @pytest.mark.parametrize("changes, message", [

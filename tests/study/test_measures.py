@@ -99,7 +99,7 @@ def test_yaw_from_quaternion() -> None:
 def test_registry_names_the_measures_and_refuses_duplicates() -> None:
     assert measure_names() == ["min_distance_m", "contacts", "max_overlap_m", "time_to_finish_s", "path_length_m",
                                "path_efficiency", "head_yaw_sd_deg", "gaze_events_received", "demonstration_gazes",
-                               "demonstrations_watched"]
+                               "demonstrations_watched", "doors_held_for_participant"]
     with pytest.raises(ValueError, match="objective measure 'contacts' is already registered"):
         register_measure("contacts", unit="count", label="again")(lambda r: 0.0)
     with pytest.raises(KeyError, match="unknown objective measure 'doors_held'; known: contacts"):

@@ -1,0 +1,855 @@
+"""The state-based door interaction model for hinged doors (Huang & Terzopoulos §4.2–4.4, App. B).
+
+One decision tick of one single or double door: the doorway ordering (Alg. 1, or Alg. 3–4
+for a double door, :mod:`.ordering`), the doorway behavior of Alg. 2 with the waiting regions
+of Table 1, and then the interaction states of Fig. 7 and App. B for every holder and follower:
+
+Holder: ``OpenerInit`` (walk to the BOP, App. C steps) → ``ReachDoor`` (face the handle or bar,
+reach with the right hand to pull, the left to push, eyes on the hand) → ``OpenDoor`` (the
+automatic opening; the door leads the hand, ``f_pabs``; pulling, the holder steps round outside
+the swing; pushing, it walks into the doorway) → ``HolderDec`` (the critical motion phase: the
+follower is committed and the holder decides HOF / HOL / NH with the network of §5) →
+``HoldDoor`` (HOF: stand just beyond the open leaf's edge holding it, watching the follower pass;
+HOL: step into or through the doorway holding it until the follower has it) → ``ReleaseDoor`` →
+``FinishDoor`` (pass, the hand on the leaf until past it, then let go: ``f_bounce``).
+
+Follower: ``FollowerInit`` (committed: close up behind, or to the opposing side's waiting place)
+→ ``FollowerDec`` (PF to HOF: pass first, thanking the holder; PL to HOL: ``ReachEdge``, take
+the door, and become the holder in ``HolderDec``, the red routine of Fig. 7; after NH: open the
+door itself once the holder lets go). A HOF holder whose follower has passed is back in
+``HolderDec`` for the next one (the blue routine).
+
+Choices where the paper leaves room (it draws the key poses, Fig. 18, without measuring them):
+positions come from :class:`~pedvr.etiquette.regions.LeafFrame`; NH opens to the smallest angle
+that clears the passing lane plus 25° (at least 45°, App. B.3 "the minimal angle that permits
+passage"); a carrier or a perambulator pusher (no free hand, §4.6) pushes a push side open with
+its body, waits at a pull side for someone to open it (a helper overtakes it), passes first
+whatever the holder decided (it cannot take a door over), and after :data:`CARRIER_PATIENCE`
+alone frees a hand; every state gives up after a timeout, so nobody waits for ever on a state.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from pedvr.body.steps import LEFT, RIGHT
+from pedvr.etiquette.ordering import NONE, Candidate, DoubleDoor, choose_side, leaders
+from pedvr.etiquette.regions import (
+    BOP_PULL_POLAR,
+    HOLD_ANGLE,
+    HOLD_BEYOND,
+    LANE_AT,
+    PULL_HAND_AT,
+    PUSH_HAND_AT,
+    LeafFrame,
+    waiting_radii,
+)
+from pedvr.etiquette.system import (
+    APPROACH,
+    CARRIER_PATIENCE,
+    CATCH_UP,
+    CATCH_UP_AT,
+    CLEAR,
+    DECIDE_WAIT,
+    FINISH_DOOR,
+    FOLLOWER,
+    FOLLOWER_DEC,
+    FOLLOWER_INIT,
+    HELP_RANGE,
+    HOLD_DOOR,
+    HOLD_TIMEOUT,
+    HOLDER,
+    HOLDER_DEC,
+    OPEN_DOOR,
+    OPENER_INIT,
+    OPENER_RANGE,
+    PASSING,
+    REACH_DOOR,
+    REACH_EDGE,
+    REACH_TIME,
+    STATE_TIMEOUT,
+    THANK_RANGE,
+    DoorEtiquette,
+    Walker,
+)
+
+if TYPE_CHECKING:
+    from pedvr.crowd.state import CrowdState
+
+TICK = 1.0 / 30.0
+READY_AFTER = 2.5  # s: the longest a holder waits for its committed follower to close up
+PULL_OPEN_SPEED = 0.9  # rad/s: a pulled leaf opens no faster than the puller steps round with it
+PUSH_OPEN_SPEED = 2.0  # rad/s: a pushed one, as the pusher walks in
+
+
+def nh_angle(frame: LeafFrame, radius: float) -> float:
+    """The angle NH opens to: the passing lane clear of the leaf by the radius, plus 25°."""
+    a = math.asin(min(1.0, (radius + 0.12) / (LANE_AT * frame.w))) + math.radians(25.0)
+    return min(max(a, math.radians(45.0)), math.radians(85.0))
+
+
+def decide_hinged(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: CrowdState) -> None:
+    """One decision tick of hinged door ``k`` (module docstring)."""
+    ds = et.dstate[k]
+    door = et.doors[k]
+    by_id = {w.id: w for w in walkers}
+    _update_waiting(et, walkers, crowd)
+    _choose_helpers(et, walkers, crowd)
+    # -- ordering ---------------------------------------------------------------------------
+    cands = []
+    for w in walkers:
+        if w.role == PASSING or w.id not in et._row or (w.role == HOLDER and w.state == FINISH_DOOR):
+            continue  # on its way through: no longer anyone's leader
+        p = et.pos(crowd, w.id)
+        rel = p - ds.centre
+        skip: set[int] = set()
+        r = et._row[w.id]
+        fr = int(et.friend[r])
+        pull_r, push_r, _ = waiting_radii(door.kind)
+        if fr != NONE and fr in by_id and float(np.hypot(*rel)) > push_r:
+            skip.add(fr)  # friends side by side: no leader between them until the door (§4.6)
+        if w.helping != NONE:
+            skip.add(w.helping)
+        # a holder is at the door, its committed follower next, whatever their distances (the BOP
+        # lies farther from the door's middle than the lane does)
+        d_door = 0.0 if w.role == HOLDER else 0.05 if w.role == FOLLOWER else float(np.hypot(*rel))
+        cands.append(Candidate(id=w.id, pos=(float(p[0]), float(p[1])), side=w.side, d_door=d_door,
+                               waited=w.waited, holder=w.role == HOLDER, follower=w.role == FOLLOWER,
+                               critical=w.role == HOLDER and w.state >= HOLDER_DEC,
+                               leaf=ds.leaves.index(w.leaf) if w.leaf in ds.leaves else -1,
+                               skip=frozenset(skip)))
+    if door.kind == "double":
+        _double_sides(et, k, walkers, cands, crowd)
+        lead = {}
+        for side in (0, 1):
+            lead.update(leaders([c for c in cands if c.leaf == side], wait_credit=et.cfg.wait_credit))
+    else:
+        for w in walkers:
+            w.leaf = ds.leaves[0]
+        lead = leaders(cands, wait_credit=et.cfg.wait_credit)
+    for w in walkers:
+        if w.role == APPROACH and w.id in lead:
+            w.leader = lead[w.id]
+    # -- Alg. 2 and the interaction states, in id order ----------------------------------------
+    for w in walkers:
+        if w.id not in et.walkers:
+            continue  # dropped by an earlier walker's transition
+        if w.is_user:
+            _user_walker(et, w, by_id, crowd)
+        elif w.role == APPROACH:
+            _doorway_behavior(et, w, by_id, crowd)
+        elif w.role == HOLDER:
+            _holder(et, w, by_id, crowd)
+        elif w.role == FOLLOWER:
+            _follower(et, w, by_id, crowd)
+        elif w.role == PASSING:
+            _passing(et, w, by_id, crowd)
+
+
+# -- ordering helpers ----------------------------------------------------------------------------
+
+
+def _update_waiting(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState) -> None:
+    for w in walkers:
+        if w.is_user or w.id not in et._row:
+            continue
+        r = et._row[w.id]
+        slow = float(np.hypot(*crowd.vel[r])) < 0.2
+        if slow and w.waiting and w.role in (APPROACH, FOLLOWER):
+            w.waited += TICK
+            if math.isnan(w.wait_from):
+                w.wait_from = et.t
+        else:
+            w.wait_from = math.nan
+
+
+def _choose_helpers(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState) -> None:
+    """§4.6: a pedestrian who sees someone carrying a box or pushing a perambulator ahead of it
+    overtakes to open the door for them (walking as if Rush = 1 meanwhile)."""
+    carriers = [w for w in walkers if w.role in (APPROACH, FOLLOWER) and w.id in et._row
+                and bool(et.carrying[et._row[w.id]])]
+    for w in walkers:
+        if w.is_user or w.role != APPROACH or w.id not in et._row:
+            w.helping = NONE if w.role != HOLDER else w.helping
+            continue
+        r = et._row[w.id]
+        if bool(et.carrying[r]) or float(et.kindness[r]) < 0.3:
+            continue
+        if w.helping != NONE and w.helping in et.walkers:
+            continue
+        w.helping = NONE
+        for c in carriers:
+            if c.side != w.side or c.id == w.id:
+                continue
+            d = float(np.hypot(*(et.pos(crowd, c.id) - et.pos(crowd, w.id))))
+            if d <= HELP_RANGE and not any(o.helping == c.id for o in walkers if o.id != w.id):
+                w.helping = c.id
+                break
+
+
+def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[Candidate],
+                  crowd: CrowdState) -> None:
+    """Alg. 3–4 pick each pedestrian's leaf; holders and followers keep theirs."""
+    ds = et.dstate[k]
+    l0, l1 = ds.leaves
+    load = [0, 0]
+    for w in walkers:
+        if w.leaf in (l0, l1) and w.role != PASSING:
+            load[0 if w.leaf == l0 else 1] += 1
+    # The leaf on the keep side of someone coming from side +1, walking along -n: its right is
+    # right(d) = (d_y, -d_x) of d = -n.
+    mid0 = et.leaves.hinge[l0] + 0.5 * (et.leaves.tips()[l0] - et.leaves.hinge[l0])
+    d = -ds.n
+    right = np.array([d[1], -d[0]])
+    on_right = float((mid0 - ds.centre) @ right) > 0.0
+    keep_plus = (0 if on_right else 1) if et.cfg.keep == "right" else (1 if on_right else 0)
+    pull_r, push_r, _ = waiting_radii("double")
+    leaf_rows = (l0, l1)
+    index = {c.id: c for c in cands}
+    for w in walkers:
+        c = index.get(w.id)
+        if c is None:
+            continue
+        if w.role in (HOLDER, FOLLOWER) or (w.is_user and w.leaf in leaf_rows):
+            c.leaf = leaf_rows.index(w.leaf) if w.leaf in leaf_rows else 0
+            continue
+        # what the door looks like to this pedestrian: its own earlier choice does not make a leaf busy
+        own = [int(w.leaf == l0 and w.role != PASSING), int(w.leaf == l1 and w.role != PASSING)]
+        ld = (load[0] - own[0], load[1] - own[1])
+        dd = DoubleDoor(free=(l0 not in ds.holder and ld[0] == 0, l1 not in ds.holder and ld[1] == 0),
+                        load=ld, keep_leaf_for_plus=keep_plus)
+        leader, side = choose_side(c, cands, dd, in_region=c.d_door <= max(pull_r, push_r),
+                                   wait_credit=et.cfg.wait_credit)
+        if leader != NONE and index[leader].leaf >= 0:
+            side = index[leader].leaf
+        side = 0 if side < 0 else side
+        c.leaf = side
+        w.leaf = leaf_rows[side]
+    del crowd
+
+
+# -- Alg. 2: doorway behavior --------------------------------------------------------------------
+
+
+def _regions(et: DoorEtiquette, w: Walker, holder: Walker | None, leader: Walker | None,
+             crowd: CrowdState) -> list[tuple[np.ndarray, float]]:
+    """The waiting regions ``w`` stops at (§4.2, Fig. 4, Table 1)."""
+    door = et.doors[w.door]
+    ds = et.dstate[w.door]
+    r = et._row[w.id]
+    carrier = bool(et.carrying[r])
+    pull_r, push_r, agent_r = waiting_radii(door.kind, carrier=carrier)
+    leaf = w.leaf if w.leaf >= 0 else ds.leaves[0]
+    lv = et.leaves
+    if door.kind == "double":
+        pull_c = push_c = lv.hinge[leaf] + 0.5 * lv.length[leaf] * np.array(
+            [math.cos(lv.base[leaf]), math.sin(lv.base[leaf])])
+    else:
+        pull_c, push_c = lv.hinge[leaf].copy(), ds.centre
+    out: list[tuple[np.ndarray, float]] = []
+    if holder is not None and holder.frame is not None:
+        holder_pull = holder.frame.side_of(et.pos(crowd, holder.id)) > 0
+        same = holder.side == w.side
+        if same:
+            out.append((pull_c, pull_r) if holder_pull else (push_c, push_r))
+            hr = et._row.get(holder.id)
+            big = hr is not None and bool(et.carrying[hr]) and door.kind == "single"
+            a_r = agent_r * (1.2 if big else 1.0)
+            out.append((et.pos(crowd, holder.id).copy(), a_r))
+        else:
+            out.append((push_c, push_r) if holder_pull else (pull_c, pull_r))
+    if leader is not None and (holder is None or leader.id != holder.id) and leader.side == w.side:
+        out.append((et.pos(crowd, leader.id).copy(), agent_r))
+    return out
+
+
+def _holder_of(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker]) -> Walker | None:
+    ds = et.dstate[w.door]
+    leaf = w.leaf if w.leaf >= 0 else ds.leaves[0]
+    h = ds.holder.get(leaf, ds.mutex.get(leaf))
+    return by_id.get(h) if h is not None else None
+
+
+def _doorway_behavior(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+    """Alg. 2 for a pedestrian not yet holder or follower."""
+    ds = et.dstate[w.door]
+    p = et.pos(crowd, w.id)
+    r = et._row[w.id]
+    radius = float(crowd.radius[r])
+    leaf = w.leaf if w.leaf >= 0 else ds.leaves[0]
+    holder = _holder_of(et, w, by_id)
+    leader = by_id.get(w.leader) if w.leader != NONE else None
+    face_door = math.atan2(*(ds.centre - p)[::-1])
+    if leader is not None and leader.role == HOLDER and leader.state >= HOLDER_DEC \
+            and leader.follower == NONE and _accepts(leader):
+        # The leader is a holder in the critical phase: commit as its follower.
+        w.role = FOLLOWER
+        w.holder = leader.id
+        leader.follower = w.id
+        w.plan = None
+        et.set_state(w, FOLLOWER_INIT)
+        return
+    if leader is not None or holder is not None:
+        if any(float(np.hypot(*(p - c))) <= rad for c, rad in _regions(et, w, holder, leader, crowd)):
+            et.stand(w, face_door)  # stop on entering the waiting region (§4.2)
+        else:
+            et.approach(w)
+        return
+    # No leader and nobody holds the door: take it when close enough (the mutex: one at a time).
+    carrier = bool(et.carrying[r])
+    fr = et.frame(leaf, w.side)
+    pull = fr.side_of(p) > 0
+    bop = fr.bop_pull(radius)[0] if pull else fr.bop_push(radius)[0]
+    helper_coming = any(o.helping == w.id for o in by_id.values())
+    if carrier and (helper_coming or pull):
+        if float(np.hypot(*(p - bop))) <= OPENER_RANGE + 1.0 or helper_coming:
+            if math.isnan(w.alone_since):
+                w.alone_since = et.t
+            if pull and not helper_coming and et.t - w.alone_since >= CARRIER_PATIENCE:
+                et.carrier_forced += 1
+                et.log("carrier_frees_hand", w)
+            else:
+                et.stand(w, face_door)
+                return
+        else:
+            et.approach(w)
+            return
+    if carrier and not pull:
+        # no free hand: it pushes the door open with its body (the leaves yield to it)
+        w.role = PASSING
+        w.state = -1
+        et.go_direct(w, fr.lane(radius + CLEAR + 0.3), facing=fr.heading(0.0, 1.0),
+                     speed=float(crowd.pref_speed[r]))
+        et.log("push_through", w)
+        return
+    if leaf in ds.mutex or leaf in ds.holder:
+        et.stand(w, face_door)
+        return
+    if float(np.hypot(*(p - bop))) <= OPENER_RANGE or float(np.hypot(*(p - ds.centre))) <= OPENER_RANGE:
+        ds.mutex[leaf] = w.id
+        w.role = HOLDER
+        w.leaf = leaf
+        w.frame = fr
+        w.waiting = False
+        target, facing = fr.bop_pull(radius) if pull else fr.bop_push(radius)
+        et.set_plan(w, crowd, target, facing=facing, lock=False)
+        et.set_state(w, OPENER_INIT)
+        return
+    et.approach(w)  # along its own path
+
+
+def _accepts(holder: Walker) -> bool:
+    """A holder takes a (new) follower in HolderDec: after opening, or, holding for someone to pass
+    first, once that one has passed (the blue routine of Fig. 7)."""
+    return holder.state == HOLDER_DEC and holder.follower == NONE
+
+
+# -- the holder -----------------------------------------------------------------------------------
+
+
+def _holder(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+    ds = et.dstate[w.door]
+    r = et._row[w.id]
+    radius = float(crowd.radius[r])
+    p = et.pos(crowd, w.id)
+    fr = w.frame
+    assert fr is not None
+    leaf = w.leaf
+    pull = _on_pull(et, w, crowd)
+    age = et.t - w.since
+    if w.state == OPENER_INIT:
+        if et.arrived(w, crowd, 0.15) or (age > 4.0 and w.plan is not None
+                                         and float(np.hypot(*(p - w.plan[-1]))) < 0.45):
+            et.stand(w, w.face)
+            w.lock = True
+            et.set_state(w, REACH_DOOR)
+            at = PULL_HAND_AT if pull else PUSH_HAND_AT
+            h = fr.handle(et.leaf_open(leaf, fr), at)
+            et.body.gaze_at(w.id, (float(h[0]), 1.0, float(h[1])))  # eyes on the handle (§4.4)
+            et.body.reach_for(w.id, (float(h[0]), 1.0, float(h[1])), side="right" if pull else "left")
+        elif age > STATE_TIMEOUT:
+            _give_up(et, w, crowd, why="could not reach the door")
+        return
+    if w.state == REACH_DOOR:
+        if age >= REACH_TIME:
+            wanted = _followers_in_sight(et, w, by_id, crowd)
+            open_to = HOLD_ANGLE if wanted else nh_angle(fr, radius)
+            et.take_leaf(w, leaf, arm=RIGHT if pull else LEFT, p_rel=PULL_HAND_AT if pull else PUSH_HAND_AT,
+                         open_to=open_to, speed=PULL_OPEN_SPEED if pull else PUSH_OPEN_SPEED)
+            et.set_state(w, OPEN_DOOR)
+            et.log("open", w, leaf=leaf, case="pull" if pull else "push")
+        return
+    if w.state == OPEN_DOOR:
+        a = et.leaf_open(leaf, fr)
+        target_a = w.want
+        if pull:
+            # Pulling: the holder steps round outside the swing with the leaf's edge; to hold it wide
+            # it ends just beyond the edge (the HOF pose), to go through it stays on the passage side.
+            lead = HOLD_BEYOND if target_a >= HOLD_ANGLE - 1e-6 else -math.radians(20.0)
+            phi = max(BOP_PULL_POLAR, min(a + lead + math.radians(20.0), target_a + lead))
+            _arc(et, w, fr, radius, p, phi, facing=_toward(p, fr.handle(a, PULL_HAND_AT)), speed=1.2)
+        else:
+            et.go_direct(w, fr.lane(0.0), facing=fr.heading(0.0, 1.0), speed=0.55, lock=True)
+        if a >= target_a - math.radians(4.0) or age > 4.0:
+            et.set_state(w, HOLDER_DEC)
+            ds.mutex.pop(leaf, None)
+            w.action = ""
+            et.stand(w, w.face)
+            w.lock = True
+        return
+    if w.state == HOLDER_DEC:
+        f = by_id.get(w.follower) if w.follower != NONE else None
+        if f is None:
+            if age < DECIDE_WAIT:
+                _look_back(et, w, crowd)
+                return
+            _finish(et, w, crowd)
+            return
+        if not _ready(et, f, crowd):
+            return  # App. B.3: the committed follower moves close behind; then the holder commits
+        action = et.decide_hold(w, f, crowd)
+        w.action = action
+        et.holds[action] += 1
+        dist = float(np.hypot(*(et.pos(crowd, w.id) - et.pos(crowd, f.id))))  # Effort's distance (§5)
+        et.log("hold", w, follower=f.id, action=action, for_user=f.is_user, case="pull" if pull else "push",
+               distance_m=round(dist, 3))
+        if action == "NH":
+            _finish(et, w, crowd)
+            return
+        et.set_state(w, HOLD_DOOR)
+        et.start_hold_event(w, f)
+        et.body.gaze_at(w.id, "user" if f.is_user else ("agent", f.id))  # watch the follower (§4.4)
+        if f.is_user:
+            w.user_best = float(np.hypot(*(et.pos(crowd, f.id) - ds.centre)))
+            w.user_best_at = et.t
+        _hold_pose(et, w, crowd, action, pull)
+        return
+    if w.state == HOLD_DOOR:
+        f = by_id.get(w.follower) if w.follower != NONE else None
+        if w.stop_hold:  # another event took the holder: it lets go and goes on
+            w.stop_hold = False
+            if f is not None:
+                _demote(f)
+            _finish(et, w, crowd)
+            return
+        _hold_pose(et, w, crowd, w.action, pull)
+        if f is None:
+            # the follower passed (blue routine) or left: back to HolderDec for the next one
+            et.end_hold(w, "passed")
+            et.set_state(w, HOLDER_DEC)
+            w.action = ""
+            return
+        if f.is_user:
+            d = float(np.hypot(*(et.pos(crowd, f.id) - ds.centre)))
+            if d < w.user_best - 0.25:
+                w.user_best, w.user_best_at = d, et.t
+            if _through(et, f, crowd):
+                et.log("held_for_user", w, action=w.action)
+                et.end_hold(w, "passed")
+                w.follower = NONE
+                et.set_state(w, HOLDER_DEC)
+                return
+            if w.action == "HOL" and _at_doorway(et, f, crowd):
+                et.end_hold(w, "took over")
+                w.follower = NONE
+                _finish(et, w, crowd)
+                return
+            if et.t - w.user_best_at > et.cfg.user_patience:
+                et.log("give_up", w, follower=f.id, for_user=True)
+                et.end_hold(w, "gave up")
+                f.role = APPROACH
+                f.holder = NONE
+                w.follower = NONE
+                _finish(et, w, crowd)
+            return
+        if age > HOLD_TIMEOUT:
+            et.log("give_up", w, follower=f.id, for_user=False)
+            et.end_hold(w, "gave up")
+            _demote(f)
+            w.follower = NONE
+            _finish(et, w, crowd)
+        return
+    if w.state == FINISH_DOOR:
+        _finishing(et, w, crowd)
+        return
+
+
+def _ready(et: DoorEtiquette, f: Walker, crowd: CrowdState) -> bool:
+    """A committed follower is ready for the holder's decision (App. B.3) once it has closed up
+    behind the holder (or stopped, or :data:`READY_AFTER` has passed since it committed); the
+    user, whom nothing drives, at once."""
+    if f.is_user or f.state != FOLLOWER_INIT:
+        return True
+    if et.t - f.since >= READY_AFTER:
+        return True
+    if f.plan is not None and float(np.hypot(*(et.pos(crowd, f.id) - f.plan[-1]))) < 0.4:
+        return True
+    return et.t - f.since > 0.3 and float(np.hypot(*crowd.vel[et._row[f.id]])) < 0.1
+
+
+def _on_pull(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+    """Whether the holder started on the leaf's pull side (the case it handles, App. B.2)."""
+    assert w.frame is not None
+    return w.side == _pull_side_world(et, w)
+
+
+def _pull_side_world(et: DoorEtiquette, w: Walker) -> int:
+    assert w.frame is not None
+    ds = et.dstate[w.door]
+    return 1 if float(w.frame.m @ ds.n) > 0 else -1
+
+
+def _arc(et: DoorEtiquette, w: Walker, fr: LeafFrame, radius: float, p: np.ndarray, phi: float, *,
+         facing: float, speed: float, lock: bool = True) -> None:
+    """Walk round the leaf's swing circle (outside it, where no leaf angle reaches) to polar ``phi``."""
+    rho = fr.outer(radius)
+    lx, ly = fr.local(p)
+    now = math.atan2(ly, lx)
+    n = max(1, int(abs(phi - now) / math.radians(15.0)))
+    pts = [fr.polar(rho, now + (phi - now) * (k + 1) / n) for k in range(n)]
+    if math.hypot(lx, ly) < rho - 0.1:  # inside the circle: out to it first, radially
+        pts.insert(0, fr.polar(rho, now))
+    w.plan = np.asarray(pts)
+    w.plan_i = 0
+    w.face = facing
+    w.lock = lock
+    w.speed = speed
+    w.waiting = False
+
+
+def _toward(p: np.ndarray, q: np.ndarray) -> float:
+    return math.atan2(q[1] - p[1], q[0] - p[0])
+
+
+def _followers_in_sight(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> bool:
+    """Someone who may follow: a walker at this door, not passing, within 6 m."""
+    p = et.pos(crowd, w.id)
+    for o in by_id.values():
+        if o.id == w.id or o.role == PASSING or o.id not in et._row:
+            continue
+        if o.door == w.door and float(np.hypot(*(et.pos(crowd, o.id) - p))) < 6.0:
+            return True
+    return False
+
+
+def _look_back(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
+    """§4.4: a considerate holder turns its head back to check for a follower."""
+    if et.t - w.since < TICK * 1.5:
+        ds = et.dstate[w.door]
+        back = ds.centre + ds.n * w.side * 3.0
+        et.body.gaze_at(w.id, (float(back[0]), 1.6, float(back[1])))
+
+
+def _hold_pose(et: DoorEtiquette, w: Walker, crowd: CrowdState, action: str, pull: bool) -> None:
+    """Where the holder stands while holding (HoldDoor): HOF beyond the open leaf's edge, HOL in
+    (pulling) or just through (pushing) the doorway; the hand keeps the leaf at the held angle."""
+    fr = w.frame
+    assert fr is not None
+    r = et._row[w.id]
+    radius = float(crowd.radius[r])
+    p = et.pos(crowd, w.id)
+    w.want = HOLD_ANGLE
+    if action == "HOF":
+        target, facing = fr.hold_beyond_tip(HOLD_ANGLE, radius)
+        w.p_rel = 0.95 * fr.w
+        lx, ly = fr.local(p)
+        if not pull and ly < radius + 0.1 and math.hypot(lx, ly) < fr.outer(radius) - 0.05:
+            target = fr.lane(radius + 0.45)  # pushing: through the doorway first
+        elif (math.atan2(ly, lx) < HOLD_ANGLE - math.radians(20.0)
+              and math.hypot(lx, ly) < fr.outer(radius) - 0.1):
+            target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # out round the swing first
+        et.go_direct(w, target, facing=facing, speed=0.7, lock=True)
+    else:  # HOL: into (pull) or just through (push) the doorway, holding the leaf behind
+        y = -0.05 if pull else radius + 0.15
+        target = fr.world(0.42 * fr.w, y)
+        facing = fr.heading(0.0, -1.0) if pull else fr.heading(0.0, 1.0)
+        w.p_rel = 0.45 * fr.w
+        lx, ly = fr.local(p)
+        if pull and math.atan2(ly, lx) > HOLD_ANGLE - math.radians(15.0):
+            target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # round the edge first
+        et.go_direct(w, target, facing=facing, speed=0.7, lock=False)
+
+
+def _finish(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
+    """NH, or done holding: pass through with the hand on the leaf, then let go (FinishDoor)."""
+    if w.event is not None:
+        et.end_hold(w, "passed")
+    et.set_state(w, FINISH_DOOR)
+    w.follower = NONE
+    et.body.gaze_at(w.id, None)
+    _finishing(et, w, crowd)
+
+
+def _finishing(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
+    fr = w.frame
+    assert fr is not None
+    r = et._row[w.id]
+    radius = float(crowd.radius[r])
+    p = et.pos(crowd, w.id)
+    lx, ly = fr.local(p)
+    pull = _on_pull(et, w, crowd)
+    leaf = w.leaf
+    a = et.leaf_open(leaf, fr)
+    holding = w.arm >= 0
+    if pull:
+        # from the pull side through to the push side
+        if ly > 0.0 and math.atan2(ly, lx) > a - math.radians(8.0):
+            target = fr.polar(fr.outer(radius), max(a - math.radians(25.0), math.radians(10.0)))
+        elif ly > -0.2:
+            target = fr.lane(-(radius + CLEAR + 0.3))
+        else:
+            target = fr.lane(-(radius + CLEAR + 0.5))
+        if holding:
+            w.want = max(a, math.radians(45.0))
+            w.p_rel = min(max(math.hypot(lx, ly) - 0.1, 0.3 * fr.w), 0.95 * fr.w)
+            if ly < -radius or et.t - w.since > STATE_TIMEOUT:
+                et.let_go(w)
+        done = ly < -(radius + CLEAR)
+        facing = fr.heading(0.0, -1.0)
+    else:
+        if ly < radius + 0.2:
+            target = fr.lane(radius + CLEAR + 0.4)
+        else:
+            target = fr.lane(radius + CLEAR + 0.6) if math.atan2(ly, lx) < a else fr.polar(
+                fr.outer(radius) + 0.3, a + math.radians(15.0))
+        if holding:
+            w.want = max(a, math.radians(50.0))
+            w.p_rel = min(max(math.hypot(lx, ly) - 0.1, 0.3 * fr.w), 0.95 * fr.w)
+            if ly > min(0.9 * fr.w, radius + 0.6) or et.t - w.since > STATE_TIMEOUT:
+                et.let_go(w)
+        done = ly > radius + CLEAR and not holding
+        facing = fr.heading(0.0, 1.0)
+    if done or et.t - w.since > STATE_TIMEOUT + 4.0:
+        if holding:
+            et.let_go(w)
+        et.finish(w, crowd)
+        return
+    et.go_direct(w, target, facing=facing, speed=min(0.9, float(crowd.pref_speed[r])), lock=False)
+
+
+def _give_up(et: DoorEtiquette, w: Walker, crowd: CrowdState, *, why: str) -> None:
+    et.log("give_up", w, why=why)
+    if w.arm >= 0:
+        et.let_go(w)
+    ds = et.dstate[w.door]
+    for leaf, m in list(ds.mutex.items()):
+        if m == w.id:
+            del ds.mutex[leaf]
+    if w.follower != NONE and w.follower in et.walkers:
+        _demote(et.walkers[w.follower])
+    w.follower = NONE
+    _demote(w)
+
+
+def _demote(w: Walker) -> None:
+    w.role = APPROACH
+    w.state = -1
+    w.holder = NONE
+    w.leader = NONE
+    w.plan = None
+    w.action = ""
+    w.frame = w.frame if w.arm >= 0 else None
+
+
+# -- the follower ---------------------------------------------------------------------------------
+
+
+def _follower(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+    h = by_id.get(w.holder) if w.holder != NONE else None
+    r = et._row[w.id]
+    radius = float(crowd.radius[r])
+    p = et.pos(crowd, w.id)
+    age = et.t - w.since
+    if h is None or h.role != HOLDER or h.frame is None:
+        _demote(w)
+        return
+    fr = h.frame
+    side_local = 1 if w.side == _pull_side_world(et, h) else -1  # +1: the follower is on the pull side
+    carrier = bool(et.carrying[r])
+    if w.state == FOLLOWER_INIT:
+        if h.action == "" or h.state < HOLDER_DEC:
+            # close up: to the waiting place just before the lane on its side
+            spot = fr.lane(side_local * (radius + 1.1))
+            far = float(np.hypot(*(p - et.pos(crowd, h.id)))) > CATCH_UP_AT
+            et.go_direct(w, spot, facing=_toward(spot, fr.lane(0.0)),
+                         speed=float(crowd.pref_speed[r]) * (CATCH_UP if far else 1.0))
+            if age > STATE_TIMEOUT + 6.0:
+                _demote(w)
+                h.follower = NONE
+            return
+        et.set_state(w, FOLLOWER_DEC)
+    if w.state == FOLLOWER_DEC:
+        if h.action == "HOF" or (carrier and h.action == "HOL"):
+            _pass_first(et, w, h, crowd, fr, side_local)
+            return
+        if h.action == "HOL":
+            et.set_state(w, REACH_EDGE)
+        else:  # NH: the holder lets go; the follower opens the door itself (OpenerInit)
+            _demote(w)
+            w.leader = NONE
+            return
+    if w.state == REACH_EDGE:
+        a = et.leaf_open(h.leaf, fr)
+        if side_local > 0:
+            target, facing = fr.hold_beyond_tip(max(a, math.radians(60.0)), radius)
+            arm, at = RIGHT, 0.92
+        else:
+            target, facing = fr.world(0.45 * fr.w, -(radius + 0.08)), fr.heading(0.0, 1.0)
+            arm, at = LEFT, 0.35
+        et.go_direct(w, target, facing=facing, speed=float(crowd.pref_speed[r]))
+        if float(np.hypot(*(p - target))) < 0.3 or age > 6.0:
+            _take_over(et, w, h, crowd, arm=arm, at=at)
+        elif age > STATE_TIMEOUT:
+            _demote(w)
+            h.follower = NONE
+        return
+
+
+def _pass_first(et: DoorEtiquette, w: Walker, h: Walker, crowd: CrowdState, fr: LeafFrame,
+                side_local: int) -> None:
+    """PF: walk through the held door, thanking the holder on the way."""
+    r = et._row[w.id]
+    radius = float(crowd.radius[r])
+    w.role = PASSING
+    w.state = -1
+    w.plan = np.stack([fr.lane(side_local * (radius + 0.35)), fr.lane(0.0),
+                       fr.lane(-side_local * (radius + CLEAR + 0.35))])
+    w.plan_i = 0
+    w.face = fr.heading(0.0, -float(side_local))
+    w.lock = False
+    w.speed = float(crowd.pref_speed[r])
+
+
+def _take_over(et: DoorEtiquette, w: Walker, h: Walker, crowd: CrowdState, *, arm: int, at: float) -> None:
+    """PL: the follower takes the door (ReachEdge → ReleaseDoor) and is its holder now (red routine)."""
+    leaf = h.leaf
+    ds = et.dstate[w.door]
+    fr = h.frame
+    assert fr is not None
+    et.log("take_over", w, holder=h.id, leaf=leaf)
+    _thank(et, w, h)
+    if h.is_user:
+        et._user_release()
+    else:
+        et.end_hold(h, "took over")
+        h.follower = NONE
+        ds.holder.pop(leaf, None)
+        if h.arm >= 0:
+            et.body.reach_for(h.id, None, side="right" if h.arm == RIGHT else "left")
+        h.arm = -1
+        _finish(et, h, crowd)
+    w.role = HOLDER
+    w.holder = NONE
+    w.frame = fr
+    w.leaf = leaf
+    et.take_leaf(w, leaf, arm=arm, p_rel=at, open_to=None)
+    w.want = max(et.leaf_open(leaf, fr), math.radians(80.0))
+    et.set_state(w, HOLDER_DEC)
+    w.action = ""
+    w.follower = NONE
+
+
+def _thank(et: DoorEtiquette, w: Walker, h: Walker) -> None:
+    """A follower thanks its holder: eyes on the holder, then a nod (a short dip of the gaze) or a
+    small wave, drawn from the etiquette's generator."""
+    if w.thanked or w.is_user or w.id not in et._row:
+        return
+    w.thanked = True
+    et.thanks += 1
+    target: object = "user" if h.is_user else ("agent", h.id)
+    et.body.gaze_at(w.id, target)
+    if float(et.rng.random()) < 0.5:
+        et.body.gesture(w.id, "wave", duration=1.0)
+        how = "wave"
+    else:
+        agent = w.id
+
+        def dip() -> None:
+            if agent in et._row and h.id in et._row:
+                hp = et.body.state.world_pos[et._row[h.id], sk_head()]
+                et.body.gaze_at(agent, (float(hp[0]), float(hp[1]) - 0.35, float(hp[2])))
+                et.later(0.35, lambda: et.body.gaze_at(agent, target) if agent in et._row else None)
+
+        et.later(0.3, dip)
+        how = "nod"
+    et.later(1.6, lambda: et.body.gaze_at(w.id, None) if w.id in et._row else None)
+    et.log("thank", w, holder=h.id, how=how, to_user=h.is_user)
+
+
+def sk_head() -> int:
+    from pedvr.body import skeleton as sk
+
+    return sk.HEAD
+
+
+def _passing(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+    p = et.pos(crowd, w.id)
+    ds = et.dstate[w.door]
+    h = by_id.get(w.holder) if w.holder != NONE else None
+    if h is not None and not w.thanked and h.id in et._row:
+        if float(np.hypot(*(et.pos(crowd, h.id) - p))) < THANK_RANGE:
+            _thank(et, w, h)
+    rel = float((p - ds.centre) @ ds.n) * w.side
+    r = et._row[w.id]
+    if rel < -(float(crowd.radius[r]) + CLEAR) or (w.plan is not None and et.arrived(w, crowd, 0.3)):
+        if h is not None and h.follower == w.id:
+            h.follower = NONE
+        et.finish(w, crowd)
+    elif et.t - w.since > STATE_TIMEOUT + 10.0 and w.state == -1 and w.plan is None:
+        et.finish(w, crowd, passed=False)
+
+
+def _through(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+    ds = et.dstate[w.door]
+    rel = float((et.pos(crowd, w.id) - ds.centre) @ ds.n) * w.side
+    return rel < -(0.25 + CLEAR)
+
+
+def _at_doorway(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+    ds = et.dstate[w.door]
+    rel = et.pos(crowd, w.id) - ds.centre
+    return abs(float(rel @ ds.n)) < 0.7 and abs(float(rel @ ds.u)) < 0.5 * et.doors[w.door].width + 0.2
+
+
+# -- the user ------------------------------------------------------------------------------------
+
+
+def _user_walker(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+    """The user is observed: a follower of an agent holder (who decides for the user), or a
+    holder whose followers respond PF (the user stays on the approach side) or PL (the user is in
+    or through the doorway: they take the door over)."""
+    if w.role == HOLDER:
+        if w.frame is None or w.leaf < 0:
+            return
+        a = et.leaf_open(w.leaf, w.frame)
+        if a < math.radians(60.0):
+            w.state = OPEN_DOOR
+            return
+        w.state = HOLDER_DEC if w.follower == NONE else HOLD_DOOR
+        f = by_id.get(w.follower) if w.follower != NONE else None
+        if f is not None and w.action == "":
+            lx, ly = w.frame.local(et.pos(crowd, w.id))
+            f_pull = 1 if f.side == _pull_side_world(et, w) else -1
+            past = ly * f_pull < 0.3  # the user is in the doorway or on the far side from the follower
+            w.action = "HOL" if past else "HOF"
+            et.log("user_holds", w, follower=f.id, action=w.action)
+        if f is None:
+            w.action = ""
+        return
+    # as a follower: an agent holder in the critical phase whose ordering puts the user next
+    leader = by_id.get(w.leader) if w.leader != NONE else None
+    if w.role == APPROACH and leader is not None and leader.role == HOLDER and not leader.is_user \
+            and leader.state >= HOLDER_DEC and leader.follower == NONE and _accepts(leader):
+        w.role = FOLLOWER
+        w.holder = leader.id
+        leader.follower = w.id
+        et.set_state(w, FOLLOWER_INIT)
+    elif w.role == FOLLOWER:
+        h = by_id.get(w.holder)
+        if h is None or h.follower != w.id:
+            w.role = APPROACH
+            w.holder = NONE
+            w.state = -1
