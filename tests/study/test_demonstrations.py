@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import math
 import sqlite3
 from pathlib import Path
@@ -10,26 +9,19 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from pedvr.study.console import ExperimenterConsole, NoKeys
 from pedvr.study.export import export_study
 from pedvr.study.measures import trial_measures
-from pedvr.study.presenter import SimulatedParticipant
-from pedvr.study.protocol import load_protocol
-from pedvr.study.session import Session
 from pedvr.study.store import StudyStore
+from tests.study.conftest import run_session
 
 DATA = Path(__file__).resolve().parent / "data"
 
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    p = load_protocol(DATA / "demonstration.toml")
     db = tmp_path_factory.mktemp("demo") / "demo.sqlite"
     with StudyStore(db) as store:
-        console = ExperimenterConsole(out=io.StringIO(), keys=NoKeys(), live=False)
-        res = Session(protocol=p, store=store, participant_id="SIM01",
-                      participant=SimulatedParticipant(seed=p.seed, number=1), console=console,
-                      backend="headless", simulated=True).run()
+        res, _ = run_session(DATA / "demonstration.toml", store, "SIM01")
     assert res.status == "finished"
     return db
 

@@ -3,31 +3,24 @@ measure ``doors_held_for_participant`` counts the doors agents held open for the
 
 from __future__ import annotations
 
-import io
 import sqlite3
 from pathlib import Path
 
 import pytest
 
-from pedvr.study.console import ExperimenterConsole, NoKeys
 from pedvr.study.errors import ProtocolError
 from pedvr.study.measures import load_trials, measures
-from pedvr.study.presenter import SimulatedParticipant
 from pedvr.study.protocol import load_protocol
-from pedvr.study.session import Session
 from pedvr.study.store import SCHEMA_VERSION, StudyStore
+from tests.study.conftest import run_session
 
 DATA = Path(__file__).resolve().parent / "data"
 
 
 def test_a_door_held_for_the_participant_is_recorded_and_measured(tmp_path: Path) -> None:
-    p = load_protocol(DATA / "door.toml")
     db = tmp_path / "door.sqlite"
     with StudyStore(db) as store:
-        console = ExperimenterConsole(out=io.StringIO(), keys=NoKeys(), live=False)
-        res = Session(protocol=p, store=store, participant_id="SIM01",
-                      participant=SimulatedParticipant(seed=p.seed, number=1), console=console,
-                      backend="headless", simulated=True).run()
+        res, _ = run_session(DATA / "door.toml", store, "SIM01")
         assert res.status == "finished"
         (record,) = list(load_trials(store))
         held = measures["doors_held_for_participant"].compute(record)

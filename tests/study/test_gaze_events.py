@@ -2,27 +2,19 @@
 
 from __future__ import annotations
 
-import io
 import sqlite3
 from pathlib import Path
 
-from pedvr.study.console import ExperimenterConsole, NoKeys
-from pedvr.study.presenter import SimulatedParticipant
-from pedvr.study.protocol import load_protocol
-from pedvr.study.session import Session
 from pedvr.study.store import SCHEMA_VERSION, StudyStore
+from tests.study.conftest import run_session
 
 DATA = Path(__file__).resolve().parent / "data"
 
 
 def test_pedvr_g_trial_records_gaze_events_and_decoupled_none(tmp_path: Path) -> None:
-    p = load_protocol(DATA / "gaze.toml")
     db = tmp_path / "gaze.sqlite"
     with StudyStore(db) as store:
-        console = ExperimenterConsole(out=io.StringIO(), keys=NoKeys(), live=False)
-        res = Session(protocol=p, store=store, participant_id="SIM01",
-                      participant=SimulatedParticipant(seed=p.seed, number=1), console=console,
-                      backend="headless", simulated=True).run()
+        res, _ = run_session(DATA / "gaze.toml", store, "SIM01")
     assert res.status == "finished"
     with sqlite3.connect(db) as c:
         rows = c.execute(
