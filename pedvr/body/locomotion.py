@@ -82,7 +82,7 @@ T_START = 0.5  # s (reference adult): the first step from standing into a walk
 DS = 0.2  # fraction of a step in double support
 MIN_WIDTH = 0.1  # m (reference adult): swing foot lands at least this far to its own side of the stance foot
 MAX_STEP = 0.8  # m (reference adult): farthest landing from the stance foot
-MAX_WIDTH = 0.5  # m (reference adult): farthest landing sideways from the stance foot (short side steps)
+MAX_WIDTH = 0.42  # m (reference adult): farthest landing sideways from the stance foot (short side steps)
 MAX_BACK = 0.45  # m (reference adult): farthest landing behind the stance foot (short back steps)
 LIFT_WALK = 0.085  # m (reference adult): swing-foot clearance at a walk
 LIFT_STEP = 0.05  # m: clearance of a step taken standing
@@ -352,6 +352,16 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
             tx, ty = stand_ref(px, py, h, sw, hw)
             lx, ly = math.sin(h), -math.cos(h)
             sgn = 1.0 if sw == LEFT else -1.0
+            if not walking:
+                # The body has stopped: the closing step lands beside the stance foot (feet together)
+                # when that foot stands within the standing tolerance of its place, so a stop, or the
+                # end of a short reposition in side steps, ends on its closing step and not with a
+                # squaring shuffle of the other foot (PLACE §5: repositioning in 2-4 steps).
+                ox, oy = stand_ref(root[i, 0], root[i, 1], h, st, hw)
+                if math.hypot(foot_ref[i, st, 0] - ox, foot_ref[i, st, 1] - oy) < RESTEP_DIST * sc and \
+                        abs(wrap(foot_yaw[i, st] - foot_yaw_for(h, st))) < 0.5 * RESTEP_YAW:
+                    tx = foot_ref[i, st, 0] + sgn * 2.0 * hw * lx
+                    ty = foot_ref[i, st, 1] + sgn * 2.0 * hw * ly
             # In the body's frame about the stance foot: stay on its own side (no crossing over),
             # side steps no wider than MAX_WIDTH, back steps no longer than MAX_BACK, any step no
             # longer than MAX_STEP.
@@ -425,7 +435,13 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
                 ox, oy = stand_ref(root[i, 0], root[i, 1], h, st, hw)
                 d = math.hypot(foot_ref[i, st, 0] - ox, foot_ref[i, st, 1] - oy)
                 dyaw = abs(wrap(foot_yaw[i, st] - foot_yaw_for(h, st)))
-                if walking or d > 0.5 * RESTEP_DIST * sc or dyaw > 0.5 * RESTEP_YAW:
+                # stopped with the feet together (side by side, hip width apart) and the stance foot
+                # within the standing tolerance: no squaring step
+                rx_, ry_ = tx - foot_ref[i, st, 0], ty - foot_ref[i, st, 1]
+                together = d < RESTEP_DIST * sc and \
+                    abs(rx_ * fx + ry_ * fy) < 0.25 * RESTEP_DIST * sc and \
+                    abs(sgn * (rx_ * lx + ry_ * ly) - 2.0 * hw) < 0.25 * RESTEP_DIST * sc
+                if walking or (d > 0.5 * RESTEP_DIST * sc and not together) or dyaw > 0.5 * RESTEP_YAW:
                     s[i] = s[i] - 1.0 if walking else 0.0
                     swing[i] = st
                     trail_pitch0[i] = foot_pitch[i, st]
