@@ -319,15 +319,21 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
         if not stepping[i]:
             worst = 0.0
             pick = -1
+            need = 0.0
             for f in range(2):
-                d = stance_err(foot_ref[i, f, 0], foot_ref[i, f, 1], root[i, 0] + svx * T,
-                               root[i, 1] + svy * T, h, f, hw, sc)
-                dyaw = abs(wrap(foot_yaw[i, f] - foot_yaw_for(h, f)))
-                err = d / (RESTEP_DIST * sc) + dyaw / RESTEP_YAW
+                # the foot farthest from its spot beside the root steps first; a step is needed only
+                # when a foot is out of the stance band
+                tx, ty = stand_ref(root[i, 0] + svx * T, root[i, 1] + svy * T, h, f, hw)
+                d = math.hypot(foot_ref[i, f, 0] - tx, foot_ref[i, f, 1] - ty)
+                dyaw = abs(wrap(foot_yaw[i, f] - foot_yaw_for(h, f))) / RESTEP_YAW
+                err = d / (RESTEP_DIST * sc) + dyaw
                 if err > worst:
                     worst = err
                     pick = f
-            if walking or worst > 1.0:
+                d = stance_err(foot_ref[i, f, 0], foot_ref[i, f, 1], root[i, 0] + svx * T,
+                               root[i, 1] + svy * T, h, f, hw, sc)
+                need = max(need, d / (RESTEP_DIST * sc) + dyaw)
+            if walking or need > 1.0:
                 stepping[i] = True
                 s[i] = 0.0
                 swing[i] = pick
