@@ -26,20 +26,22 @@ most ``MAX_WIDTH`` sideways and ``MAX_BACK`` behind it, and within
 ``RESTEP_DIST`` or ``RESTEP_YAW`` away from where it may stand (turning on
 the spot, small shuffles): abreast of the root, to its own side by between the
 hip half-width and half of ``STANCE_MAX`` (people stand with their feet between
-hip and shoulder width apart; :func:`stance_err`). Walking starts when the root
-moves faster than ``V_WALK`` and stops when it slows below it: a step that
-lands once the body has stopped closes abreast of the root, as far to its side
-as the stance foot is to the other (within that band) and abreast of it, and
-the gait steps again only while the stance foot is more than ``RESTEP_DIST / 2``
-out of the band, or the feet are not abreast and it is more than ``RESTEP_DIST``
-out (the standing tolerance).
+hip and shoulder width apart; :func:`stance_err`); the foot farther from its
+spot beside the root steps first. Walking starts when the root moves faster
+than ``V_WALK`` and stops when it slows below it: a step that lands once the
+body has stopped closes abreast of the stance foot, as far to its own side of
+the root as the stance foot is to the other (within that band), and the gait
+steps again only while the stance foot is more than ``RESTEP_DIST / 2`` out of
+the band, or the feet are not abreast and it is more than ``RESTEP_DIST`` out
+(the standing tolerance).
+
 Our reading of PLACE §5's "short-range repositioning in 2–4 steps": a side
 step whose lead foot lands past its final place (it is planned for a body that
 keeps moving, and the body brakes late) leaves a slightly wider stance rather
 than a fifth, squaring step; and a braking body (its smoothed acceleration
-against its velocity) plans its landings ``v / 2|a|`` ahead, where it will
-stop, not ``τ + T/2``. Repositions of up to about 0.6 m (two side-step pairs)
-take 2–4 steps; longer ones take more.
+against its velocity) aims its landings ``v / 2|a|`` s ahead, where it will
+stop, rather than ``τ + T/2``. Repositions of up to about 0.6 m (two side-step
+pairs) take 2–4 steps; longer ones take more.
 
 Step rate: walking forward ``f = F0 · (v / 1.35)^k · scale^-0.35`` steps/s
 (``k`` = 0.26 below 1.35 m/s, 0.6 above; clamped to ``[F_MIN, F_MAX]``),
@@ -47,8 +49,8 @@ step length = v / f: 1.8–2.1 steps/s and 0.65–0.78 m steps at 1.3–1.4 m/s
 for heights 1.55–1.95 m, about 1.5 steps/s at 0.5 m/s and 2.3 at 1.8 m/s, as
 people walk. Moving mostly sideways the body side-steps, advancing
 ``SIDE_ADVANCE`` per step (short steps, the leading foot first and at most
-``MAX_WIDTH`` out, the trailing one closing), and backward it takes ``BACK_STEP`` steps, both up to
-``F_SIDE_MAX`` steps/s (:func:`step_rate`). A body that is speeding up steps
+``MAX_WIDTH`` out, the trailing one closing), and backward it takes
+``BACK_STEP`` steps, both up to ``F_SIDE_MAX`` steps/s (:func:`step_rate`). A body that is speeding up steps
 at the rate of the speed it is reaching (``ACC_AHEAD``, ``T_AHEAD``).
 
 First step from standing (Huang & Terzopoulos App. C, Fig. 20(d): "the
