@@ -64,7 +64,7 @@ each stroke, re-plans and repositions.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -73,7 +73,7 @@ from pedvr.behavior.goals import Param, positive
 from pedvr.behavior.library import trees
 from pedvr.behavior.nodes import Attr, NodeType, define_tree, node_types
 from pedvr.behavior.objects import SmartObject, object_kinds
-from pedvr.behavior.spec import ObjectDef
+from pedvr.behavior.spec import EventDef, ObjectDef
 from pedvr.behavior.tree import FAILURE, INVALID, RUNNING, SUCCESS, Behaviour, Status
 from pedvr.body import skeleton as sk
 from pedvr.body.locomotion import V_WALK
@@ -85,6 +85,10 @@ from pedvr.demonstrator import engagement as en
 from pedvr.demonstrator.arm import ACTIONS, Action, hand_path, min_jerk_times, preferred_distance
 from pedvr.demonstrator.placement import Observer, Placement, PlacementSearch, score
 from pedvr.demonstrator.stage import Figure, Stage
+from pedvr.errors import UsageError
+
+if TYPE_CHECKING:
+    from pedvr.behavior.scheduler import EventRun, Scheduler
 
 PLAN_BUDGET = 24  # frame orientations evaluated per behavior tick (72 in all: three ticks)
 ARRIVE = 0.1  # m: the placement is reached within this
@@ -738,3 +742,52 @@ def _build(spec: Any, b: Any) -> Behaviour:
 trees.register("demonstrate")(define_tree(
     "demonstrate", {"guide": "agent", "observer": "actor", "exhibit": "object"},
     {"demonstrate": "guide", "object": "exhibit", "to": "observer"}))
+
+
+PROTOCOL_EVENT = "demonstrate"  # the event a cue adds when the scene declares none running the tree
+PROTOCOL_PRIORITY = 2  # as the shipped scenes' demonstration events: above conversations and door holds
+
+
+def demonstrate_to_user(scheduler: Scheduler, exhibit: str, *,
+                        guide_state: str | None = None) -> EventRun | None:
+    """Start the demonstration of ``exhibit`` to the user now (a study protocol's cue, issue 15).
+
+    It goes through the behavior layer as a scene's trigger does: an event
+    running the ``demonstrate`` tree (``guide``, ``observer`` = the user,
+    ``exhibit``) is started on the scheduler, so the demonstrator claims its
+    guide, plans, walks, points and records as for any demonstration. The
+    event is the scene's own that runs the tree (the first by name, so its
+    priority and patience are the scene's), or, when the scene declares none,
+    :data:`PROTOCOL_EVENT` at :data:`PROTOCOL_PRIORITY` added to the scheduler.
+
+    Our choice of guide (the issue names none): the agent nearest the user
+    among those that are not the user and not in an event, and, when
+    ``guide_state`` is given, in that BFSM state (``"guide"`` in the
+    gallery). Returns the event run, or None when no agent qualifies (nothing
+    is started). Raises UsageError for an exhibit the scene lacks.
+    """
+    ctx = scheduler.ctx
+    if ctx.user is None:
+        raise UsageError(f"exhibit {exhibit!r}: a demonstration to the user needs a scene with a user")
+    obj = ctx.objects.get(exhibit)
+    if not isinstance(obj, Exhibit):
+        known = sorted(n for n, o in ctx.objects.items() if isinstance(o, Exhibit))
+        raise UsageError(f"exhibit {exhibit!r}: not in the scene; its exhibits: {', '.join(known) or 'none'}")
+    names = sorted(n for n, e in scheduler.events.items() if e.tree == "demonstrate")
+    if names:
+        event = names[0]
+    else:
+        event = PROTOCOL_EVENT
+        while event in scheduler.events:
+            event += "_"
+        scheduler.events[event] = EventDef(name=event, tree="demonstrate", priority=PROTOCOL_PRIORITY)
+    crowd, b = ctx.crowd, ctx.behavior
+    ok = ~crowd.is_user & ~b.in_event
+    if guide_state is not None:
+        ok &= b.state == scheduler.bfsm.ids[guide_state]
+    rows = np.flatnonzero(ok)
+    if rows.size == 0:
+        return None
+    r = int(rows[np.argmin(np.hypot(*(crowd.pos[rows] - np.asarray(ctx.pos(ctx.user))).T))])
+    guide = int(crowd.ids[r])
+    return scheduler.start_event(event, {"guide": guide, "observer": ctx.user, "exhibit": exhibit})

@@ -696,6 +696,13 @@ class DoorEtiquette:
         self._user_grab_until = self.t + GRAB_REACH_S
         return True
 
+    def user_hand_moved(self, hand: tuple[float, float] | None) -> bool:
+        """VR, every frame between presses: the controller's floor position (None: not tracked; a
+        reach ahead of the user is assumed). A held leaf follows it. Returns whether the user holds a
+        leaf or is reaching for one (a press still pending), as :meth:`user_hand` does."""
+        self.user_hand_point = None if hand is None else np.asarray(hand, np.float64)
+        return self.user_leaf >= 0 or self._user_grab_pending
+
     def _user_release(self) -> None:
         leaf = self.user_leaf
         self.user_leaf = -1

@@ -61,6 +61,17 @@ class BlockSpec:
 
 
 @dataclass(frozen=True)
+class DemoCue:
+    """A trial's cue (``demonstrate`` key): at ``at_s`` s of the trial, a guide demonstrates ``exhibit``
+    to the participant (:func:`pedvr.demonstrator.demonstration.demonstrate_to_user`); ``guide_state``
+    (a BFSM state of the scene, or None: any free agent) picks who, the nearest the participant."""
+
+    exhibit: str
+    at_s: float
+    guide_state: str | None = None
+
+
+@dataclass(frozen=True)
 class StepSpec:
     """One step of the protocol as written."""
 
@@ -79,6 +90,7 @@ class StepSpec:
     order: str = "fixed"
     blocks: tuple[BlockSpec, ...] = ()
     record_trajectories: bool = True
+    demonstrations: tuple[DemoCue, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -138,6 +150,7 @@ class TrialSpec:
     seed: int
     time_limit_s: float
     record_trajectory: bool
+    demonstrations: tuple[DemoCue, ...] = ()  # trial steps' ``demonstrate`` cues, by time
 
 
 @dataclass(frozen=True)
@@ -292,13 +305,14 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
             optional = c.boolean(st, "optional", f"{path}.optional", default=False)
             steps.append(StepSpec(id=sid, kind=kind, questionnaire=qid, optional=optional))
         elif kind == "trial":
-            c.known(st, path, _TRIAL_KEYS)
+            c.known(st, path, (*_TRIAL_KEYS, "demonstrate"))
             sc = scene(f"{path}.scene", st)
             cond = c.string(st, "condition", f"{path}.condition", choices=CONDITIONS)
             limit = _limit(c, st, path)
             rho = _rho(c, st, path)
             text = c.string(st, "text", f"{path}.text", required=False, default="")
             rec = c.boolean(st, "record_trajectories", f"{path}.record_trajectories", default=True)
+            cues = _demo_cues(c, st, path, scene_path(sc[0], base_dir) if sc is not None else None, limit)
             if sc is not None:
                 steps.append(
                     StepSpec(
@@ -312,6 +326,7 @@ def parse_protocol(data: dict[str, Any], *, source: str, base_dir: Path, content
                         responsibility=rho,
                         text=text or "",
                         record_trajectories=rec,
+                        demonstrations=cues,
                     )
                 )
         elif kind == "sweep":
@@ -506,6 +521,60 @@ def scene_path(scene: str, base_dir: Path) -> Path:
     return resolve_scene(scene).resolve()
 
 
+_CUE_KEYS = ("exhibit", "at_s", "guide_state")
+
+
+def _demo_cues(c: Checker, st: dict[str, Any], path: str, scene_file: Path | None,
+               limit: float | None) -> tuple[DemoCue, ...]:
+    """A trial step's ``demonstrate``: one table or an array of tables ``{ exhibit, at_s, guide_state }``
+    (issue 15: a demonstration "triggered ... by the study protocol"). ``exhibit`` names an exhibit
+    of the trial's scene, ``at_s`` a time in [0, time_limit_s) and ``guide_state``, optional, a BFSM
+    state of the scene. Sorted by time (ties keep the protocol's order)."""
+    v = st.get("demonstrate", MISSING)
+    if v is MISSING:
+        return ()
+    key = f"{path}.demonstrate"
+    raw = [v] if isinstance(v, dict) else v
+    if not isinstance(raw, list) or not raw or not all(isinstance(x, dict) for x in raw):
+        c.bad(key, v, 'expected a table { exhibit = "...", at_s = ... } or an array of them')
+        return ()
+    exhibits: tuple[str, ...] | None = None
+    states: tuple[str, ...] | None = None
+    if scene_file is not None:  # a scene that does not load was reported under .scene already
+        from pedvr.scene.loader import load_any
+
+        try:
+            b = load_any(scene_file, seed=None).behavior
+        except SceneError:
+            b = None
+        if b is not None:
+            exhibits = tuple(o.name for o in b.objects if o.kind == "exhibit")
+            states = tuple(b.states)
+        else:
+            exhibits, states = (), ()
+    out: list[DemoCue] = []
+    for k, d in enumerate(raw):
+        where = key if isinstance(v, dict) else f"{key}[{k}]"
+        c.known(d, where, _CUE_KEYS)
+        ex = c.string(d, "exhibit", f"{where}.exhibit")
+        if ex is not None and exhibits is not None and ex not in exhibits:
+            c.bad(f"{where}.exhibit", ex, "no such exhibit in the trial's scene; its exhibits: "
+                  + (", ".join(exhibits) or "none"))
+            ex = None
+        at = c.number(d, "at_s", f"{where}.at_s", check=lambda x: x >= 0.0, expect=">= 0 s")
+        if at is not None and limit is not None and at >= limit:
+            c.bad(f"{where}.at_s", d["at_s"], f"must be before the trial's time_limit_s ({limit:g} s)")
+            at = None
+        gs = c.string(d, "guide_state", f"{where}.guide_state", required=False)
+        if gs is not None and states is not None and gs not in states:
+            c.bad(f"{where}.guide_state", gs, "no such behavior state in the trial's scene; its states: "
+                  + (", ".join(states) or "none"))
+            gs = None
+        if ex is not None and at is not None and (gs is not None or "guide_state" not in d):
+            out.append(DemoCue(exhibit=ex, at_s=at, guide_state=gs))
+    return tuple(sorted(out, key=lambda q: q.at_s))
+
+
 def _resolve_scene(c: Checker, key: str, v: str, base_dir: Path) -> tuple[str, str, str] | None:
     """``(reference as written, scene name, content hash)``, or None after recording the problem."""
     from pedvr.scene.loader import load_any
@@ -597,7 +666,8 @@ def plan_for(protocol: Protocol, *, number: int) -> list[PlannedStep]:
                                  condition=cond, label=None,
                                  order=order, responsibility=rho,
                                  seed=stable_seed(protocol.seed, number, st.id),
-                                 time_limit_s=st.time_limit_s, record_trajectory=st.record_trajectories)
+                                 time_limit_s=st.time_limit_s, record_trajectory=st.record_trajectories,
+                                 demonstrations=st.demonstrations)
 
             if st.kind == "trial":
                 add(key=st.id, kind="trial", title=f"{st.id} ({st.scene_name})", scenario=st.scene_name,

@@ -34,7 +34,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -43,9 +43,20 @@ from pedvr.errors import UsageError
 from pedvr.study.console import Command, ExperimenterConsole
 from pedvr.study.errors import AnswerError, ParticipantExistsError, StudyStoreError
 from pedvr.study.presenter import Page, Participant, Question
-from pedvr.study.protocol import PlannedStep, Protocol, ShownPair, TrialSpec, participant_number, plan_for
+from pedvr.study.protocol import (
+    DemoCue,
+    PlannedStep,
+    Protocol,
+    ShownPair,
+    TrialSpec,
+    participant_number,
+    plan_for,
+)
 from pedvr.study.questionnaire import Response, check_response, recode
 from pedvr.study.store import StepRow, StudyStore
+
+if TYPE_CHECKING:
+    from pedvr.sim import Simulation
 
 SAMPLE_CHUNK_FRAMES = 90  # samples are committed about once per simulated second at 90 Hz
 
@@ -434,6 +445,7 @@ class Session:
         )
         rec.add(sim, frame=0, head=self.participant.head_pose(sim))
         total = int(sim.user.route.shape[0])
+        cues = list(spec.demonstrations)  # the protocol's demonstrations to the participant, by time
         outcome = _Outcome("done")
         result = "time_limit"
         frame = 0
@@ -451,7 +463,11 @@ class Session:
                         outcome = self._command(cmd)
                         result = "skipped" if cmd.kind == "skip" else "aborted"
                         break
+                    while cues and sim.t >= cues[0].at_s - 1e-9:
+                        self._demonstrate(sim, cues.pop(0))
                     target = self.participant.present(sim)
+                    if cues:  # stop at the next cue's frame, so it starts on time whatever the frame rate
+                        target = min(target, max(cues[0].at_s, sim.t + sim.dt))
                     sim.advance_to(min(max(target, sim.t + sim.dt), limit))
                     frame += 1
                     rec.add(sim, frame=frame, head=self.participant.head_pose(sim))
@@ -487,6 +503,17 @@ class Session:
         if outcome.kind == "done":
             outcome = _Outcome("done", f"{result}, {sim.user.sphere}/{total} spheres, {sim.t:.1f} s")
         return outcome
+
+
+    def _demonstrate(self, sim: Simulation, cue: DemoCue) -> None:
+        """Start a protocol cue's demonstration to the participant through the behavior layer (the
+        scheduler, as a scene trigger does); the console says when no guide is free for it."""
+        from pedvr.demonstrator.demonstration import demonstrate_to_user
+
+        run = demonstrate_to_user(sim.scheduler, cue.exhibit, guide_state=cue.guide_state)
+        if run is None:
+            self.console.say(f"  demonstration of {cue.exhibit} at {cue.at_s:g} s: no free guide"
+                             + (f" in state {cue.guide_state}" if cue.guide_state else "") + "; not started")
 
 
 @dataclass(frozen=True)
@@ -647,6 +674,8 @@ def plan_differences(stored: list[StepRow], plan: list[PlannedStep], protocol: P
             if path == "trial.scene" and isinstance(a, str) and Path(a).is_absolute():
                 if Path(a).resolve() == protocol.scene_path(str(b)):
                     continue
+            if path == "trial.demonstrations" and a is None and b == []:
+                continue  # a database from before trial cues (issue 15) planned none
             if path == "trial.scene_hash":
                 if a is None:
                     continue

@@ -148,12 +148,14 @@ class PlaySpace:
 @dataclass(frozen=True)
 class Controls:
     """One frame of controller input: ``move`` (left stick / trackpad: x right, y forward), ``turn``
-    (right stick x), ``trigger`` and ``menu`` pressed this frame."""
+    (right stick x), ``trigger`` and ``menu`` pressed this frame; ``trigger_hand`` the hand that
+    pressed the trigger (0 left, 1 right, -1 not known)."""
 
     move: tuple[float, float] = (0.0, 0.0)
     turn: float = 0.0
     trigger: bool = False
     menu: bool = False
+    trigger_hand: int = -1
 
 
 class HeadsetUser:
@@ -258,6 +260,11 @@ class HeadsetUser:
             return p0.copy(), h0
         a = (t - t0) / (t1 - t0)
         return p0 + a * (p1 - p0), _wrap(h0 + a * _wrap(h1 - h0))
+
+    def floor_point(self, position: np.ndarray) -> tuple[float, float]:
+        """The world floor point under a tracking-space position (a controller's grip)."""
+        p = self.space.to_world_2d(np.asarray(position, dtype=np.float64))
+        return float(p[0]), float(p[1])
 
     def eye_world_pose(self, *, rotation: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World rotation and position of an eye given in tracking space (for the per-eye views)."""

@@ -5,8 +5,9 @@ from a hidden glfw window (GLX on X11); the session; a LOCAL_FLOOR reference
 space (else STAGE, else LOCAL raised by a standing eye height); one
 swapchain per eye, sRGB when offered, its images wrapped as moderngl
 textures with a depth buffer each; actions (left stick / trackpad move,
-right stick snap turn, trigger, menu) with suggested bindings for the common
-controller profiles. All decisions live in :mod:`pedvr.xr.session` and are
+right stick snap turn, trigger, menu, and each hand's grip pose through an
+action space located every frame in the reference space) with suggested
+bindings for the common controller profiles. All decisions live in :mod:`pedvr.xr.session` and are
 tested with a fake port; this module only translates.
 
 Every failure to start is a :class:`~pedvr.errors.BackendUnavailableError`
@@ -39,35 +40,44 @@ GL_RGBA8 = 0x8058
 GL_FRAMEBUFFER_SRGB = 0x8DB9
 STANDING_EYE_HEIGHT = 1.65  # m, added when only a LOCAL (head-height) space exists
 
+# Each hand's grip pose (issue 14: the trigger takes a door with the controller near the handle);
+# every profile below has it.
+GRIP = ("/user/hand/left/input/grip/pose", "/user/hand/right/input/grip/pose")
+
 # Suggested bindings: interaction profile -> action name -> input paths.
 BINDINGS: dict[str, dict[str, tuple[str, ...]]] = {
     "/interaction_profiles/khr/simple_controller": {
         "trigger": ("/user/hand/right/input/select/click", "/user/hand/left/input/select/click"),
         "menu": ("/user/hand/left/input/menu/click", "/user/hand/right/input/menu/click"),
+        "grip": GRIP,
     },
     "/interaction_profiles/oculus/touch_controller": {
         "move": ("/user/hand/left/input/thumbstick",),
         "turn": ("/user/hand/right/input/thumbstick",),
         "trigger": ("/user/hand/right/input/trigger/value", "/user/hand/left/input/trigger/value"),
         "menu": ("/user/hand/left/input/menu/click",),
+        "grip": GRIP,
     },
     "/interaction_profiles/valve/index_controller": {
         "move": ("/user/hand/left/input/thumbstick",),
         "turn": ("/user/hand/right/input/thumbstick",),
         "trigger": ("/user/hand/right/input/trigger/click", "/user/hand/left/input/trigger/click"),
         "menu": ("/user/hand/left/input/b/click",),
+        "grip": GRIP,
     },
     "/interaction_profiles/htc/vive_controller": {
         "move": ("/user/hand/left/input/trackpad",),
         "turn": ("/user/hand/right/input/trackpad",),
         "trigger": ("/user/hand/right/input/trigger/click", "/user/hand/left/input/trigger/click"),
         "menu": ("/user/hand/left/input/menu/click", "/user/hand/right/input/menu/click"),
+        "grip": GRIP,
     },
     "/interaction_profiles/microsoft/motion_controller": {
         "move": ("/user/hand/left/input/thumbstick",),
         "turn": ("/user/hand/right/input/thumbstick",),
         "trigger": ("/user/hand/right/input/trigger/value", "/user/hand/left/input/trigger/value"),
         "menu": ("/user/hand/left/input/menu/click", "/user/hand/right/input/menu/click"),
+        "grip": GRIP,
     },
 }
 
@@ -147,6 +157,7 @@ class OpenXRPort:
         self._actions: dict[str, Any] = {}
         self._action_set: Any = None
         self._hands: list[Any] = []
+        self._grip_spaces: list[Any] = []  # left, right: the grip pose's action spaces
         self._prev_buttons = {"trigger": False, "menu": False}
 
     @classmethod
@@ -316,6 +327,7 @@ class OpenXRPort:
             "turn": xr.ActionType.VECTOR2F_INPUT,
             "trigger": xr.ActionType.BOOLEAN_INPUT,
             "menu": xr.ActionType.BOOLEAN_INPUT,
+            "grip": xr.ActionType.POSE_INPUT,
         }
         for name, kind in kinds.items():
             self._actions[name] = xr.create_action(
@@ -345,6 +357,15 @@ class OpenXRPort:
         xr.attach_session_action_sets(
             self.session, xr.SessionActionSetsAttachInfo(action_sets=[self._action_set])
         )
+        self._grip_spaces = [
+            xr.create_action_space(
+                self.session,
+                xr.ActionSpaceCreateInfo(
+                    action=self._actions["grip"], subaction_path=hand, pose_in_action_space=xr.Posef()
+                ),
+            )
+            for hand in self._hands
+        ]
 
     # -- XrPort ----------------------------------------------------------------------------
 
@@ -405,6 +426,19 @@ class OpenXRPort:
         ok = xr.SpaceLocationFlags.POSITION_VALID_BIT | xr.SpaceLocationFlags.ORIENTATION_VALID_BIT
         return self._pose(loc.pose) if (loc.location_flags & ok) == ok else None
 
+    def locate_hands(self, display_time: float) -> list[Pose | None]:
+        """Each hand's grip pose (left, right) in the reference space at the frame's predicted time,
+        None where the runtime does not give both its position and orientation as valid (a controller
+        off, out of tracking, or the session not focused). Call after :meth:`sync_controls`: action
+        spaces follow the actions' last sync."""
+        xr = self.xr
+        ok = xr.SpaceLocationFlags.POSITION_VALID_BIT | xr.SpaceLocationFlags.ORIENTATION_VALID_BIT
+        out: list[Pose | None] = []
+        for space in self._grip_spaces:
+            loc = xr.locate_space(space, self.space, self._time)
+            out.append(self._pose(loc.pose) if (loc.location_flags & ok) == ok else None)
+        return out
+
     def locate_views(self, display_time: float) -> list[ViewLocation]:
         xr = self.xr
         state, views = xr.locate_views(
@@ -454,8 +488,19 @@ class OpenXRPort:
             self._prev_buttons[name] = now
             return edge
 
+        def hand_down(name: str) -> int:
+            """Which hand holds ``name`` down (right first): 0 left, 1 right, -1 neither says so."""
+            for k in (1, 0):
+                info = xr.ActionStateGetInfo(action=self._actions[name], subaction_path=self._hands[k])
+                s = xr.get_action_state_boolean(self.session, info)
+                if s.is_active and s.current_state:
+                    return k
+            return -1
+
+        trigger = pressed("trigger")
         return Controls(
-            move=vec("move", 0), turn=vec("turn", 1)[0], trigger=pressed("trigger"), menu=pressed("menu")
+            move=vec("move", 0), turn=vec("turn", 1)[0], trigger=trigger, menu=pressed("menu"),
+            trigger_hand=hand_down("trigger") if trigger else -1,
         )
 
     def render_eye(self, index: int, draw: Callable[[object, tuple[int, int, int, int]], None]) -> None:
@@ -509,6 +554,9 @@ class OpenXRPort:
         for sc in self.swapchains:
             xr.destroy_swapchain(sc)
         self.swapchains, self.targets = [], []
+        for space in self._grip_spaces:
+            xr.destroy_space(space)
+        self._grip_spaces = []
         if self.session is not None:
             xr.destroy_session(self.session)
             self.session = None

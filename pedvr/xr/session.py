@@ -114,6 +114,8 @@ class XrPort(Protocol):
 
     def sync_controls(self, *, focused: bool) -> Controls: ...
 
+    def locate_hands(self, display_time: float) -> list[Pose | None]: ...
+
     def render_eye(self, index: int, draw: Callable[[object, tuple[int, int, int, int]], None]) -> None: ...
 
     def end_frame(self, *, display_time: float, views: list[ViewLocation] | None) -> None: ...
@@ -197,6 +199,8 @@ class XrPresenter:
         self._views: list[ViewLocation] | None = None
         self._last_time: float | None = None
         self.controls = Controls()
+        self.hands: list[Pose | None] = [None, None]  # grip poses (left, right), tracking space
+        self.door_hand = 1  # the hand on a door: the one whose trigger took it (right until then)
         self.triggers = 0
         self.menus = 0
         self.holding_door = False
@@ -220,6 +224,7 @@ class XrPresenter:
         self._frame = frame
         head = self.port.locate_head(frame.display_time)
         self.controls = self.port.sync_controls(focused=self.logic.focused)
+        self.hands = self.port.locate_hands(frame.display_time)
         self.triggers += int(self.controls.trigger)
         self.menus += int(self.controls.menu)
         dt = 0.0 if self._last_time is None else max(0.0, frame.display_time - self._last_time)
@@ -252,10 +257,24 @@ class XrPresenter:
             out.append(EyeView.from_pose(rotation=r, position=p, projection=proj))
         return out
 
+    def hand_point(self) -> tuple[float, float] | None:
+        """The world floor point of the controller on the door (:attr:`door_hand`), or None when its
+        grip pose is not tracked (the etiquette then assumes a reach ahead of the user, as on the
+        desktop). A trigger press by a known hand makes that hand the door hand."""
+        if self.controls.trigger and self.controls.trigger_hand in (0, 1):
+            self.door_hand = self.controls.trigger_hand
+        pose = self.hands[self.door_hand] if self.door_hand < len(self.hands) else None
+        return None if pose is None else self.user.floor_point(pose.position)
+
     def render(self, sim: Simulation) -> None:
-        if self.controls.trigger and sim is not None and sim.etiquette is not None:
-            # the trigger takes (or lets go of) the door whose handle is within reach of the user
-            self.holding_door = sim.etiquette.user_hand(not self.holding_door)
+        if sim is not None and sim.etiquette is not None:
+            # Issue 14: the trigger takes (or lets go of) the door whose handle is near the controller
+            # that pressed it; while held, the leaf follows that controller every frame.
+            hand = self.hand_point()
+            if self.controls.trigger:
+                self.holding_door = sim.etiquette.user_hand(not self.holding_door, hand)
+            else:
+                self.holding_door = sim.etiquette.user_hand_moved(hand)
         if self.update is not None:
             self.update(sim)
         for i, eye in enumerate(self.eye_views()):

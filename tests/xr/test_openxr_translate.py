@@ -41,7 +41,7 @@ def _addr(handle: Any) -> int:
     return int(ctypes.cast(handle, ctypes.c_void_p).value or 0)
 
 
-ACTIONS = {name: k for k, name in enumerate(("move", "turn", "trigger", "menu"), start=0x100)}
+ACTIONS = {name: k for k, name in enumerate(("move", "turn", "trigger", "menu", "grip"), start=0x100)}
 NAMES = {v: k for k, v in ACTIONS.items()}
 
 
@@ -60,6 +60,8 @@ class ScriptedRuntime:
         self.frame_state = xr.FrameState()
         self.vectors: dict[tuple[str, int], Any] = {}
         self.booleans: dict[str, list[Any]] = {}
+        self.hand_booleans: dict[tuple[str, int], Any] = {}  # per-hand states (a subaction path given)
+        self.spaces: dict[int, Any] = {}  # located spaces other than the head, by handle address
         self.calls: list[tuple[str, object]] = []
         self.released = 0
 
@@ -76,7 +78,7 @@ class ScriptedRuntime:
 
     def locate_space(self, space: object, base: object, time: int) -> Any:
         self.calls.append(("locate_space", time))
-        return self.head
+        return self.spaces.get(_addr(space), self.head)
 
     def locate_views(self, session: object, info: Any) -> tuple[Any, list[Any]]:
         self.calls.append(("locate_views", info.display_time))
@@ -89,6 +91,9 @@ class ScriptedRuntime:
         return self.vectors[(NAMES[_addr(info.action)], info.subaction_path)]
 
     def get_action_state_boolean(self, session: object, info: Any) -> Any:
+        if info.subaction_path != xr.NULL_PATH:
+            return self.hand_booleans.get((NAMES[_addr(info.action)], info.subaction_path),
+                                          xr.ActionStateBoolean())
         return self.booleans[NAMES[_addr(info.action)]].pop(0)
 
     def acquire_swapchain_image(self, swapchain: object, info: object) -> int:
@@ -248,3 +253,101 @@ def test_end_frame_submits_the_located_views_at_the_predicted_time(
         assert _addr(pv.sub_image.swapchain) == _addr(p.swapchains[k])  # each eye its own swapchain
     p.end_frame(display_time=frame.display_time, views=None)  # nothing to show: an empty frame
     assert [c for c in rt.calls if c[0] == "end_frame"][-1][1].layer_count == 0
+
+
+VALID = xr.SpaceLocationFlags.POSITION_VALID_BIT | xr.SpaceLocationFlags.ORIENTATION_VALID_BIT
+
+
+def test_grip_poses_are_located_per_hand_in_the_reference_space_and_need_both_valid_bits(
+    port: tuple[OpenXRPort, ScriptedRuntime],
+) -> None:
+    p, rt = port
+    p._grip_spaces = [_handle(xr.Space, 0x80), _handle(xr.Space, 0x90)]
+    rt.frame_state = xr.FrameState(predicted_display_time=3 * NS + 7, predicted_display_period=1, should_render=True)
+    p.wait_frame()
+    q = (0.0, 0.0, 0.0, 1.0)
+    rt.spaces = {0x80: xr.SpaceLocation(location_flags=xr.SpaceLocationFlags.POSITION_VALID_BIT,
+                                        pose=_posef((-0.2, 0.9, -0.3), q)),
+                 0x90: xr.SpaceLocation(location_flags=VALID, pose=_posef((0.25, 1.0, -0.4), q))}
+    p._height_offset = 1.65  # a LOCAL space: the hands are raised with the head
+    left, right = p.locate_hands(0.0)
+    assert left is None  # position without orientation: not tracked
+    assert right is not None
+    np.testing.assert_allclose(right.position, [0.25, 2.65, -0.4], atol=1e-6)
+    assert rt.calls == [("locate_space", 3 * NS + 7)] * 2  # at the runtime's own predicted time
+    rt.spaces[0x80].location_flags = VALID
+    rt.spaces[0x90].location_flags = 0  # a controller switched off
+    left, right = p.locate_hands(0.0)
+    assert right is None and left is not None
+    np.testing.assert_allclose(left.position, [-0.2, 2.55, -0.3], atol=1e-6)
+
+
+def test_the_trigger_says_which_hand_pressed_it(port: tuple[OpenXRPort, ScriptedRuntime]) -> None:
+    p, rt = port
+    rt.vectors = {("move", 1): xr.ActionStateVector2f(), ("turn", 2): xr.ActionStateVector2f()}
+    down = xr.ActionStateBoolean(current_state=True, is_active=True)
+    up = xr.ActionStateBoolean(current_state=False, is_active=True)
+    rt.booleans = {"trigger": [down, down, up, down], "menu": [up] * 4}
+    rt.hand_booleans = {("trigger", 1): down}  # the left hand (path 1) holds it
+    c = p.sync_controls(focused=True)
+    assert c.trigger and c.trigger_hand == 0
+    assert p.sync_controls(focused=True).trigger_hand == -1  # held, not pressed again: no hand asked
+    p.sync_controls(focused=True)
+    rt.hand_booleans = {("trigger", 1): down, ("trigger", 2): down}  # both: the right one
+    assert p.sync_controls(focused=True).trigger_hand == 1
+
+
+class SetupRuntime(ScriptedRuntime):
+    """Answers the start-up calls of the action set: records actions, bindings and action spaces."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.paths: dict[str, int] = {}
+        self.created: dict[str, Any] = {}
+        self.bindings: dict[str, list[tuple[str, str]]] = {}
+        self.action_spaces: list[tuple[str, int, Any]] = []
+
+    def string_to_path(self, instance: object, s: str) -> int:
+        return self.paths.setdefault(s, len(self.paths) + 1)
+
+    def create_action_set(self, instance: object, info: object) -> Any:
+        return _handle(xr.ActionSet, 0x50)
+
+    def create_action(self, action_set: object, info: Any) -> Any:
+        name = info.action_name.decode() if isinstance(info.action_name, bytes) else str(info.action_name)
+        self.created[name] = info
+        return _handle(xr.Action, ACTIONS[name])
+
+    def suggest_interaction_profile_bindings(self, instance: object, info: Any) -> None:
+        where = {v: k for k, v in self.paths.items()}
+        self.bindings[where[info.interaction_profile]] = [
+            (NAMES[_addr(b.action)], where[b.binding])
+            for b in (info.suggested_bindings[k] for k in range(info.count_suggested_bindings))
+        ]
+
+    def attach_session_action_sets(self, session: object, info: object) -> None:
+        pass
+
+    def create_action_space(self, session: object, info: Any) -> Any:
+        self.action_spaces.append((NAMES[_addr(info.action)], int(info.subaction_path), info.pose_in_action_space))
+        return _handle(xr.Space, 0x80 + 0x10 * len(self.action_spaces))
+
+
+def test_the_action_set_has_a_grip_pose_per_hand_bound_for_every_profile_with_an_action_space_each() -> None:
+    p = OpenXRPort()
+    rt = SetupRuntime()
+    p.xr = rt
+    p.instance, p.session = _handle(xr.Instance, 0x10), _handle(xr.Session, 0x20)
+    p._actions_setup()
+    grip = rt.created["grip"]
+    assert grip.action_type == xr.ActionType.POSE_INPUT
+    hands = [rt.paths["/user/hand/left"], rt.paths["/user/hand/right"]]
+    assert [grip.subaction_paths[k] for k in range(grip.count_subaction_paths)] == hands
+    assert len(rt.bindings) == 5  # every profile bound, each with both grip poses
+    for profile, pairs in rt.bindings.items():
+        assert ("grip", "/user/hand/left/input/grip/pose") in pairs, profile
+        assert ("grip", "/user/hand/right/input/grip/pose") in pairs, profile
+    assert [(a, h) for a, h, _ in rt.action_spaces] == [("grip", hands[0]), ("grip", hands[1])]
+    for *_, pose in rt.action_spaces:  # the grip itself, no offset
+        assert (pose.position.x, pose.position.y, pose.position.z, pose.orientation.w) == (0.0, 0.0, 0.0, 1.0)
+    assert [_addr(s) for s in p._grip_spaces] == [0x90, 0xA0]

@@ -43,6 +43,7 @@ class FakePort:
     frame_index: int = 0
     rendered: list[int] = field(default_factory=list)
     ended: list[int | None] = field(default_factory=list)
+    hands: list[Pose | None] = field(default_factory=lambda: [None, None])
 
     def poll_events(self) -> list[object]:
         return list(self.events.pop(0)) if self.events else []
@@ -83,6 +84,9 @@ class FakePort:
         if not focused or not self.controls:
             return Controls()
         return self.controls.pop(0)
+
+    def locate_hands(self, display_time: float) -> list[Pose | None]:
+        return list(self.hands)
 
     def render_eye(self, index: int, draw: Callable[[object, tuple[int, int, int, int]], None]) -> None:
         draw("fbo", (0, 0, 10, 10))
