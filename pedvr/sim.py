@@ -227,7 +227,9 @@ class Simulation:
         if prof is not None and prof.sex:  # a profile that says who its agents are (door etiquette's Care)
             dims = sk.draw_dims(self.body.rng, n, sex=sk.SEX_FEMALE if prof.sex == "female" else sk.SEX_MALE)
         rows.pref_speed *= self.body.append(n, ids=ids, pos=rows.pos, heading=rows.heading, is_user=is_user,
-                                            limits=rows.limits, dims=dims)
+                                            limits=rows.limits, dims=dims,
+                                            carrying=self.scene.user.carrying if is_user
+                                            else prof.carrying if prof is not None else "none")
         if self.etiquette is not None:
             self.etiquette.append(ids, profile=prof, is_user=is_user,
                                   female=self.body.state.dims[first:first + n, sk.DIM_SEX] == sk.SEX_FEMALE)

@@ -1,0 +1,87 @@
+"""What a pedestrian carries: a box held in front of the chest, or a perambulator pushed ahead.
+
+Huang & Terzopoulos §4.6 ("carrying a box ... pushing a perambulator": no free hand,
+they push a door with the body or wait for help) name the two; a scene profile says
+which (``carrying = "none" | "box" | "perambulator"``, :mod:`pedvr.scene.config`).
+The paper gives no geometry; pedvr's choice, in the body's frame (forward along the
+2D heading, left along ``(sin θ, -cos θ)`` as in :mod:`pedvr.body`, up +Y, all
+lengths times the body's scale ``height / 1.75``):
+
+* **box**: 0.40 m wide, 0.30 m deep, 0.30 m tall, its centre :data:`BOX_AHEAD` ahead
+  of the root at :data:`BOX_HEIGHT`; the hands hold its two sides at mid height
+  (arm IK, both arms, :func:`hand_targets`).
+* **perambulator**: a handle bar :data:`PRAM_HANDLE_WIDTH` wide, :data:`PRAM_HANDLE_AHEAD`
+  ahead at :data:`PRAM_HANDLE_HEIGHT`; the hands hold it at its ends. The pram itself
+  (basket and four wheels, :data:`PRAM_BASKET` in the same frame) lies ahead of the
+  handle; its footprint is not the body's (the crowd layer's, see the scene docs).
+
+Both arms reach for these points every step (the reach choreographer, which replaces
+the walk's arm swing on the arms it moves), so the hands follow the body; a hand the
+behaviour layer takes explicitly (``FullBody.reach_for``) leaves the carry for as long
+as it is taken (§4.6's carrier who, after waiting alone, frees a hand to pull a door:
+:data:`pedvr.etiquette.system.CARRIER_PATIENCE`), and returns to it when released.
+
+Everything here is pure numpy: the renderer draws the box and the pram from the same
+frame (:func:`carry_frame`), so the hands are on what is drawn.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+NONE, BOX, PERAMBULATOR = 0, 1, 2
+KINDS = {"none": NONE, "box": BOX, "perambulator": PERAMBULATOR}
+
+BOX_SIZE = (0.30, 0.30, 0.40)  # m: depth (forward), height, width (across)
+BOX_AHEAD = 0.34  # m: box centre ahead of the root
+BOX_HEIGHT = 1.08  # m: box centre above the floor
+
+PRAM_HANDLE_AHEAD = 0.36  # m: the handle bar ahead of the root (elbows bent: a pusher walks close)
+PRAM_HANDLE_HEIGHT = 1.0  # m
+PRAM_HANDLE_WIDTH = 0.46  # m: the hands at its ends, about shoulder width
+# The pram's basket: forward from, forward to, bottom, top, half width (m, body frame).
+PRAM_BASKET = (0.50, 1.12, 0.38, 0.80, 0.27)
+PRAM_WHEEL_RADIUS = 0.13  # m
+PRAM_AXLES = (PRAM_BASKET[0] + 0.08, PRAM_BASKET[1] - 0.08)  # m: rear and front axle ahead of the root
+PRAM_FRONT = PRAM_AXLES[1] + PRAM_WHEEL_RADIUS  # m: the pram's frontmost point (a front wheel's rim)
+
+
+def kind_codes(names: list[str] | tuple[str, ...] | np.ndarray) -> np.ndarray:
+    """``(N,) int8`` codes (:data:`NONE`, :data:`BOX`, :data:`PERAMBULATOR`) of profile ``carrying`` names."""
+    return np.asarray([KINDS[str(s)] for s in names], np.int8).reshape(-1)
+
+
+def carry_frame(root: np.ndarray, heading: np.ndarray, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray,
+                                                                                  np.ndarray]:
+    """The body frame in 3D world coordinates: ``origin (N, 3)`` (the root on the floor),
+    ``forward (N, 3)`` and ``left (N, 3)`` unit vectors; lengths in this frame are to be
+    multiplied by ``scale (N,)`` by the caller."""
+    root = np.asarray(root, np.float64).reshape(-1, 2)
+    h = np.asarray(heading, np.float64).reshape(-1)
+    n = root.shape[0]
+    origin = np.zeros((n, 3))
+    origin[:, 0], origin[:, 2] = root[:, 0], root[:, 1]
+    forward = np.zeros((n, 3))
+    forward[:, 0], forward[:, 2] = np.cos(h), np.sin(h)
+    left = np.zeros((n, 3))
+    left[:, 0], left[:, 2] = np.sin(h), -np.cos(h)
+    return origin, forward, left
+
+
+def hand_targets(kind: np.ndarray, root: np.ndarray, heading: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """``(N, 2, 3)`` world points for the left (0) and right (1) hand: the box's sides or the
+    handle's ends (see the module docstring); rows that carry nothing get the box's points
+    (callers use only the carrying rows)."""
+    kind = np.asarray(kind).reshape(-1)
+    sc = np.asarray(scale, np.float64).reshape(-1, 1)
+    origin, forward, left = carry_frame(root, heading, scale)
+    pram = (kind == PERAMBULATOR)[:, None]
+    ahead = np.where(pram, PRAM_HANDLE_AHEAD, BOX_AHEAD) * sc
+    up = np.where(pram, PRAM_HANDLE_HEIGHT, BOX_HEIGHT) * sc
+    half = np.where(pram, PRAM_HANDLE_WIDTH / 2, BOX_SIZE[2] / 2) * sc
+    centre = origin + forward * ahead
+    centre[:, 1] = up[:, 0]
+    out = np.empty((kind.shape[0], 2, 3))
+    out[:, 0] = centre + left * half
+    out[:, 1] = centre - left * half
+    return out
