@@ -4,8 +4,9 @@ Huang & Terzopoulos §4.6 ("carrying a box ... pushing a perambulator": no free 
 they push a door with the body or wait for help) name the two; a scene profile says
 which (``carrying = "none" | "box" | "perambulator"``, :mod:`pedvr.scene.config`).
 The paper gives no geometry; pedvr's choice, in the body's frame (forward along the
-2D heading, left along ``(sin θ, -cos θ)`` as in :mod:`pedvr.body`, up +Y, all
-lengths times the body's scale ``height / 1.75``):
+2D heading, left along ``(sin θ, -cos θ)`` as in :mod:`pedvr.body`, up +Y; the box's
+lengths times the body's scale ``height / 1.75`` (it is held where the chest is), the
+pram's in metres whoever pushes it (a pram has its own size: :func:`object_scale`):
 
 * **box**: 0.40 m wide, 0.30 m deep, 0.30 m tall, its centre :data:`BOX_AHEAD` ahead
   of the root at :data:`BOX_HEIGHT`; the hands hold its two sides at mid height
@@ -68,12 +69,19 @@ def carry_frame(root: np.ndarray, heading: np.ndarray, scale: np.ndarray) -> tup
     return origin, forward, left
 
 
+def object_scale(kind: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """``(N,)`` the factor the carried object's lengths are multiplied by: the body's scale
+    for a box, 1 for a perambulator."""
+    pram = np.asarray(kind).reshape(-1) == PERAMBULATOR
+    return np.where(pram, 1.0, np.asarray(scale, np.float64).reshape(-1))
+
+
 def hand_targets(kind: np.ndarray, root: np.ndarray, heading: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """``(N, 2, 3)`` world points for the left (0) and right (1) hand: the box's sides or the
     handle's ends (see the module docstring); rows that carry nothing get the box's points
     (callers use only the carrying rows)."""
     kind = np.asarray(kind).reshape(-1)
-    sc = np.asarray(scale, np.float64).reshape(-1, 1)
+    sc = object_scale(kind, scale)[:, None]
     origin, forward, left = carry_frame(root, heading, scale)
     pram = (kind == PERAMBULATOR)[:, None]
     ahead = np.where(pram, PRAM_HANDLE_AHEAD, BOX_AHEAD) * sc

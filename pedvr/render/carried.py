@@ -4,10 +4,11 @@ Pure numpy (no GL). The shapes are built once in the carrier's body frame from t
 body layer's dimensions (:mod:`pedvr.body.carry`: the same frame whose points the hands
 reach for, so the hands are on the box's sides and the pram's handle), in the scene
 dressing's style (:mod:`pedvr.render.environment`: flat-shaded prisms with the
-environment shader's materials). Each frame every carried thing is scaled by its body's
-scale, turned to its heading and moved to its root, and all of them go into one vertex
-buffer: one draw call for every box and pram together, as for the door leaves (a box is
-36 vertices, a pram a few hundred, so even a crowd of carriers is a small upload).
+environment shader's materials). Each frame every carried thing is scaled
+(:func:`pedvr.body.carry.object_scale`: a box by its body's scale, a pram not), turned to
+its heading and moved to its root, and all of them go into one vertex buffer: one draw
+call for every box and pram together, as for the door leaves (a box is 36 vertices, a
+pram a few hundred, so even a crowd of carriers is a small upload).
 
 The overhead view draws their outlines (:func:`outline_segments`): the box a square in
 front of the disc, the pram its basket's rectangle, its handle and its four wheels.
@@ -100,7 +101,7 @@ def carried_vertices(kind: np.ndarray, pos: np.ndarray, heading: np.ndarray,
     kind = np.asarray(kind).reshape(-1)
     pos = np.asarray(pos, np.float64).reshape(-1, 2)
     heading = np.asarray(heading, np.float64).reshape(-1)
-    scale = np.asarray(scale, np.float64).reshape(-1)
+    scale = carry.object_scale(kind, scale)
     parts = []
     for k in (carry.BOX, carry.PERAMBULATOR):
         rows = np.flatnonzero(kind == k)
@@ -130,7 +131,7 @@ def outline_segments(kind: np.ndarray, pos: np.ndarray, heading: np.ndarray,
     kind = np.asarray(kind).reshape(-1)
     pos = np.asarray(pos, np.float64).reshape(-1, 2)
     heading = np.asarray(heading, np.float64).reshape(-1)
-    scale = np.asarray(scale, np.float64).reshape(-1)
+    scale = carry.object_scale(kind, scale)
     d, _, w = carry.BOX_SIZE
     a0, a1, _, _, half = carry.PRAM_BASKET
     ha, hw, r = carry.PRAM_HANDLE_AHEAD, carry.PRAM_HANDLE_WIDTH / 2, carry.PRAM_WHEEL_RADIUS
