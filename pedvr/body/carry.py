@@ -45,6 +45,15 @@ PRAM_BASKET = (0.50, 1.12, 0.38, 0.80, 0.27)
 PRAM_WHEEL_RADIUS = 0.13  # m
 PRAM_AXLES = (PRAM_BASKET[0] + 0.08, PRAM_BASKET[1] - 0.08)  # m: rear and front axle ahead of the root
 PRAM_FRONT = PRAM_AXLES[1] + PRAM_WHEEL_RADIUS  # m: the pram's frontmost point (a front wheel's rim)
+# The outline of pusher and pram in the body frame (forward, across; m): the pusher's back and
+# shoulders, the handle's ends, the basket's corners and the wheels' extremes. The crowd layer's
+# footprint for a pram is the ellipse round these (pedvr.crowd.footprint.enclosing_ellipse).
+PRAM_HULL = np.array(
+    [[-0.20, 0.0], [-0.12, 0.20], [-0.12, -0.20], [0.0, 0.25], [0.0, -0.25],
+     [PRAM_HANDLE_AHEAD, PRAM_HANDLE_WIDTH / 2 + 0.02], [PRAM_HANDLE_AHEAD, -PRAM_HANDLE_WIDTH / 2 - 0.02]]
+    + [[x, y] for x in (PRAM_BASKET[0], PRAM_BASKET[1]) for y in (PRAM_BASKET[4], -PRAM_BASKET[4])]
+    + [[x, y] for x in (PRAM_AXLES[0] - PRAM_WHEEL_RADIUS, PRAM_FRONT)
+       for y in (PRAM_BASKET[4], -PRAM_BASKET[4])])
 
 
 def kind_codes(names: list[str] | tuple[str, ...] | np.ndarray) -> np.ndarray:
