@@ -17,7 +17,11 @@ pram's in metres whoever pushes it (a pram has its own size: :func:`object_scale
   handle; its footprint is not the body's (the crowd layer's, see the scene docs).
 
 Both arms reach for these points every step (the reach choreographer, which replaces
-the walk's arm swing on the arms it moves), so the hands follow the body; a hand the
+the walk's arm swing on the arms it moves), so the hands follow the body. Sharp edge: the
+pose graph solves the arms before the legs' IK sets the pelvis height, so where the knees
+bend (starting to walk, slowing down) the hands ride a few centimetres below their points
+(up to about 6 cm measured in ``door_assist``, 4 cm starting a walk): the box is drawn between the hands
+(:func:`object_frame`), the pram's handle stays at its height; a hand the
 behaviour layer takes explicitly (``FullBody.reach_for``) leaves the carry for as long
 as it is taken (§4.6's carrier who, after waiting alone, frees a hand to pull a door:
 :data:`pedvr.etiquette.system.CARRIER_PATIENCE`), and returns to it when released.
@@ -85,10 +89,43 @@ def object_scale(kind: np.ndarray, scale: np.ndarray) -> np.ndarray:
     return np.where(pram, 1.0, np.asarray(scale, np.float64).reshape(-1))
 
 
+def object_yaw(kind: np.ndarray, heading: np.ndarray, shoulder_turn: np.ndarray) -> np.ndarray:
+    """``(N,)`` the 2D facing (rad) of what is carried: a box turns with the chest (a carrier
+    squeezing past someone turns the box with it: ``BodyState.shoulder_turn`` is a turn about
+    the 3D vertical +Y, so a 2D turn of ``-shoulder_turn``, :mod:`pedvr.body`'s convention), a
+    pram follows the heading (its pusher never turns its shoulders: pusher and pram are one
+    rigid footprint)."""
+    box = np.asarray(kind).reshape(-1) == BOX
+    return np.asarray(heading, np.float64) - np.where(box, np.asarray(shoulder_turn, np.float64), 0.0)
+
+
+def object_frame(kind: np.ndarray, root: np.ndarray, yaw: np.ndarray, scale: np.ndarray,
+                 hands: np.ndarray, taken: np.ndarray) -> np.ndarray:
+    """``(N, 4)`` where a carried thing is drawn: ``x, y, z`` (3D world, m) and its 2D ``yaw``.
+    A box's centre lies between the two hands (``hands (N, 2, 3)``, the posed hand joints), so it
+    is drawn where it is held even where the pose graph moved the arms after the reach (the legs'
+    IK lowering the pelvis, the chest turning); where a hand is ``taken (N, 2)`` by the behaviour,
+    it is where the hands would hold it. A pram's reference point is the root on the floor (it
+    is the crowd layer's footprint, placed by the root)."""
+    kind = np.asarray(kind).reshape(-1)
+    sc = object_scale(kind, scale)
+    origin, forward, _ = carry_frame(root, yaw, sc)
+    out = np.zeros((kind.shape[0], 4))
+    box = kind == BOX
+    centre = origin + forward * (BOX_AHEAD * sc)[:, None]
+    centre[:, 1] = BOX_HEIGHT * sc
+    both = box & ~np.asarray(taken, np.bool_).any(axis=1)
+    centre = np.where(both[:, None], np.asarray(hands, np.float64).mean(axis=1), centre)
+    out[:, :3] = np.where(box[:, None], centre, origin)
+    out[:, 3] = yaw
+    return out
+
+
 def hand_targets(kind: np.ndarray, root: np.ndarray, heading: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """``(N, 2, 3)`` world points for the left (0) and right (1) hand: the box's sides or the
-    handle's ends (see the module docstring); rows that carry nothing get the box's points
-    (callers use only the carrying rows)."""
+    handle's ends (see the module docstring), the object facing ``heading`` (its
+    :func:`object_yaw`); rows that carry nothing get the box's points (callers use only the
+    carrying rows)."""
     kind = np.asarray(kind).reshape(-1)
     sc = object_scale(kind, scale)[:, None]
     origin, forward, left = carry_frame(root, heading, scale)

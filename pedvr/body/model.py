@@ -145,6 +145,8 @@ class BodyState:
     reach_on: np.ndarray  # (N,2) bool per arm (capability)
     reach_pt: np.ndarray  # (N,2,3) world target
     carrying: np.ndarray  # (N,) int8 carry.NONE / BOX / PERAMBULATOR: both hands on it (pedvr.body.carry)
+    carry_yaw: np.ndarray  # (N,) rad: the carried thing's 2D facing this step (carry.object_yaw)
+    carry_frame: np.ndarray  # (N,4) where it is drawn: x, y (up), z world m and yaw (carry.object_frame)
     q_kind: np.ndarray  # (N,Q) int64
     q_prio: np.ndarray
     q_wait: np.ndarray
@@ -182,6 +184,7 @@ class BodyState:
             gaze_agent=np.full(n, -1, np.int64), gaze_rule=z(n, np.bool_),
             g_kind=z(n, np.int64), g_start=z(n), g_dur=z(n), g_next=z(n), sitting=z(n, np.bool_),
             reach_on=z((n, 2), np.bool_), reach_pt=z((n, 2, 3)), carrying=z(n, np.int8),
+            carry_yaw=z(n), carry_frame=z((n, 4)),
             q_kind=np.full((n, act.QUEUE), act.EMPTY, np.int64), q_prio=z((n, act.QUEUE)),
             q_wait=z((n, act.QUEUE)), q_planned=z((n, act.QUEUE), np.bool_), q_dur=z((n, act.QUEUE)),
             run_kind=np.full((n, act.N_RES), -1, np.int64), run_end=z((n, act.N_RES)),
@@ -332,6 +335,9 @@ class FullBody:
         self.state.append(rows)
         self.ids = np.concatenate([self.ids, np.asarray(ids, np.int64).reshape(n)])
         self.coordinator.append(n)
+        if carrying != "none" and "reach" in self.coordinator.index:  # they arrive holding it
+            k = self.coordinator.index["reach"]
+            self.coordinator.weights[-n:, k] = self.coordinator.targets[-n:, k] = 1.0
         self.skate.append(n)
         return speed_factor(rows.emotion)
 
@@ -421,6 +427,9 @@ class FullBody:
             self.step_log.append(ev)
         self._behaviour_tick(crowd, dt=dt, t=t, state_names=state_names)
         self._pose(crowd, dt=dt, t=t)
+        if (b.carrying != carry.NONE).any():
+            b.carry_frame[:] = carry.object_frame(b.carrying, b.root, b.carry_yaw, b.dims[:, sk.DIM_SCALE],
+                                                  b.world_pos[:, [sk.L_HAND, sk.R_HAND]], b.reach_on)
         self.skate.observe(b.world_pos, b.planted, b.foot_pitch, b.foot_lift, ~crowd.is_user)
         self._update_handles(t)
 
@@ -437,11 +446,11 @@ class FullBody:
         co.post("walking", (speed > V_WALK) & ~running)
         co.post("sitting", b.sitting)
         co.set_target("sitting", b.sitting.astype(np.float64))
-        g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur)
+        held = b.carrying != carry.NONE  # a carrier's arms stay on what it carries (no swing, no gesture)
+        g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur) & ~held
         g_env = np.clip(np.minimum(t - b.g_start, b.g_start + b.g_dur - t) / 0.4, 0.0, 1.0)
         co.set_target("gesture", np.where(g_active, g_env, 0.0))
         arm_act = np.isin(b.run_kind, ARM_ACTIONS).any(axis=1)
-        held = b.carrying != carry.NONE  # a carrier's arms stay on what it carries (no swing)
         co.set_target("reach", (b.reach_on.any(axis=1) | held | arm_act).astype(np.float64))
         co.smooth(dt)
         # The clip plays on while its weight fades out, so it ends where it was going.
@@ -472,13 +481,16 @@ class FullBody:
     def _carry_reach(self) -> tuple[np.ndarray, np.ndarray]:
         """The arms' reach this step: the behaviour's ``reach_on``/``reach_pt``, and where an arm
         is not taken by it, a carrier's hand on its box or pram handle (:mod:`pedvr.body.carry`),
-        following the root and heading just committed. Returns new arrays; the capability's own
+        following the root, heading and shoulder turn just committed. Returns new arrays; the capability's own
         state (what ``reach_for`` handles are judged by) is unchanged."""
         b = self.state
         carrying = b.carrying != carry.NONE
         if not carrying.any():
             return b.reach_on, b.reach_pt
         held = carrying[:, None] & ~b.reach_on
+        b.carry_yaw[:] = carry.object_yaw(b.carrying, b.heading, b.shoulder_turn)
+        # Targets in the untwisted frame: the pose graph turns the shoulders after the reach
+        # (graph.turn_shoulders), which takes the arms, and so the box, round with the chest.
         pts = carry.hand_targets(b.carrying, b.root, b.heading, b.dims[:, sk.DIM_SCALE])
         return (np.ascontiguousarray(b.reach_on | held),
                 np.ascontiguousarray(np.where(held[:, :, None], pts, b.reach_pt)))

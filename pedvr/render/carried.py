@@ -54,11 +54,10 @@ def _wheel(a: float, c: float, radius: float) -> np.ndarray:
 
 
 def box_mesh() -> np.ndarray:
-    """The box, body frame, scale 1 (``ENV_DTYPE`` vertices)."""
+    """The box about its centre, scale 1 (``ENV_DTYPE`` vertices)."""
     d, h, w = carry.BOX_SIZE
     out = _Parts()
-    _cuboid(out, carry.BOX_AHEAD - d / 2, carry.BOX_AHEAD + d / 2, carry.BOX_HEIGHT - h / 2,
-            carry.BOX_HEIGHT + h / 2, -w / 2, w / 2, CARDBOARD, PAINT)
+    _cuboid(out, -d / 2, d / 2, -h / 2, h / 2, -w / 2, w / 2, CARDBOARD, PAINT)
     return out.verts()
 
 
@@ -94,13 +93,25 @@ def _local(kind: int) -> np.ndarray:
     return _MESHES[kind]
 
 
-def carried_vertices(kind: np.ndarray, pos: np.ndarray, heading: np.ndarray,
-                     scale: np.ndarray) -> np.ndarray:
-    """World-space vertices of every box and pram: rows with ``kind`` (:data:`pedvr.body.carry.BOX`
-    or ``PERAMBULATOR``) at ground ``pos (N, 2)``, ``heading (N,)`` rad, body ``scale (N,)``."""
+def frames(kind: np.ndarray, frame: np.ndarray | None, pos: np.ndarray, heading: np.ndarray,
+           scale: np.ndarray) -> np.ndarray:
+    """``(N, 4)`` the body's carry frames (:func:`pedvr.body.carry.object_frame`), or where none
+    were given (a hand-made snapshot) the ones of bodies holding their things at ``pos`` facing
+    ``heading``."""
+    if frame is not None:
+        return np.asarray(frame, np.float64).reshape(-1, 4)
     kind = np.asarray(kind).reshape(-1)
-    pos = np.asarray(pos, np.float64).reshape(-1, 2)
-    heading = np.asarray(heading, np.float64).reshape(-1)
+    n = kind.shape[0]
+    return carry.object_frame(kind, pos, heading, scale, np.zeros((n, 2, 3)), np.ones((n, 2), np.bool_))
+
+
+def carried_vertices(kind: np.ndarray, frame: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """World-space vertices of every box and pram: rows with ``kind`` (:data:`pedvr.body.carry.BOX`
+    or ``PERAMBULATOR``) placed at ``frame (N, 4)`` (x, y, z, yaw: :func:`frames`), body
+    ``scale (N,)``."""
+    kind = np.asarray(kind).reshape(-1)
+    frame = np.asarray(frame, np.float64).reshape(-1, 4)
+    pos, heading = frame[:, [0, 2]], frame[:, 3]
     scale = carry.object_scale(kind, scale)
     parts = []
     for k in (carry.BOX, carry.PERAMBULATOR):
@@ -116,7 +127,7 @@ def carried_vertices(kind: np.ndarray, pos: np.ndarray, heading: np.ndarray,
         a, y, cc = (np.tile(local["pos"][:, j], rows.size) * sc for j in range(3))
         # (a forward, c across) -> ground: a rotation by the heading (so the winding is kept)
         out["pos"][:, 0] = c * a - s * cc + np.repeat(pos[rows, 0], m)
-        out["pos"][:, 1] = y
+        out["pos"][:, 1] = y + np.repeat(frame[rows, 1], m)
         out["pos"][:, 2] = s * a + c * cc + np.repeat(pos[rows, 1], m)
         na, nc = np.tile(local["normal"][:, 0], rows.size), np.tile(local["normal"][:, 2], rows.size)
         out["normal"][:, 0] = c * na - s * nc
@@ -125,12 +136,13 @@ def carried_vertices(kind: np.ndarray, pos: np.ndarray, heading: np.ndarray,
     return np.concatenate(parts) if parts else np.zeros(0, dtype=ENV_DTYPE)
 
 
-def outline_segments(kind: np.ndarray, pos: np.ndarray, heading: np.ndarray,
+def outline_segments(kind: np.ndarray, frame: np.ndarray,
                      scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Overhead outlines: segment end points ``(2S, 2)`` (ground) and each segment's kind ``(S,)``."""
+    """Overhead outlines at ``frame (N, 4)`` (:func:`frames`): segment end points ``(2S, 2)``
+    (ground) and each segment's kind ``(S,)``."""
     kind = np.asarray(kind).reshape(-1)
-    pos = np.asarray(pos, np.float64).reshape(-1, 2)
-    heading = np.asarray(heading, np.float64).reshape(-1)
+    frame = np.asarray(frame, np.float64).reshape(-1, 4)
+    pos, heading = frame[:, [0, 2]], frame[:, 3]
     scale = carry.object_scale(kind, scale)
     d, _, w = carry.BOX_SIZE
     a0, a1, _, _, half = carry.PRAM_BASKET
@@ -143,7 +155,7 @@ def outline_segments(kind: np.ndarray, pos: np.ndarray, heading: np.ndarray,
     handle = [(ha, -hw), (ha, hw), (ha, -hw + 0.01), (a0, -hw + 0.01), (ha, hw - 0.01), (a0, hw - 0.01)]
     wheels = [p for wa in carry.PRAM_AXLES for sd in (-1.0, 1.0)
               for p in ((wa - r, sd * (half + 0.01)), (wa + r, sd * (half + 0.01)))]
-    shapes = {carry.BOX: rect(carry.BOX_AHEAD - d / 2, carry.BOX_AHEAD + d / 2, w / 2),
+    shapes = {carry.BOX: rect(-d / 2, d / 2, w / 2),
               carry.PERAMBULATOR: rect(a0, a1, half) + handle + wheels}
     pts, kinds = [], []
     for k, local in shapes.items():

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pedvr.render.carried import outline_segments
+from pedvr.render.carried import frames, outline_segments
 from pedvr.render.environment import _cap_triangles, kind_colour
 from pedvr.render.snapshot import Snapshot
 from pedvr.scene.config import WorldConfig
@@ -99,7 +99,8 @@ def frame_geometry(
         lines.append(_segments(snap.pos, snap.pos + snap.vel * velocity_scale, VELOCITY))
         if snap.carrying is not None and np.any(snap.carrying):
             scale = np.ones(n) if snap.dims is None else np.asarray(snap.dims, np.float64)[:, 3]
-            ends, kinds = outline_segments(snap.carrying, snap.pos, snap.heading, scale)
+            frame = frames(snap.carrying, snap.carry_frame, snap.pos, snap.heading, scale)
+            ends, kinds = outline_segments(snap.carrying, frame, scale)
             seg = _segments(ends[0::2], ends[1::2], (0.0, 0.0, 0.0, 1.0))
             seg["color"] = np.asarray([CARRIED[int(k)] for k in kinds], np.float32).repeat(2, axis=0)
             lines.append(seg)

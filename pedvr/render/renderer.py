@@ -35,6 +35,7 @@ from pedvr.errors import BackendUnavailableError
 from pedvr.etiquette.doors import DoorLeaves
 from pedvr.render.bodymesh import VERTEX_ATTRIBUTES, VERTEX_FORMAT, CharacterMesh, procedural_character
 from pedvr.render.carried import carried_vertices
+from pedvr.render.carried import frames as carried_frames
 from pedvr.render.crowd import (
     LOOK_TEXELS,
     N_JOINTS,
@@ -400,8 +401,10 @@ class Renderer:
             self._leaf_vbo.write(place_leaves(self._leaf_local, pose).tobytes())
         self._carried_count = 0
         if snap.carrying is not None and n and np.any(np.asarray(snap.carrying)[rows]):
-            carried = carried_vertices(np.asarray(snap.carrying)[rows], snap.pos[rows], snap.heading[rows],
-                                       d[:, 3])
+            kind = np.asarray(snap.carrying)[rows]
+            given = None if snap.carry_frame is None else np.asarray(snap.carry_frame)[rows]
+            frame = carried_frames(kind, given, snap.pos[rows], snap.heading[rows], d[:, 3])
+            carried = carried_vertices(kind, frame, d[:, 3])
             self._carried_vbo, grew = _fit(self.ctx, self._carried_vbo, carried.tobytes())
             if grew:
                 self._carried_vao.release()

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from pedvr.body import carry
+from pedvr.body import skeleton as sk
 from pedvr.crowd.footprint import covering_discs, enclosing_ellipse, footprints
 from pedvr.errors import SceneError
 from pedvr.scene.loader import load_scene
@@ -119,12 +120,39 @@ def _measure(which: str, seconds: float) -> dict[str, float]:
             path.unlink()
     sim = Simulation(scene, seed=scene.seed)
     walls = [_points_support(ob.vertices) for ob in scene.world.obstacles]  # convex blocks here
-    out = {"agents": 0.0, "leaves": 0.0, "walls": 0.0, "user": 0.0, "moved": 0.0}
+    out = {"agents": 0.0, "leaves": 0.0, "walls": 0.0, "user": 0.0, "moved": 0.0, "box_hands": 0.0,
+           "pram_hands": 0.0,
+           "reached": 0.0, "forced": 0.0}
+    b = sim.body.state
     c = sim.crowd
     start = c.pos[c.radius >= 0.4].copy()  # the pram pushers (the only profile this wide)
     for _ in range(round(seconds / sim.dt)):
         sim.step()
         c = sim.crowd
+        # Carriers' hands: on what they carry, unless one was freed (§4.6, after CARRIER_PATIENCE).
+        holds = (b.carrying != carry.NONE) & ~b.reach_on.any(axis=1)
+        if holds.any():
+            # the drawn box's sides (its frame, carry.object_frame) and the pram's handle ends
+            frame = b.carry_frame
+            yaw = frame[:, 3]
+            side = np.stack([np.sin(yaw), np.zeros_like(yaw), -np.cos(yaw)], axis=1)
+            fwd = np.stack([np.cos(yaw), np.zeros_like(yaw), np.sin(yaw)], axis=1)
+            box = (b.carrying == carry.BOX)[:, None]
+            sc = b.dims[:, 3:4]
+            half = np.where(box, carry.BOX_SIZE[2] / 2 * sc, carry.PRAM_HANDLE_WIDTH / 2)
+            mid = np.where(box, frame[:, :3], frame[:, :3] + fwd * carry.PRAM_HANDLE_AHEAD
+                           + np.array([0.0, carry.PRAM_HANDLE_HEIGHT, 0.0]))
+            want = np.stack([mid + side * half, mid - side * half], axis=1)
+            got = b.world_pos[:, [sk.L_HAND, sk.R_HAND]]
+            off = np.linalg.norm(got - want, axis=2).max(axis=1)
+            for kind, key in ((carry.BOX, "box_hands"), (carry.PERAMBULATOR, "pram_hands")):
+                rows = holds & (b.carrying == kind)
+                if rows.any():
+                    out[key] = max(out[key], float(off[rows].max()))
+        if np.any((b.carrying != carry.NONE) & b.reach_on.any(axis=1)):
+            out["reached"] += sim.dt
+        if sim.etiquette is not None:
+            out["forced"] = float(sim.etiquette.carrier_forced)
         fp = footprints(c.pos, c.radius, c.turn, c.torso, c.heading, c.ahead, c.length)
         for i in np.flatnonzero(fp.rigid):
             h_i = _ellipse_support(fp.centre[i], float(fp.radius[i]), float(fp.depth[i]), fp.facing[i])
@@ -152,6 +180,16 @@ def test_a_pram_overlaps_nobody_no_leaf_no_wall(which: str, seconds: float) -> N
     assert m["walls"] <= TOL, m
     assert m["user"] <= 1e-3, m  # nothing inside the user
     assert m["max_overlap"] <= TOL, m  # and the simulation's own measure agrees
+
+
+def test_door_assist_carriers_keep_both_hands_on_what_they_carry() -> None:
+    """Issue 14: a carrier has no free hand: through the whole door_assist run the box carrier's and
+    the pram pusher's hands stay on the box's sides and the handle's ends (no handle reached for),
+    unless the etiquette let a carrier free a hand after waiting alone (it did not here)."""
+    m = _measure("door_assist", 90.0)
+    assert m["forced"] == 0.0 and m["reached"] == 0.0, m
+    assert m["box_hands"] < 0.01, m  # the box is drawn between the hands
+    assert m["pram_hands"] < 0.06, m  # the handle stays put; the hands ride below it as knees bend
 
 
 def test_the_footprint_holds_pusher_and_pram() -> None:

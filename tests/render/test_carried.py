@@ -11,7 +11,7 @@ import numpy as np
 from pedvr.body import FullBody, carry
 from pedvr.body import skeleton as sk
 from pedvr.crowd.state import CrowdState
-from pedvr.render.carried import carried_vertices, outline_segments
+from pedvr.render.carried import carried_vertices, frames, outline_segments
 from pedvr.render.math3d import first_person_eye, overhead_transform, project
 from pedvr.render.renderer import OffscreenTarget, Renderer
 from pedvr.render.snapshot import Snapshot
@@ -43,7 +43,8 @@ def _walking(pos: np.ndarray, heading: np.ndarray, kinds: tuple[str, ...], *,
         crowd.pos, crowd.vel = root, v
     snap = Snapshot.of_agents(pos=crowd.pos, heading=heading, vel=v, ids=ids, bones=body.joint_matrices(),
                               dims=body.state.dims.copy(), t=t)
-    return dataclasses.replace(snap, carrying=body.state.carrying.copy()), body
+    return dataclasses.replace(snap, carrying=body.state.carrying.copy(),
+                               carry_frame=body.state.carry_frame.copy()), body
 
 
 def _draw(renderer: Renderer, snap: Snapshot, eye: object) -> np.ndarray:
@@ -109,7 +110,7 @@ def test_the_pram_is_drawn_ahead_of_its_pusher_first_person_and_overhead(rendere
     assert img[int(hub[1]), int(hub[0])].max() < 90
 
     # Overhead: the outline lies ahead of the pusher, and its pixels are drawn there.
-    ends, kinds = outline_segments(snap.carrying, snap.pos, snap.heading, np.ones(1))
+    ends, kinds = outline_segments(snap.carrying, snap.carry_frame, np.ones(1))
     along = (ends - p) @ f
     assert np.all(kinds == carry.PERAMBULATOR) and along.min() > 0.3 and along.max() < 1.3
     t = OffscreenTarget(renderer.ctx, (W, H))
@@ -133,9 +134,10 @@ def test_carried_vertices_follow_the_body_frame() -> None:
     """One box and one pram: the box's vertices lie in the box, the pram's ahead of its root."""
     pos = np.array([[1.0, 2.0], [-3.0, 0.5]])
     heading = np.array([0.3, 2.0])
-    v = carried_vertices(np.array([carry.BOX, carry.PERAMBULATOR], np.int8), pos, heading, np.ones(2))
+    kind = np.array([carry.BOX, carry.PERAMBULATOR], np.int8)
+    v = carried_vertices(kind, frames(kind, None, pos, heading, np.ones(2)), np.ones(2))
     f = np.stack([np.cos(heading), np.sin(heading)], 1)
-    nb = len(carried_vertices(np.array([carry.BOX], np.int8), pos[:1], heading[:1], np.ones(1)))
+    nb = len(carried_vertices(kind[:1], frames(kind[:1], None, pos[:1], heading[:1], np.ones(1)), np.ones(1)))
     box, pram = v["pos"][:nb], v["pos"][nb:]
     ahead = (box[:, [0, 2]] - pos[0]) @ f[0]
     assert np.allclose([ahead.min(), ahead.max()], [carry.BOX_AHEAD - 0.15, carry.BOX_AHEAD + 0.15], atol=1e-5)
