@@ -119,20 +119,23 @@ def carried_vertices(kind: np.ndarray, frame: np.ndarray, scale: np.ndarray) -> 
         if not rows.size:
             continue
         local = _local(k)
-        m = len(local)
-        out = np.tile(local, rows.size)
-        c = np.repeat(np.cos(heading[rows]), m)
-        s = np.repeat(np.sin(heading[rows]), m)
-        sc = np.repeat(scale[rows], m)
-        a, y, cc = (np.tile(local["pos"][:, j], rows.size) * sc for j in range(3))
+        out = np.tile(local, rows.size).reshape(rows.size, len(local))  # colours, uv, materials
+        c, s = np.cos(heading[rows])[:, None], np.sin(heading[rows])[:, None]
+        sc = scale[rows][:, None]
+        a, y, cc = (local["pos"][None, :, j] * sc for j in range(3))
         # (a forward, c across) -> ground: a rotation by the heading (so the winding is kept)
-        out["pos"][:, 0] = c * a - s * cc + np.repeat(pos[rows, 0], m)
-        out["pos"][:, 1] = y + np.repeat(frame[rows, 1], m)
-        out["pos"][:, 2] = s * a + c * cc + np.repeat(pos[rows, 1], m)
-        na, nc = np.tile(local["normal"][:, 0], rows.size), np.tile(local["normal"][:, 2], rows.size)
-        out["normal"][:, 0] = c * na - s * nc
-        out["normal"][:, 2] = s * na + c * nc
-        parts.append(out)
+        p = np.empty((rows.size, len(local), 3), np.float32)
+        p[..., 0] = c * a - s * cc + pos[rows, 0:1]
+        p[..., 1] = y + frame[rows, 1:2]
+        p[..., 2] = s * a + c * cc + pos[rows, 1:2]
+        na, ny, nc = (local["normal"][None, :, j] for j in range(3))
+        nrm = np.empty_like(p)
+        nrm[..., 0] = c * na - s * nc
+        nrm[..., 1] = ny
+        nrm[..., 2] = s * na + c * nc
+        out["pos"] = p
+        out["normal"] = nrm
+        parts.append(out.reshape(-1))
     return np.concatenate(parts) if parts else np.zeros(0, dtype=ENV_DTYPE)
 
 
