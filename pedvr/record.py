@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from pedvr.crowd.footprint import footprint_arrays, pair_support
+from pedvr.crowd.footprint import Footprints, footprints, pair_support
 from pedvr.crowd.overlap import nearest_edges, pair_overlaps
 from pedvr.crowd.state import CrowdState
 from pedvr.world.visibility_kernels import EdgeGrid
@@ -117,7 +117,7 @@ class Metrics:
             self.max_turn_rate = max(self.max_turn_rate, float(dh.max()))
         self._overlaps(crowd)
 
-    def _user(self, crowd: CrowdState, depth: np.ndarray, facing: np.ndarray) -> None:
+    def _user(self, crowd: CrowdState, fp: Footprints) -> None:
         """The user's distances, every step (not only when some pair of discs is close):
         the closest centre distance, the deepest any footprint cuts into the user's disc,
         and the clearance (surface to surface) to the nearest agent within
@@ -127,11 +127,12 @@ class Metrics:
         if not (user.size and others.size):
             return
         u = user[0]
-        rel = crowd.pos[others] - crowd.pos[u]
+        self.min_user_distance = min(self.min_user_distance,
+                                     float(np.hypot(*(crowd.pos[others] - crowd.pos[u]).T).min()))
+        rel = fp.centre[others] - crowd.pos[u]  # footprints about their centres (a pram's is ahead)
         du = np.hypot(rel[:, 0], rel[:, 1])
-        self.min_user_distance = min(self.min_user_distance, float(du.min()))
         unit = np.divide(rel, du[:, None], out=np.zeros_like(rel), where=du[:, None] > 1e-12)
-        reach = pair_support(crowd.radius, depth, facing, others, -unit)
+        reach = pair_support(fp.radius, fp.depth, fp.facing, others, -unit)
         clear = du - reach - crowd.radius[u]
         k = int(np.argmin(clear))
         self.user_overlap = max(self.user_overlap, float(-clear[k]))
@@ -148,11 +149,12 @@ class Metrics:
         others = np.flatnonzero(~crowd.is_user)
         if not (user.size and others.size):
             return
-        depth, facing = footprint_arrays(crowd.radius, crowd.turn, crowd.torso)
-        rel = proposed[others] - crowd.pos[user[0]]
+        fp = footprints(proposed, crowd.radius, crowd.turn, crowd.torso, crowd.heading, crowd.ahead,
+                        crowd.length)
+        rel = fp.centre[others] - crowd.pos[user[0]]
         d = np.hypot(rel[:, 0], rel[:, 1])
         unit = np.divide(rel, d[:, None], out=np.zeros_like(rel), where=d[:, None] > 1e-12)
-        ov = pair_support(crowd.radius, depth, facing, others, -unit) + crowd.radius[user[0]] - d
+        ov = pair_support(fp.radius, fp.depth, fp.facing, others, -unit) + crowd.radius[user[0]] - d
         if float(ov.max()) > OVERLAP_TOLERANCE:
             self.user_contact_steps += 1
 
@@ -186,9 +188,10 @@ class Metrics:
         n = len(crowd)
         if n == 0:
             return
-        depth, facing = footprint_arrays(crowd.radius, crowd.turn, crowd.torso)
-        self._user(crowd, depth, facing)
-        pos, rad = np.ascontiguousarray(crowd.pos), np.ascontiguousarray(crowd.radius)
+        fp = footprints(crowd.pos, crowd.radius, crowd.turn, crowd.torso, crowd.heading, crowd.ahead,
+                        crowd.length)
+        self._user(crowd, fp)
+        pos, rad, depth, facing = fp.centre, fp.radius, fp.depth, fp.facing
         worst, pairs = pair_overlaps(pos, rad, depth, facing, OVERLAP_TOLERANCE)
         self.max_overlap = max(self.max_overlap, worst)
         for a, b in crowd.ids[pairs].tolist():

@@ -24,9 +24,10 @@ from pedvr.behavior.objects import make_objects
 from pedvr.behavior.scheduler import Scheduler
 from pedvr.body import FullBody
 from pedvr.body import skeleton as sk
+from pedvr.body.carry import PRAM_HULL
 from pedvr.body.model import GestureSets
 from pedvr.crowd.encounter import UserEncounters
-from pedvr.crowd.footprint import shoulder_twist
+from pedvr.crowd.footprint import covering_discs, enclosing_ellipse, footprints, shoulder_twist
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
@@ -223,11 +224,15 @@ class Simulation:
         )
         first = len(self.crowd)
         prof = list(self.scene.profiles.values())[profile] if profile >= 0 else None
+        if prof is not None and prof.carrying == "perambulator" and not is_user:
+            rows.ahead[:], rows.length[:] = enclosing_ellipse(radius, PRAM_HULL)  # one footprint (§4.6)
         dims = None
         if prof is not None and prof.sex:  # a profile that says who its agents are (door etiquette's Care)
             dims = sk.draw_dims(self.body.rng, n, sex=sk.SEX_FEMALE if prof.sex == "female" else sk.SEX_MALE)
         rows.pref_speed *= self.body.append(n, ids=ids, pos=rows.pos, heading=rows.heading, is_user=is_user,
-                                            limits=rows.limits, dims=dims)
+                                            limits=rows.limits, dims=dims,
+                                            carrying=self.scene.user.carrying if is_user
+                                            else prof.carrying if prof is not None else "none")
         if self.etiquette is not None:
             self.etiquette.append(ids, profile=prof, is_user=is_user,
                                   female=self.body.state.dims[first:first + n, sk.DIM_SEX] == sk.SEX_FEMALE)
@@ -468,12 +473,13 @@ class Simulation:
         if self.etiquette is not None:  # holders stepping round a door keep facing it (App. C)
             heading = self.etiquette.face(heading, self.crowd.heading, self.crowd, self.dt)
         self.metrics.observe_user_contact(self.crowd, root)
+        self._root_heading = heading
         self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user,
                                                     turn=self.crowd.turn, torso=self.crowd.torso,
-                                                    pinned=self._pinned)
+                                                    heading=heading, ahead=self.crowd.ahead,
+                                                    length=self.crowd.length, pinned=self._pinned)
         if len(self.doors):
             self._root = self._move_doors(self._root)
-        self._root_heading = heading
         if len(self.body.state) == len(self.crowd):  # the footprint's shoulder turn, shown by the body
             self.body.state.shoulder_turn[:] = np.where(
                 self.crowd.is_user, 0.0, shoulder_twist(self.crowd.turn, self.crowd.torso, heading))
@@ -494,22 +500,55 @@ class Simulation:
         if et is not None:  # the holders' hands lead their leaves (App. A's f_a)
             et.user_reach(crowd)
             et.before_doors(crowd)
-        doors.step(self.dt, root, vel, crowd.radius, fixed=crowd.is_user,
-                   auto=None if et is None else et.auto_open(crowd),
-                   carried=None if et is None else et.carried(crowd))
+        discs, rad, owner = self._door_discs(root)  # a pushed pram is seen whole (footprint.covering_discs)
+        doors.step(self.dt, discs, vel[owner], rad, fixed=crowd.is_user[owner],
+                   auto=None if et is None else et.auto_open(crowd)[owner],
+                   carried=None if et is None else et.carried(crowd)[owner])
         if et is not None:  # and the leaves lead the hands (f_pabs)
             et.after_doors(crowd)
-        pushed, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
+        pushed, overlap = self._push_out(root)
         if len(root):
             self.metrics.door_push = max(self.metrics.door_push, float(np.hypot(*(pushed - root).T).max()))
         if not np.array_equal(pushed, root):  # a pushed disc may now press on another: settle once more
             root = self.steering.resolve_contacts(pushed, crowd.radius, crowd.is_user,
-                                                  turn=crowd.turn, torso=crowd.torso, pinned=self._pinned)
-            root, overlap = doors.push_out(root, crowd.radius, ~crowd.is_user)
+                                                  turn=crowd.turn, torso=crowd.torso,
+                                                  heading=self._root_heading, ahead=crowd.ahead,
+                                                  length=crowd.length, pinned=self._pinned)
+            root, overlap = self._push_out(root)
         self.metrics.door_overlap = max(self.metrics.door_overlap, overlap)
         self.metrics.door_openings += int(np.count_nonzero(was_closed & (np.abs(doors.angle) >= CLOSED_EPS))
                                           + np.count_nonzero(was_still & (doors.revolvers.omega != 0.0)))
         return root
+
+    def _door_discs(self, root: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The discs the door controller sees, and each one's crowd row: every body's disc, except
+        that a pushed pram's rigid footprint is seen as the discs that hold its ellipse
+        (:func:`pedvr.crowd.footprint.covering_discs`) instead of its pusher's disc."""
+        c = self.crowd
+        n = len(c)
+        rows = np.flatnonzero(c.length > 0.0)
+        if not rows.size:
+            return root, c.radius, np.arange(n)
+        fp = footprints(root, c.radius, c.turn, c.torso, self._root_heading, c.ahead, c.length)
+        pos, rad, own = covering_discs(fp, rows)
+        radius = c.radius.copy()
+        radius[rows] = 0.0
+        return np.concatenate([root, pos]), np.concatenate([radius, rad]), np.concatenate([np.arange(n), own])
+
+    def _push_out(self, root: np.ndarray) -> tuple[np.ndarray, float]:
+        """``DoorLeaves.push_out`` over :meth:`_door_discs`: each body moves with the largest push
+        on any of its discs (a pram and its pusher move as one)."""
+        discs, rad, owner = self._door_discs(root)
+        pushed, overlap = self.doors.push_out(discs, rad, ~self.crowd.is_user[owner])
+        if discs.shape[0] == root.shape[0]:
+            return pushed, overlap
+        move = pushed - discs
+        mag = np.hypot(move[:, 0], move[:, 1])
+        out = root.copy()
+        for k in np.lexsort((mag, owner)):  # per row, the largest push comes last
+            if mag[k] > 0.0:
+                out[owner[k]] = root[owner[k]] + move[k]
+        return out, overlap
 
     def _sync(self) -> None:
         """The 2D agent takes the position and heading of its body's root (the body is the truth)."""

@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from pedvr.body import actions as act
+from pedvr.body import carry
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
 from pedvr.body.coordinator import Coordinator, default_choreographers
@@ -143,6 +144,9 @@ class BodyState:
     sitting: np.ndarray  # (N,) bool target posture
     reach_on: np.ndarray  # (N,2) bool per arm (capability)
     reach_pt: np.ndarray  # (N,2,3) world target
+    carrying: np.ndarray  # (N,) int8 carry.NONE / BOX / PERAMBULATOR: both hands on it (pedvr.body.carry)
+    carry_yaw: np.ndarray  # (N,) rad: the carried thing's 2D facing this step (carry.object_yaw)
+    carry_frame: np.ndarray  # (N,4) where it is drawn: x, y (up), z world m and yaw (carry.object_frame)
     q_kind: np.ndarray  # (N,Q) int64
     q_prio: np.ndarray
     q_wait: np.ndarray
@@ -179,7 +183,8 @@ class BodyState:
             gaze_ang=z((n, 5, 2)), gaze_kind=z(n, np.int64), gaze_point=z((n, 3)),
             gaze_agent=np.full(n, -1, np.int64), gaze_rule=z(n, np.bool_),
             g_kind=z(n, np.int64), g_start=z(n), g_dur=z(n), g_next=z(n), sitting=z(n, np.bool_),
-            reach_on=z((n, 2), np.bool_), reach_pt=z((n, 2, 3)),
+            reach_on=z((n, 2), np.bool_), reach_pt=z((n, 2, 3)), carrying=z(n, np.int8),
+            carry_yaw=z(n), carry_frame=z((n, 4)),
             q_kind=np.full((n, act.QUEUE), act.EMPTY, np.int64), q_prio=z((n, act.QUEUE)),
             q_wait=z((n, act.QUEUE)), q_planned=z((n, act.QUEUE), np.bool_), q_dur=z((n, act.QUEUE)),
             run_kind=np.full((n, act.N_RES), -1, np.int64), run_end=z((n, act.N_RES)),
@@ -281,8 +286,11 @@ class FullBody:
 
     def append(self, n: int, *, ids: np.ndarray, pos: np.ndarray, heading: np.ndarray, is_user: bool,
                limits: np.ndarray | None = None, emotion: np.ndarray | None = None,
-               dims: np.ndarray | None = None) -> np.ndarray:
+               dims: np.ndarray | None = None, carrying: str = "none") -> np.ndarray:
         """Add ``n`` bodies; returns their preferred-speed factors ``(n,)`` (emotion).
+
+        ``carrying`` (a profile's ``"none"``, ``"box"`` or ``"perambulator"``) puts both hands
+        on a box or a pram's handle (:mod:`pedvr.body.carry`); it draws nothing.
 
         Draws (documented order, from the body's stream): dims
         (:func:`skeleton.draw_dims`), emotions (:func:`style.draw_emotions`),
@@ -306,6 +314,7 @@ class FullBody:
             rows.noise_seed[:] = g.uniform(0.0, 1000.0, n)
         if emotion is not None and is_user:
             rows.emotion[:] = emotion
+        rows.carrying[:] = carry.KINDS[carrying]
         rows.offsets[:] = sk.dims_offsets(rows.dims)
         rows.half_width[:] = rows.offsets[:, sk.L_HIP, 0]
         rows.pelvis_rest[:] = rows.offsets[:, sk.PELVIS, 1]
@@ -326,6 +335,9 @@ class FullBody:
         self.state.append(rows)
         self.ids = np.concatenate([self.ids, np.asarray(ids, np.int64).reshape(n)])
         self.coordinator.append(n)
+        if carrying != "none" and "reach" in self.coordinator.index:  # they arrive holding it
+            k = self.coordinator.index["reach"]
+            self.coordinator.weights[-n:, k] = self.coordinator.targets[-n:, k] = 1.0
         self.skate.append(n)
         return speed_factor(rows.emotion)
 
@@ -415,6 +427,9 @@ class FullBody:
             self.step_log.append(ev)
         self._behaviour_tick(crowd, dt=dt, t=t, state_names=state_names)
         self._pose(crowd, dt=dt, t=t)
+        if (b.carrying != carry.NONE).any():
+            b.carry_frame[:] = carry.object_frame(b.carrying, b.root, b.carry_yaw, b.dims[:, sk.DIM_SCALE],
+                                                  b.world_pos[:, [sk.L_HAND, sk.R_HAND]], b.reach_on)
         self.skate.observe(b.world_pos, b.planted, b.foot_pitch, b.foot_lift, ~crowd.is_user)
         self._update_handles(t)
 
@@ -431,11 +446,12 @@ class FullBody:
         co.post("walking", (speed > V_WALK) & ~running)
         co.post("sitting", b.sitting)
         co.set_target("sitting", b.sitting.astype(np.float64))
-        g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur)
+        held = b.carrying != carry.NONE  # a carrier's arms stay on what it carries (no swing, no gesture)
+        g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur) & ~held
         g_env = np.clip(np.minimum(t - b.g_start, b.g_start + b.g_dur - t) / 0.4, 0.0, 1.0)
         co.set_target("gesture", np.where(g_active, g_env, 0.0))
         arm_act = np.isin(b.run_kind, ARM_ACTIONS).any(axis=1)
-        co.set_target("reach", (b.reach_on.any(axis=1) | arm_act).astype(np.float64))
+        co.set_target("reach", (b.reach_on.any(axis=1) | held | arm_act).astype(np.float64))
         co.smooth(dt)
         # The clip plays on while its weight fades out, so it ends where it was going.
         fading = co.weights[:, co.index["gesture"]] > 0.0
@@ -443,6 +459,7 @@ class FullBody:
         idle_w = np.clip(1.0 - speed / 0.3, 0.0, 1.0) * ~b.sitting
         order, masks, moves_pelvis = co.graph()
         self.hand_paths.apply(self.ids, b.reach_on, b.reach_pt, t)  # reach_along's paths, at t
+        reach_on, reach_pt = self._carry_reach()
         heads, fresh = self._heads()
         has_user, user_head = self._user_head(crowd, heads)
         par = _POSE_CHOOSER.choose(len(b))
@@ -455,11 +472,28 @@ class FullBody:
             co.has("running"), b.heading, b.gaze_ang,
             ps.GAZE_SHARE, self.head_caps.table(self.ids, ps.GAZE_YAW_LIMIT), ps.GAZE_PITCH_LIMIT,
             ps.GAZE_SPEED, ps.GAZE_TAU,
-            b.run_kind, b.run_mask, b.run_start, b.reach_on, b.reach_pt, ARM_GOALS,
+            b.run_kind, b.run_mask, b.run_start, reach_on, reach_pt, ARM_GOALS,
             b.root, b.foot_ref, b.foot_yaw, b.foot_pitch, b.foot_lift, b.planted, b.stepping, b.s, b.swing,
             b.h_prev, b.ik_miss, heads, fresh, b.shoulder_turn, sk.PARENTS, b.local_q, b.pelvis, b.world_pos,
             b.world_q, 4 * numba.get_num_threads() if par else 0)
         _POSE_CHOOSER.record(par, len(b), time.perf_counter() - t0)
+
+    def _carry_reach(self) -> tuple[np.ndarray, np.ndarray]:
+        """The arms' reach this step: the behaviour's ``reach_on``/``reach_pt``, and where an arm
+        is not taken by it, a carrier's hand on its box or pram handle (:mod:`pedvr.body.carry`),
+        following the root, heading and shoulder turn just committed. Returns new arrays; the capability's own
+        state (what ``reach_for`` handles are judged by) is unchanged."""
+        b = self.state
+        carrying = b.carrying != carry.NONE
+        if not carrying.any():
+            return b.reach_on, b.reach_pt
+        held = carrying[:, None] & ~b.reach_on
+        b.carry_yaw[:] = carry.object_yaw(b.carrying, b.heading, b.shoulder_turn)
+        # Targets in the untwisted frame: the pose graph turns the shoulders after the reach
+        # (graph.turn_shoulders), which takes the arms, and so the box, round with the chest.
+        pts = carry.hand_targets(b.carrying, b.root, b.heading, b.dims[:, sk.DIM_SCALE])
+        return (np.ascontiguousarray(b.reach_on | held),
+                np.ascontiguousarray(np.where(held[:, :, None], pts, b.reach_pt)))
 
     def _heads(self) -> tuple[np.ndarray, np.ndarray]:
         """Head positions after the last frame ``(N, 3)`` (a copy) and where no FK has run yet."""

@@ -177,7 +177,7 @@ def _list_fill(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorte
 
 
 @parallel_kernel(fastmath={"nsz", "arcp", "contract"})
-def _iterate(cur, radius, fp_depth, facing, fixed, nbr_start, nbr_idx, edge_start, edge_idx,
+def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, edge_start, edge_idx,
              vertices, nxt, prv, n_static, momentum, step, out_pos, depth):
     """One Jacobi iteration, fused: each row's correction from ``cur`` (its neighbour and
     edge lists), then its heavy-ball step, written to ``out_pos``; ``depth[i]`` is the
@@ -228,8 +228,9 @@ def _iterate(cur, radius, fp_depth, facing, fixed, nbr_start, nbr_idx, edge_star
             closed = nxt[e] != prv[e]
             if not closed and e2 < e:
                 continue  # a two-vertex segment: handle it once
-            # Moving segments (door leaves) see the disc, as the door controller does.
-            be = bi if e < n_static else ri
+            # Moving segments (door leaves) see the disc, as the door controller does, except a
+            # rigid footprint (a pushed pram), which they see as it is.
+            be = bi if e < n_static or rigid[i] else ri
             ex, ey, dep = _edge_push(px, py, ri, be, fxi, fyi, vertices[e, 0], vertices[e, 1],
                                      vertices[e2, 0], vertices[e2, 1], closed)
             sx += ex
@@ -395,7 +396,7 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
 
 
 @njit(cache=True)
-def contact_kernel(pos, radius, fp_depth, facing, fixed, user, vertices, nxt, prv, n_static, og_origin,
+def contact_kernel(pos, radius, fp_depth, facing, rigid, fixed, user, vertices, nxt, prv, n_static, og_origin,
                    og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, tolerance,
                    max_iterations, momentum, edge_scratch, parallel, out_pos):
     """Jacobi contact iterations; writes ``out_pos`` and returns ``(iterations, worst)``.
@@ -456,11 +457,11 @@ def contact_kernel(pos, radius, fp_depth, facing, fixed, user, vertices, nxt, pr
     it = 0
     while True:
         if parallel:
-            _iterate_par(cur, radius, fp_depth, facing, fixed, nbr_start, nbr_idx, edge_start, edge_idx,
-                         vertices, nxt, prv, n_static, momentum, step, nxt_pos, depth)
+            _iterate_par(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, edge_start,
+                         edge_idx, vertices, nxt, prv, n_static, momentum, step, nxt_pos, depth)
         else:
-            _iterate_ser(cur, radius, fp_depth, facing, fixed, nbr_start, nbr_idx, edge_start, edge_idx,
-                         vertices, nxt, prv, n_static, momentum, step, nxt_pos, depth)
+            _iterate_ser(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, edge_start,
+                         edge_idx, vertices, nxt, prv, n_static, momentum, step, nxt_pos, depth)
         worst = 0.0
         for i in range(n):
             worst = max(worst, depth[i])
@@ -505,15 +506,17 @@ _CHOOSER = Chooser()  # the whole pass, serial or parallel, by its measured cost
 def resolve_contacts(pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray,
                      vertices: np.ndarray, nxt: np.ndarray, prv: np.ndarray,
                      grid: ObstacleGrid, *, depth: np.ndarray | None = None,
-                     facing: np.ndarray | None = None, n_static: int | None = None,
-                     pinned: np.ndarray | None = None, tolerance: float = DEFAULT_TOLERANCE,
+                     facing: np.ndarray | None = None, rigid: np.ndarray | None = None,
+                     n_static: int | None = None, pinned: np.ndarray | None = None,
+                     tolerance: float = DEFAULT_TOLERANCE,
                      max_iterations: int = DEFAULT_ITERATIONS) -> np.ndarray:
     """Positions ``(N,2)`` after the contact pass; ``pos`` is not modified.
 
     The user row keeps its position exactly, and no agent is left inside the
     user's disc. ``pinned`` rows (seated bodies) do not move either, except out of
     the user's way. ``depth``/``facing`` are the footprints (:mod:`pedvr.crowd.footprint`;
-    default: discs). Returns new positions; the largest remaining overlap is at most
+    default: discs), ``rigid`` the rows whose footprint door leaves see as it is (default:
+    none). Returns new positions; the largest remaining overlap is at most
     ``tolerance`` unless ``max_iterations`` ran out first (jams denser than discs
     can pack) or an agent is pinned between the user and a wall (it then overlaps
     the wall).
@@ -525,13 +528,14 @@ def resolve_contacts(pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray,
     fixed = np.ascontiguousarray(is_user if pinned is None else (is_user | pinned), np.bool_)
     depth = np.ascontiguousarray(radius if depth is None else depth, np.float64)
     facing = np.ascontiguousarray(np.tile([1.0, 0.0], (n, 1)) if facing is None else facing, np.float64)
+    rigid = np.zeros(n, np.bool_) if rigid is None else np.ascontiguousarray(rigid, np.bool_)
     cap = _EDGE_CAP
     chunks = 8
     while True:
         scratch = np.zeros((chunks, cap), np.int64)
         par = _CHOOSER.choose(n)
         t0 = time.perf_counter()
-        _, worst = contact_kernel(pos, radius, depth, facing, fixed, user, vertices, nxt, prv,
+        _, worst = contact_kernel(pos, radius, depth, facing, rigid, fixed, user, vertices, nxt, prv,
                                   vertices.shape[0] if n_static is None else int(n_static), grid.origin,
                                   grid.cell, grid.shape[0], grid.shape[1], grid.cell_start,
                                   grid.cell_edges, grid.edge_cells, float(tolerance),

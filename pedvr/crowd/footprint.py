@@ -31,11 +31,29 @@ footprints). The model (pedvr's choice; the papers give no formula):
 ``DEPTH_RATIO = 0.52``: a chest depth of 0.26 m beside a 0.50 m shoulder width
 (adult anthropometry: chest depth 0.23-0.28 m, biacromial width 0.36-0.46 m
 plus the arms). The user is always a disc: pedvr cannot turn the person.
+
+A pushed perambulator (Huang & Terzopoulos §4.6: "a longer footprint for
+steering"; the paper gives no shape, this is pedvr's choice) makes the pusher
+and the pram one rigid footprint: the ellipse with its long semi-axis ``L``
+along the heading, its short one the agent's ``radius`` across, centred
+``ahead`` of the body's position (:func:`enclosing_ellipse` picks the centre
+and the shortest ``L`` that hold the pusher's back and shoulders and the
+pram's basket, handle and wheels, :data:`pedvr.body.carry.PRAM_HULL`). Why an
+ellipse ahead and not a larger disc: a disc round pusher and pram is 1.4 m
+across and does not fit a 1.3 m doorway, while the ellipse is only as wide as
+the agent's disc, which is what steering through a doorway needs; and it is the
+ellipse the kernels already steer, measure and push apart, written in their
+terms (:func:`footprints`): the kernels' ``a`` (the bounding semi-axis, which
+their early outs rely on) is ``L`` along the heading, their ``b`` the radius
+across, their centre the ellipse's. Such a footprint is rigid: it never turns
+its shoulders, and moving door leaves see it as it is (``rigid``), not as its
+bounding disc, so a pram fits through a door that a bounding disc would not.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -190,3 +208,89 @@ def pair_support(radius: np.ndarray, depth: np.ndarray, facing: np.ndarray, rows
     along_s = -d[:, 0] * f[:, 1] + d[:, 1] * f[:, 0]
     return np.sqrt(a * a * along_s * along_s + b * b * along_f * along_f)
 
+
+
+class Footprints(NamedTuple):
+    """Every row's footprint in the kernels' terms: the ellipse centred at ``centre (N, 2)`` m
+    with semi-axis ``radius (N,)`` along ``(-facing_y, facing_x)`` (the bounding one) and
+    ``depth (N,)`` along ``facing (N, 2)``; ``rigid (N,)`` the carried-object footprints."""
+
+    centre: np.ndarray
+    radius: np.ndarray
+    depth: np.ndarray
+    facing: np.ndarray
+    rigid: np.ndarray
+
+
+def footprints(pos: np.ndarray, radius: np.ndarray, turn: np.ndarray, torso: np.ndarray,
+               heading: np.ndarray, ahead: np.ndarray, length: np.ndarray) -> Footprints:
+    """The footprints of a crowd's rows (see the module docstring): discs, turned ellipses, and
+    for rows with ``length > 0`` the ellipse ``length`` long along the heading and ``radius``
+    across, centred ``ahead`` of ``pos``. Contiguous float64 arrays, ready for the kernels."""
+    depth, facing = footprint_arrays(radius, turn, torso)
+    centre = np.array(pos, np.float64, copy=True).reshape(-1, 2)
+    a = np.array(radius, np.float64, copy=True)
+    rigid = np.asarray(length) > 0.0
+    if rigid.any():
+        h = np.asarray(heading, np.float64)[rigid]
+        c, s = np.cos(h), np.sin(h)
+        centre[rigid] += np.asarray(ahead, np.float64)[rigid, None] * np.stack([c, s], axis=1)
+        a[rigid] = np.asarray(length, np.float64)[rigid]
+        depth[rigid] = np.asarray(radius, np.float64)[rigid]
+        facing[rigid] = np.stack([-s, c], axis=1)  # the kernels' b across, so their a lies along the heading
+    return Footprints(np.ascontiguousarray(centre), np.ascontiguousarray(a), np.ascontiguousarray(depth),
+                      np.ascontiguousarray(facing), np.ascontiguousarray(rigid))
+
+
+def positions_of(centre: np.ndarray, heading: np.ndarray, ahead: np.ndarray) -> np.ndarray:
+    """The bodies' positions ``(N, 2)`` for footprint centres ``centre`` (the inverse of the
+    offset in :func:`footprints`: rows with ``ahead`` 0 are their centres)."""
+    h = np.asarray(heading, np.float64)
+    return centre - np.asarray(ahead, np.float64)[:, None] * np.stack([np.cos(h), np.sin(h)], axis=1)
+
+
+def enclosing_ellipse(radius: float, hull: np.ndarray) -> tuple[float, float]:
+    """``(ahead, length)``: the ellipse with semi-axis ``radius`` across and the shortest
+    ``length`` along the heading, centred ``ahead`` of the body, that holds every point of
+    ``hull (P, 2)`` (body frame, m: forward, across). Centres are tried every millimetre
+    between the hull's back and front. ``radius`` must exceed every point's ``|across|``:
+    a ValueError says by how much it does not."""
+    hull = np.asarray(hull, np.float64).reshape(-1, 2)
+    widest = float(np.abs(hull[:, 1]).max())
+    if not radius > widest:
+        raise ValueError(f"radius {radius}: must be > {widest} (the carried object's half width)")
+    k = np.sqrt(1.0 - (hull[:, 1] / radius) ** 2)
+    centres = np.arange(hull[:, 0].min(), hull[:, 0].max() + 1e-3, 1e-3)
+    need = (np.abs(hull[None, :, 0] - centres[:, None]) / k[None, :]).max(axis=1)
+    best = int(np.argmin(need))
+    return float(centres[best]), float(max(need[best], radius))
+
+
+COVER_DISCS = 5  # discs along a rigid footprint's axis that hold it, for the door controller
+
+
+def covering_discs(fp: Footprints, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Discs whose union holds the rigid footprints of ``rows``, for the door controller, which
+    sees bodies as discs (:mod:`pedvr.etiquette.doors`): :data:`COVER_DISCS` centres evenly along
+    each ellipse's long axis, each as large as the farthest point of the ellipse's outline that
+    is nearest to it along the axis. The union holds the whole ellipse (every chord across the
+    axis lies in the triangle of its disc's centre and the chord's ends). Returns ``pos (R·K,
+    2)``, ``radius (R·K,)`` and each disc's row ``owner (R·K,)``."""
+    rows = np.asarray(rows, np.int64)
+    k = COVER_DISCS
+    t = np.linspace(0.0, 2.0 * np.pi, 721)[:-1]
+    pos, rad, own = [], [], []
+    for i in rows.tolist():
+        a, b = float(fp.radius[i]), float(fp.depth[i])
+        u = np.array([-fp.facing[i, 1], fp.facing[i, 0]])  # the long axis (kernels' a)
+        x = np.linspace(-(a - b), a - b, k) if a > b else np.zeros(k)
+        bx, by = a * np.cos(t), b * np.sin(t)  # outline, axis frame
+        near = np.abs(bx[:, None] - x[None, :]).argmin(axis=1)
+        r = np.zeros(k)
+        np.maximum.at(r, near, np.hypot(bx - x[near], by))
+        pos.append(fp.centre[i] + x[:, None] * u)
+        rad.append(r + 2e-3)  # the outline between samples bulges by less than this
+        own.append(np.full(k, i))
+    if not pos:
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, np.int64)
+    return np.concatenate(pos), np.concatenate(rad), np.concatenate(own)

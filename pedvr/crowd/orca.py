@@ -259,7 +259,7 @@ def linear_program3(lines, n, num_hard, begin, radius, rx, ry, proj):
 
 
 @njit(cache=True, fastmath=_FM)
-def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, inv_tho, obst_idx, n_obst,
+def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, rigid, inv_tho, obst_idx, n_obst,
                    vertices, nxt, prv, direction, convex, n_static):
     """Append obstacle ORCA lines (RVO2's first loop) and return the new count.
 
@@ -267,7 +267,8 @@ def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, inv_tho
     radius toward each edge is its footprint's support from the edge's nearest point
     (``disc_radius`` unless it turned its shoulders: ``depth`` along the facing ``(fx,
     fy)``), so it changes continuously as the agent moves and turns. Edges from vertex
-    ``n_static`` on (moving door leaves) always see the disc, as the door controller does.
+    ``n_static`` on (moving door leaves) see the disc, as the door controller does, unless the
+    footprint is ``rigid`` (a pushed pram's, :mod:`pedvr.crowd.footprint`): that one they see as it is.
     """
     inf = np.inf
     for q in range(n_obst):
@@ -278,7 +279,7 @@ def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, inv_tho
         r2x = vertices[o2, 0] - px
         r2y = vertices[o2, 1] - py
         radius = disc_radius
-        if depth < disc_radius and o1 < n_static:
+        if depth < disc_radius and (o1 < n_static or rigid):
             ex = r2x - r1x
             ey = r2y - r1y
             ll = ex * ex + ey * ey
@@ -684,7 +685,7 @@ def _solve(lines, n, num_hard, max_speed, prx, pry, proj):
 
 
 @njit(cache=True, fastmath=_FM)
-def agent_lines(i, pos, vel, radius, depth, facing, is_user, heading, pref_speed, limits,
+def agent_lines(i, pos, vel, radius, depth, facing, rigid, is_user, heading, pref_speed, limits,
                 nbr_idx, nbr_count, obst_idx, n_obst, vertices, nxt, prv, direction, convex,
                 n_static, time_horizon, time_horizon_obst, user_horizon, dt, coupled, lines):
     """Write agent ``i``'s ORCA lines into ``lines``: obstacle lines, then (coupled) the
@@ -712,7 +713,7 @@ def agent_lines(i, pos, vel, radius, depth, facing, is_user, heading, pref_speed
     b = depth[i]
     fx = facing[i, 0]
     fy = facing[i, 1]
-    n = obstacle_lines(lines, 0, px, py, vx, vy, r, b, fx, fy, 1.0 / time_horizon_obst, obst_idx,
+    n = obstacle_lines(lines, 0, px, py, vx, vy, r, b, fx, fy, rigid[i], 1.0 / time_horizon_obst, obst_idx,
                        n_obst, vertices, nxt, prv, direction, convex, n_static)
     num_obst = n
     num_vel_lim = 0
@@ -749,7 +750,7 @@ def agent_lines(i, pos, vel, radius, depth, facing, is_user, heading, pref_speed
 
 
 @njit(cache=True, fastmath=_FM)
-def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, max_speed, is_user,
+def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user,
                        heading, pref_speed, limits, nbr_idx, nbr_count, obst_idx, n_obst,
                        vertices, nxt, prv, direction, convex, n_static, time_horizon,
                        time_horizon_obst, user_horizon, dt, coupled, lines, proj):
@@ -759,7 +760,7 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, max_speed, 
     rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags.
     """
     n, num_obst, num_vel_lim, num_hard = agent_lines(
-        i, pos, vel, radius, depth, facing, is_user, heading, pref_speed, limits, nbr_idx,
+        i, pos, vel, radius, depth, facing, rigid, is_user, heading, pref_speed, limits, nbr_idx,
         nbr_count, obst_idx, n_obst, vertices, nxt, prv, direction, convex, n_static, time_horizon,
         time_horizon_obst, user_horizon, dt, coupled, lines)
     num_agent = n - num_hard
@@ -792,7 +793,7 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, max_speed, 
 
 
 @parallel_kernel(fastmath=_FM)
-def orca_kernel(pos, vel, pref_vel, radius, depth, facing, max_speed, is_user, heading,
+def orca_kernel(pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user, heading,
                 pref_speed, limits, nbr_idx, nbr_count, vertices, nxt, prv, direction, convex,
                 n_static, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
                 og_edge_cells, time_horizon, time_horizon_obst, user_horizon, dt, coupled, chunk_bounds,
@@ -832,7 +833,7 @@ def orca_kernel(pos, vel, pref_vel, radius, depth, facing, max_speed, is_user, h
                 out_status[i] = 0
                 continue
             rx, ry, status = agent_new_velocity(
-                i, pos, vel, pref_vel, radius, depth, facing, max_speed, is_user, heading,
+                i, pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user, heading,
                 pref_speed, limits, nbr_idx, nbr_count, oidx, n_obst, vertices, nxt, prv,
                 direction, convex, n_static, time_horizon, time_horizon_obst, user_horizon, dt,
                 coupled, lines, proj)

@@ -24,12 +24,17 @@ is_user            (N,)         bool     the row is the user agent
 limits             (N, 6)       float64  motion limits, columns LIMIT_* below
 turn               (N,)         float64  shoulder turn τ in [0, 1] (0: the disc)
 torso              (N,)         float64  torso facing while turned, rad, CCW from +x
+ahead              (N,)         float64  a pushed object's footprint: centre ahead of pos, m
+length             (N,)         float64  its half length along the heading, m (0: none)
 =================  ===========  =======  ==========================================
 
 ``turn`` and ``torso`` describe the footprint (:mod:`pedvr.crowd.footprint`):
 a disc of ``radius`` unless the agent turned its shoulders to squeeze past
 someone. They may be left out when constructing a state: then every row is a
-disc (``turn`` 0, ``torso`` 0).
+disc (``turn`` 0, ``torso`` 0). ``length > 0`` marks a rigid footprint that
+reaches ahead of the body (a perambulator and its pusher, §4.6 of Huang &
+Terzopoulos): an ellipse along the heading (:func:`pedvr.crowd.footprint.footprints`);
+left out, there is none.
 """
 
 from __future__ import annotations
@@ -64,13 +69,14 @@ class CrowdState:
     limits: np.ndarray
     turn: np.ndarray = field(default_factory=lambda: np.zeros(0))
     torso: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    ahead: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    length: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __post_init__(self) -> None:
         n = len(self)
-        if self.turn.shape[0] != n:  # built without footprints: every row a disc
-            self.turn = np.zeros(n)
-        if self.torso.shape[0] != n:
-            self.torso = np.zeros(n)
+        for name in ("turn", "torso", "ahead", "length"):  # built without footprints: every row a disc
+            if getattr(self, name).shape[0] != n:
+                setattr(self, name, np.zeros(n))
 
     @classmethod
     def empty(cls) -> CrowdState:

@@ -180,7 +180,8 @@ class Steering:
             return out
         p = self.params
         k = int(p.max_neighbors)
-        pos = np.ascontiguousarray(state.pos)
+        fp = self._footprints(state)
+        pos = fp.centre  # footprints are steered about their centres (a pram's lies ahead of its pusher)
         g = _nb.build_agent_grid(pos, _nb.default_cell_size(p.neighbor_dist))
         kk = max(k, 1)
         idx = np.empty((n, kk), np.int64)
@@ -189,14 +190,13 @@ class Steering:
         _nb.agent_neighbors_kernel(pos, float(p.neighbor_dist), k, g.origin, g.cell, g.shape[0],
                                    g.shape[1], g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt)
         self._neighbors = (idx, cnt)
-        depth, facing = _fp.footprint_arrays(state.radius, state.turn, state.torso)
         og = self.obstacle_grid
         obst_count = np.empty(n, np.int64)
         while True:
             bounds, lines, proj, oidx, odsq = self._scratch(n, kk)
             _orca.orca_kernel(
                 pos, np.ascontiguousarray(state.vel), np.ascontiguousarray(state.pref_vel),
-                np.ascontiguousarray(state.radius), depth, facing, np.ascontiguousarray(state.max_speed),
+                fp.radius, fp.depth, fp.facing, fp.rigid, np.ascontiguousarray(state.max_speed),
                 np.ascontiguousarray(state.is_user),
                 np.ascontiguousarray(state.heading), np.ascontiguousarray(state.pref_speed),
                 np.ascontiguousarray(state.limits), idx, cnt, self._verts, self._next, self._prev,
@@ -223,16 +223,16 @@ class Steering:
         if not 0 <= row < n:
             raise SteeringInputError(f"row {row}: expected 0 <= row < {n}")
         p = self.params
-        pos = np.ascontiguousarray(state.pos)
+        fp = self._footprints(state)
+        pos = fp.centre
         idx, cnt = self.neighbors(pos)
         og = self.obstacle_grid
-        rng = p.time_horizon_obst * float(state.max_speed[row]) + float(state.radius[row])
+        rng = p.time_horizon_obst * float(state.max_speed[row]) + float(fp.radius[row])
         oidx, ocnt = _nb.obstacle_neighbors(pos[row:row + 1], np.array([rng * rng]), self._verts,
                                             self._next, og)
         lines = np.zeros((int(ocnt[0]) + idx.shape[1] + _orca.MAX_MOTION_LINES, 4))
-        depth, facing = _fp.footprint_arrays(state.radius, state.turn, state.torso)
         count, _, _, _ = _orca.agent_lines(
-            row, pos, np.ascontiguousarray(state.vel), np.ascontiguousarray(state.radius), depth, facing,
+            row, pos, np.ascontiguousarray(state.vel), fp.radius, fp.depth, fp.facing, fp.rigid,
             np.ascontiguousarray(state.is_user),
             np.ascontiguousarray(state.heading), np.ascontiguousarray(state.pref_speed),
             np.ascontiguousarray(state.limits), idx, cnt, np.ascontiguousarray(oidx[0]), int(ocnt[0]),
@@ -242,6 +242,11 @@ class Steering:
         return lines[:count].copy()
 
     # ------------------------------------------------------------------ footprints
+
+    @staticmethod
+    def _footprints(state: CrowdState) -> _fp.Footprints:
+        return _fp.footprints(state.pos, state.radius, state.turn, state.torso, state.heading, state.ahead,
+                              state.length)
 
     def turn_shoulders(self, state: CrowdState, dt: float, *, short_of_room: np.ndarray | None = None,
                        to_user: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -270,21 +275,26 @@ class Steering:
                             np.ascontiguousarray(state.radius), np.ascontiguousarray(state.is_user),
                             np.ascontiguousarray(state.turn), np.ascontiguousarray(state.torso), idx, cnt,
                             short, room, wall, float(dt), turn, torso)
+            turn[state.length > 0.0] = 0.0  # a pram and its pusher: one rigid footprint, no shoulder turn
         return turn, torso
 
     # ------------------------------------------------------------------ contacts
 
     def resolve_contacts(self, pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray, *,
                          turn: np.ndarray | None = None, torso: np.ndarray | None = None,
-                         pinned: np.ndarray | None = None,
+                         heading: np.ndarray | None = None, ahead: np.ndarray | None = None,
+                         length: np.ndarray | None = None, pinned: np.ndarray | None = None,
                          tolerance: float = _contact.DEFAULT_TOLERANCE,
                          max_iterations: int = _contact.DEFAULT_ITERATIONS) -> np.ndarray:
         """New positions ``(N,2)`` with overlaps pushed apart (see :mod:`pedvr.crowd.contact`).
 
         The user row never moves; agents take the whole correction against the
         user and against obstacle edges, and are never left inside the user.
-        ``turn``/``torso`` give the footprints (default: discs). ``pinned`` rows (seated
-        bodies) do not move, except out of the user's way.
+        ``turn``/``torso`` give the footprints (default: discs), and ``heading``/``ahead``/
+        ``length`` the rigid ones that reach ahead of a body (a pushed pram; default: none;
+        :func:`pedvr.crowd.footprint.footprints`): they are pushed apart about their centres,
+        and the bodies move with them. ``pinned`` rows (seated bodies) do not move, except out
+        of the user's way.
         """
         n = pos.shape[0] if isinstance(pos, np.ndarray) else -1
         pos = _check("pos", pos, (n, 2), np.float64)
@@ -292,14 +302,25 @@ class Steering:
         is_user = _check("is_user", is_user, (n,), np.bool_)
         if pinned is not None:
             pinned = _check("pinned", pinned, (n,), np.bool_)
-        depth = facing = None
+        depth = facing = rigid = None
+        if length is not None and heading is not None and ahead is not None and np.any(length > 0.0):
+            fp = _fp.footprints(pos, radius, np.zeros(n) if turn is None else turn,
+                                np.zeros(n) if torso is None else torso,
+                                _check("heading", heading, (n,), np.float64),
+                                _check("ahead", ahead, (n,), np.float64),
+                                _check("length", length, (n,), np.float64))
+            out = _contact.resolve_contacts(fp.centre, fp.radius, is_user, self._verts, self._next,
+                                            self._prev, self.obstacle_grid, depth=fp.depth, facing=fp.facing,
+                                            rigid=fp.rigid, n_static=self._n_static, pinned=pinned,
+                                            tolerance=tolerance, max_iterations=max_iterations)
+            return _fp.positions_of(out, heading, ahead)
         if turn is not None and torso is not None:
             depth, facing = _fp.footprint_arrays(radius, _check("turn", turn, (n,), np.float64),
                                                  _check("torso", torso, (n,), np.float64))
         return _contact.resolve_contacts(pos, radius, is_user, self._verts, self._next,
                                          self._prev, self.obstacle_grid, depth=depth, facing=facing,
-                                         n_static=self._n_static, pinned=pinned, tolerance=tolerance,
-                                         max_iterations=max_iterations)
+                                         rigid=rigid, n_static=self._n_static, pinned=pinned,
+                                         tolerance=tolerance, max_iterations=max_iterations)
 
     # ------------------------------------------------------------------ deadlocks
 

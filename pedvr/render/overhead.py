@@ -1,8 +1,9 @@
 """The overhead debug view's geometry (pure numpy): the paper's Fig. 1 right and Fig. 4 as 2D drawing.
 
 Obstacles filled, the bounds outlined, door leaves as lines, every agent a disc with a heading tick
-and a velocity line, the user's disc in blue, gaze lines from each gazing
-agent to what it looks at, the red-sphere route with the next sphere filled.
+and a velocity line (and the outline of a box or pram it carries, :mod:`pedvr.render.carried`),
+the user's disc in blue, gaze lines from each gazing agent to what it looks at, the red-sphere
+route with the next sphere filled.
 Coordinates are ground ``(x, y)``; the view looks down from above the 3D
 world, so 2D ``+y`` points down the screen (:func:`pedvr.render.math3d.overhead_transform`).
 """
@@ -13,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pedvr.render.carried import frames, outline_segments
 from pedvr.render.environment import _cap_triangles, kind_colour
 from pedvr.render.snapshot import Snapshot
 from pedvr.scene.config import WorldConfig
@@ -30,6 +32,7 @@ SPHERE = (0.90, 0.08, 0.06, 1.0)
 ROUTE = (0.90, 0.45, 0.40, 1.0)
 BOUNDS = (0.2, 0.2, 0.2, 1.0)
 DOOR = (0.50, 0.30, 0.12, 1.0)
+CARRIED = {1: (0.62, 0.42, 0.18, 1.0), 2: (0.16, 0.24, 0.42, 1.0)}  # box, perambulator outlines
 
 
 @dataclass(frozen=True)
@@ -94,6 +97,13 @@ def frame_geometry(
         fwd = np.stack([np.cos(snap.heading), np.sin(snap.heading)], axis=1)
         lines.append(_segments(snap.pos, snap.pos + fwd * snap.radius[:, None], HEADING))
         lines.append(_segments(snap.pos, snap.pos + snap.vel * velocity_scale, VELOCITY))
+        if snap.carrying is not None and np.any(snap.carrying):
+            scale = np.ones(n) if snap.dims is None else np.asarray(snap.dims, np.float64)[:, 3]
+            frame = frames(snap.carrying, snap.carry_frame, snap.pos, snap.heading, scale)
+            ends, kinds = outline_segments(snap.carrying, frame, scale)
+            seg = _segments(ends[0::2], ends[1::2], (0.0, 0.0, 0.0, 1.0))
+            seg["color"] = np.asarray([CARRIED[int(k)] for k in kinds], np.float32).repeat(2, axis=0)
+            lines.append(seg)
         if snap.gaze_target is not None:
             g = np.asarray(snap.gaze_target, dtype=np.float64)
             has = np.all(np.isfinite(g), axis=1)

@@ -34,6 +34,8 @@ import numpy as np
 from pedvr.errors import BackendUnavailableError
 from pedvr.etiquette.doors import DoorLeaves
 from pedvr.render.bodymesh import VERTEX_ATTRIBUTES, VERTEX_FORMAT, CharacterMesh, procedural_character
+from pedvr.render.carried import carried_vertices
+from pedvr.render.carried import frames as carried_frames
 from pedvr.render.crowd import (
     LOOK_TEXELS,
     N_JOINTS,
@@ -245,6 +247,10 @@ class Renderer:
         self._leaf_vbo = ctx.buffer(placed.tobytes() if len(placed) else b"\0" * ENV_DTYPE.itemsize,
                                     dynamic=True)
         self._leaf_vao = ctx.vertex_array(p["environment"], [(self._leaf_vbo, *fmt)])
+        # Boxes and prams the pedestrians carry (pedvr.render.carried): one dynamic buffer, one draw.
+        self._carried_count = 0
+        self._carried_vbo = ctx.buffer(reserve=ENV_DTYPE.itemsize * 4096, dynamic=True)
+        self._carried_vao = ctx.vertex_array(p["environment"], [(self._carried_vbo, *fmt)])
         sphere = sphere_vertices()
         self._sphere_vbo = ctx.buffer(sphere.tobytes())
         self._sphere_vao = ctx.vertex_array(p["environment"], [(self._sphere_vbo, *fmt)])
@@ -393,6 +399,18 @@ class Renderer:
             if pose.shape != self._closed_doors.shape:
                 raise ValueError(f"doors shape {pose.shape}: expected {self._closed_doors.shape}")
             self._leaf_vbo.write(place_leaves(self._leaf_local, pose).tobytes())
+        self._carried_count = 0
+        if snap.carrying is not None and n and np.any(np.asarray(snap.carrying)[rows]):
+            kind = np.asarray(snap.carrying)[rows]
+            given = None if snap.carry_frame is None else np.asarray(snap.carry_frame)[rows]
+            frame = carried_frames(kind, given, snap.pos[rows], snap.heading[rows], d[:, 3])
+            carried = carried_vertices(kind, frame, d[:, 3])
+            self._carried_vbo, grew = _fit(self.ctx, self._carried_vbo, carried.tobytes())
+            if grew:
+                self._carried_vao.release()
+                self._carried_vao = self.ctx.vertex_array(self.programs["environment"],
+                                                          [(self._carried_vbo, *ENV_FORMAT)])
+            self._carried_count = len(carried)
         self._n = n
         self._rows = rows
         self._drawn_pos = np.asarray(snap.pos, np.float64)[rows]
@@ -469,6 +487,8 @@ class Renderer:
         self._render(self._solid_vao)
         if self._leaf_count:
             self._render(self._leaf_vao)
+        if self._carried_count:
+            self._render(self._carried_vao, vertices=self._carried_count)
         if self._n:
             self._common(self.programs["crowd"], eyes, True, shadow_pass=True)
             self._draw_crowd(groups, 1, shadow_pass=True)
@@ -522,6 +542,8 @@ class Renderer:
             self._render(self._ceiling_vao, instances=k)
         if self._leaf_count:
             self._render(self._leaf_vao, instances=k)
+        if self._carried_count:
+            self._render(self._carried_vao, vertices=self._carried_count, instances=k)
         sphere_model = None
         if self._sphere is not None:
             # The route target, first opaque without writing depth: pedestrians behind it cover it...

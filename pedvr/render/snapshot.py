@@ -36,6 +36,11 @@ class Snapshot:
     indexes the renderer's characters per agent (None: chosen by ``profile``,
     each agent's index into the scene's profiles, -1 for the user, through
     the scene's ``characters`` keys; neither: the procedural character).
+    ``carrying`` ``(N,) int8`` is what each agent carries (:mod:`pedvr.body.carry`: 0 nothing,
+    1 a box, 2 a perambulator), drawn at ``carry_frame`` ``(N, 4)`` (the body's: a box's centre
+    between the hands, a pram's root, and the yaw, :func:`pedvr.body.carry.object_frame`; None:
+    at ``pos`` facing ``heading`` as a body holds it standing), :mod:`pedvr.render.carried`;
+    None: nothing.
     """
 
     t: float
@@ -55,6 +60,8 @@ class Snapshot:
     doors: np.ndarray | None = None
     character: np.ndarray | None = None
     profile: np.ndarray | None = None
+    carrying: np.ndarray | None = None
+    carry_frame: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.ids.shape[0])
@@ -94,6 +101,8 @@ class Snapshot:
             next_sphere=nxt,
             doors=sim.doors.pose() if len(sim.doors) else None,
             profile=sim.profile_index.copy(),
+            carrying=sim.body.state.carrying.copy(),
+            carry_frame=sim.body.state.carry_frame.copy(),
         )
 
     @classmethod

@@ -90,6 +90,10 @@ class Door:
 ETIQUETTE_DECISIONS = ("meu", "sampled")
 KEEP_SIDES = ("right", "left")
 CARRYING = ("none", "box", "perambulator")
+# m: a perambulator pusher's radius is the half width of its pram-and-pusher footprint (§4.6,
+# pedvr.crowd.footprint): it must hold the pram (0.54 m wide, pedvr.body.carry) with room to spare
+# for a footprint of sensible length.
+PRAM_MIN_RADIUS = 0.35
 SEXES = ("female", "male")
 
 

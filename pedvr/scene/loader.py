@@ -30,6 +30,7 @@ from pedvr.scene.config import (
     GESTURE_CLIPS,
     KEEP_SIDES,
     MARKING_KINDS,
+    PRAM_MIN_RADIUS,
     SEXES,
     USER_WALKS,
     AgentProfile,
@@ -629,6 +630,9 @@ def _profiles(c: _Checker, raw: dict[str, Any], base: Path | None = None) -> dic
         sex = c.string(m, "sex", f"{path}.sex", required=False, default="", choices=SEXES)
         carrying = c.string(m, "carrying", f"{path}.carrying", required=False, default="none",
                             choices=CARRYING)
+        if carrying == "perambulator" and radius is not None and radius < PRAM_MIN_RADIUS:
+            c.bad(f"{path}.radius", radius, f"must be >= {PRAM_MIN_RADIUS} for a perambulator pusher "
+                  "(the footprint holds pusher and pram)")
         if radius is not None and pref is not None and mx is not None:
             out[name] = AgentProfile(name=name, radius=radius, pref_speed=pref, max_speed=mx,
                                      limits=lim, characters=chars, kindness=kindness, rush=rush,
