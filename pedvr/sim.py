@@ -481,8 +481,10 @@ class Simulation:
         if len(self.doors):
             self._root = self._move_doors(self._root)
         if len(self.body.state) == len(self.crowd):  # the footprint's shoulder turn, shown by the body
+            # shoulder_twist is a 2D angle (CCW, as headings are); the body's shoulder_turn is a turn
+            # about the 3D vertical +Y, which is the opposite 2D direction (pedvr.body.quat)
             self.body.state.shoulder_turn[:] = np.where(
-                self.crowd.is_user, 0.0, shoulder_twist(self.crowd.turn, self.crowd.torso, heading))
+                self.crowd.is_user, 0.0, -shoulder_twist(self.crowd.turn, self.crowd.torso, heading))
         self.body.compose(self.crowd, self._root, heading, dt=self.dt, t=self.t + self.dt,
                           coupled=self.coupled,
                           state_names=np.asarray(self.bfsm.names + ("",))[self.behavior.state])

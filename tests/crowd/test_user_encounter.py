@@ -222,13 +222,31 @@ def test_support_of_a_turned_footprint() -> None:
 
 
 def test_a_turned_agent_shows_its_shoulders_turned() -> None:
-    """The body turns its chest with the footprint (at most 60° against the pelvis)."""
+    """The body turns its chest with the footprint, the same way round (at most 60° against the pelvis)."""
+    from pedvr.body import skeleton as sk
+    from pedvr.crowd.footprint import shoulder_twist
+
+    def facing_2d(right: np.ndarray, left: np.ndarray) -> float:
+        # 3D (x, y, z) is the 2D point (x, z); a body's anatomical left lies along 2D heading - pi/2
+        d = left - right
+        return float(np.arctan2(d[2], d[0]) + 0.5 * np.pi)
+
     sim = Simulation(corridor(0.9, dead_end=True, kind="standing", n_agents=1, user_speed=1.0))
     twist = 0.0
+    checked = 0
     for _ in range(round(8.0 / sim.dt)):
         sim.step()
         agent = ~sim.crowd.is_user
         if sim.crowd.turn[agent][0] == 1.0:
             twist = max(twist, float(np.abs(sim.body.state.shoulder_turn[agent]).max()))
+            row = int(np.flatnonzero(agent)[0])
+            want = float(shoulder_twist(sim.crowd.turn[[row]], sim.crowd.torso[[row]], sim.crowd.heading[[row]])[0])
+            if abs(want) > np.radians(15.0):
+                p = sim.body.state.world_pos[row]
+                chest = facing_2d(p[sk.R_SHOULDER], p[sk.L_SHOULDER]) - facing_2d(p[sk.R_HIP], p[sk.L_HIP])
+                chest = float(np.angle(np.exp(1j * chest)))
+                assert np.sign(chest) == np.sign(want) and abs(chest - want) < np.radians(15.0), (chest, want)
+                checked += 1
     assert np.radians(15.0) < twist <= np.radians(60.0) + 1e-9
+    assert checked >= 5
     assert not np.any(sim.body.state.shoulder_turn[sim.crowd.is_user])
