@@ -23,34 +23,18 @@ does not slide a heel that is already at the floor. The landing is kept at
 least ``MIN_WIDTH`` to its own side of the stance foot (no crossing over), at
 most ``MAX_WIDTH`` sideways and ``MAX_BACK`` behind it, and within
 ``MAX_STEP``. Standing, a step is taken when a foot is more than
-``RESTEP_DIST`` or ``RESTEP_YAW`` away from where it may stand (turning on
-the spot, small shuffles): abreast of the root, to its own side by between the
-hip half-width and half of ``STANCE_MAX`` (people stand with their feet between
-hip and shoulder width apart; :func:`stance_err`); the foot farther from its
-spot beside the root steps first. Walking starts when the root moves faster
-than ``V_WALK`` and stops when it slows below it: a step that lands once the
-body has stopped closes abreast of the stance foot, as far to its own side of
-the root as the stance foot is to the other (within that band), and the gait
-steps again only while the stance foot is more than ``RESTEP_DIST / 2`` out of
-the band, or the feet are not abreast and it is more than ``RESTEP_DIST`` out
-(the standing tolerance).
-
-Our reading of PLACE §5's "short-range repositioning in 2–4 steps": a side
-step whose lead foot lands past its final place (it is planned for a body that
-keeps moving, and the body brakes late) leaves a slightly wider stance rather
-than a fifth, squaring step; and a braking body (its smoothed acceleration
-against its velocity) aims its landings ``v / 2|a|`` s ahead, where it will
-stop, rather than ``τ + T/2``. Repositions of up to about 0.6 m (two side-step
-pairs) take 2–4 steps; longer ones take more.
+``RESTEP_DIST`` or ``RESTEP_YAW`` away from where it should stand (turning on
+the spot, small shuffles); walking starts when the root moves faster than
+``V_WALK`` and stops, with the feet together, when it slows below it.
 
 Step rate: walking forward ``f = F0 · (v / 1.35)^k · scale^-0.35`` steps/s
 (``k`` = 0.26 below 1.35 m/s, 0.6 above; clamped to ``[F_MIN, F_MAX]``),
 step length = v / f: 1.8–2.1 steps/s and 0.65–0.78 m steps at 1.3–1.4 m/s
 for heights 1.55–1.95 m, about 1.5 steps/s at 0.5 m/s and 2.3 at 1.8 m/s, as
 people walk. Moving mostly sideways the body side-steps, advancing
-``SIDE_ADVANCE`` per step (short steps, the leading foot first and at most
-``MAX_WIDTH`` out, the trailing one closing), and backward it takes
-``BACK_STEP`` steps, both up to ``F_SIDE_MAX`` steps/s (:func:`step_rate`). A body that is speeding up steps
+``SIDE_ADVANCE`` per step (short steps, the leading foot first, the trailing
+one closing), and backward it takes ``BACK_STEP`` steps, both up to
+``F_SIDE_MAX`` steps/s (:func:`step_rate`). A body that is speeding up steps
 at the rate of the speed it is reaching (``ACC_AHEAD``, ``T_AHEAD``).
 
 First step from standing (Huang & Terzopoulos App. C, Fig. 20(d): "the
@@ -98,7 +82,7 @@ T_START = 0.5  # s (reference adult): the first step from standing into a walk
 DS = 0.2  # fraction of a step in double support
 MIN_WIDTH = 0.1  # m (reference adult): swing foot lands at least this far to its own side of the stance foot
 MAX_STEP = 0.8  # m (reference adult): farthest landing from the stance foot
-MAX_WIDTH = 0.42  # m (reference adult): farthest landing sideways from the stance foot (short side steps)
+MAX_WIDTH = 0.5  # m (reference adult): farthest landing sideways from the stance foot (short side steps)
 MAX_BACK = 0.45  # m (reference adult): farthest landing behind the stance foot (short back steps)
 LIFT_WALK = 0.085  # m (reference adult): swing-foot clearance at a walk
 LIFT_STEP = 0.05  # m: clearance of a step taken standing
@@ -113,7 +97,6 @@ HURRY_AT = 0.08  # m (reference adult): a planted foot this much farther from th
 FAR = 0.46  # m (reference adult): a stance foot never waits farther than this from the root
 FAR_TRAIL = 0.56  # m: nor a trailing foot (heel up, its ankle higher and nearer)
 RESTEP_DIST = 0.07  # m (reference adult)
-STANCE_MAX = 0.34  # m (reference adult): standing feet at most this far apart (about shoulder width)
 RESTEP_YAW = 0.35  # rad
 V_CLIP = 1.35  # m/s: speed the decoupled cycle was "authored" at
 RATE_MIN, RATE_MAX = 0.5, 1.5
@@ -179,20 +162,6 @@ def stand_ref(rx, ry, heading, side, half_width):  # type: ignore[no-untyped-def
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
-def stance_err(x, y, rx, ry, heading, side, half_width, scale):  # type: ignore[no-untyped-def]
-    """How far (m) a planted foot at ``(x, y)`` is from a place it may stand at beside a root at
-    ``(rx, ry)``: abreast of the root, to its own side by between ``half_width`` and half of
-    ``STANCE_MAX`` (people stand with their feet between hip and shoulder width apart)."""
-    lx, ly = math.sin(heading), -math.cos(heading)
-    sgn = 1.0 if side == LEFT else -1.0
-    dx, dy = x - rx, y - ry
-    lat = sgn * (dx * lx + dy * ly)
-    lon = dx * math.cos(heading) + dy * math.sin(heading)
-    e = max(half_width - lat, 0.0) + max(lat - 0.5 * STANCE_MAX * scale, 0.0)
-    return math.hypot(e, lon)
-
-
-@njit(cache=True, fastmath=FASTMATH, inline="always")
 def foot_yaw_for(heading, side):  # type: ignore[no-untyped-def]
     return heading - TOE_OUT if side == LEFT else heading + TOE_OUT
 
@@ -236,10 +205,10 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
         amp_t = min(speed / 1.3, 1.3)
         amp[i] += (amp_t - amp[i]) * (1.0 - math.exp(-dt / 0.25))
         walking = speed > V_WALK
-        acc = 0.0  # m/s², along the velocity (coupled mode)
         if coupled or is_user[i]:
             # A body speeding up steps at the rate of the speed it is reaching (the smoothed velocity
             # lags the raw one by acceleration × VEL_SMOOTH), so its early steps are not drawn out.
+            acc = 0.0
             ahead = speed
             if speed > 1e-9:
                 acc = ((vx - svx) * svx + (vy - svy) * svy) / (speed * VEL_SMOOTH)
@@ -321,21 +290,15 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
         if not stepping[i]:
             worst = 0.0
             pick = -1
-            need = 0.0
             for f in range(2):
-                # the foot farthest from its spot beside the root steps first; a step is needed only
-                # when a foot is out of the stance band
                 tx, ty = stand_ref(root[i, 0] + svx * T, root[i, 1] + svy * T, h, f, hw)
                 d = math.hypot(foot_ref[i, f, 0] - tx, foot_ref[i, f, 1] - ty)
-                dyaw = abs(wrap(foot_yaw[i, f] - foot_yaw_for(h, f))) / RESTEP_YAW
-                err = d / (RESTEP_DIST * sc) + dyaw
+                dyaw = abs(wrap(foot_yaw[i, f] - foot_yaw_for(h, f)))
+                err = d / (RESTEP_DIST * sc) + dyaw / RESTEP_YAW
                 if err > worst:
                     worst = err
                     pick = f
-                d = stance_err(foot_ref[i, f, 0], foot_ref[i, f, 1], root[i, 0] + svx * T,
-                               root[i, 1] + svy * T, h, f, hw, sc)
-                need = max(need, d / (RESTEP_DIST * sc) + dyaw)
-            if walking or need > 1.0:
+            if walking or worst > 1.0:
                 stepping[i] = True
                 s[i] = 0.0
                 swing[i] = pick
@@ -384,28 +347,11 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
             lead = 0.5 * T_nom
             if first[i] and walking:
                 lead *= LEAD_START
-            ahead_t = tau + lead
-            if walking and acc < 0.0:
-                # braking: the root runs on about v / 2|a| s more, not tau + lead, so a step taken as the
-                # body stops lands about where it will stand
-                ahead_t = min(ahead_t, 0.5 * speed / -acc)
-            px = root[i, 0] + svx * ahead_t
-            py = root[i, 1] + svy * ahead_t
+            px = root[i, 0] + svx * (tau + lead)
+            py = root[i, 1] + svy * (tau + lead)
             tx, ty = stand_ref(px, py, h, sw, hw)
             lx, ly = math.sin(h), -math.cos(h)
             sgn = 1.0 if sw == LEFT else -1.0
-            if not walking and stance_err(foot_ref[i, st, 0], foot_ref[i, st, 1], root[i, 0], root[i, 1],
-                                          h, st, hw, sc) < RESTEP_DIST * sc and \
-                    abs(wrap(foot_yaw[i, st] - foot_yaw_for(h, st))) < 0.5 * RESTEP_YAW:
-                # The body has stopped: the closing step lands abreast of the stance foot, as far to its
-                # own side of the root as the stance foot is to the other (within the stance band), so a
-                # stop, or the end of a short reposition in side steps, ends on its closing step rather
-                # than with a squaring shuffle of the other foot (PLACE §5: repositioning in 2-4 steps).
-                ex, ey = foot_ref[i, st, 0] - root[i, 0], foot_ref[i, st, 1] - root[i, 1]
-                w = min(max(-sgn * (ex * lx + ey * ly), hw), 0.5 * STANCE_MAX * sc)
-                e_lon = ex * fx + ey * fy
-                tx = root[i, 0] + sgn * w * lx + e_lon * fx
-                ty = root[i, 1] + sgn * w * ly + e_lon * fy
             # In the body's frame about the stance foot: stay on its own side (no crossing over),
             # side steps no wider than MAX_WIDTH, back steps no longer than MAX_BACK, any step no
             # longer than MAX_STEP.
@@ -476,12 +422,10 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
                     step_events[ne, 3] = speed
                     ne += 1
                 # another step? the other foot is now behind, or the body still moves
-                d = stance_err(foot_ref[i, st, 0], foot_ref[i, st, 1], root[i, 0], root[i, 1], h, st, hw, sc)
+                ox, oy = stand_ref(root[i, 0], root[i, 1], h, st, hw)
+                d = math.hypot(foot_ref[i, st, 0] - ox, foot_ref[i, st, 1] - oy)
                 dyaw = abs(wrap(foot_yaw[i, st] - foot_yaw_for(h, st)))
-                # stopped with the feet abreast and the stance foot within the standing tolerance: done
-                stagger = (tx - foot_ref[i, st, 0]) * fx + (ty - foot_ref[i, st, 1]) * fy
-                abreast = d < RESTEP_DIST * sc and abs(stagger) < 0.25 * RESTEP_DIST * sc
-                if walking or (d > 0.5 * RESTEP_DIST * sc and not abreast) or dyaw > 0.5 * RESTEP_YAW:
+                if walking or d > 0.5 * RESTEP_DIST * sc or dyaw > 0.5 * RESTEP_YAW:
                     s[i] = s[i] - 1.0 if walking else 0.0
                     swing[i] = st
                     trail_pitch0[i] = foot_pitch[i, st]
