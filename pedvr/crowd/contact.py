@@ -43,6 +43,7 @@ from numba import njit, prange
 
 from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import ObstacleGrid, build_agent_grid_arrays, edges_near
+from pedvr.crowd.overlap import pair_overlaps
 from pedvr.kernels import Chooser, parallel_kernel
 
 DEFAULT_TOLERANCE = 0.005  # m: stop when no overlap exceeds this (the bar is 1 cm)
@@ -95,12 +96,10 @@ def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
     return (depth + SLACK) * ux, (depth + SLACK) * uy, depth
 
 
-@njit(cache=True)
-def _count_near(pos, radius, reach, skin, origin, cell, nx, ny, cell_start, order, sorted_pos,
-                vertices, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
-                og_edge_cells, scratch, i):
-    """Neighbours of row ``i`` within ``r_i + r_j + skin`` and edges whose bounding-box
-    cells meet ``p_i ± (r_i + skin)``: their counts (scratch holds the edges)."""
+@njit(cache=True, inline="always")
+def _neighbours_near(i, pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos, out, write):
+    """Rows ``j`` within ``r_i + r_j + skin`` of row ``i``: their count, and with ``write`` the rows
+    themselves into ``out[:count]`` (the two passes of the list build share this scan)."""
     px = pos[i, 0]
     py = pos[i, 1]
     inv = 1.0 / cell
@@ -118,12 +117,10 @@ def _count_near(pos, radius, reach, skin, origin, cell, nx, ny, cell_start, orde
                 dy = py - sorted_pos[k, 1]
                 rr = radius[i] + radius[j] + skin
                 if dx * dx + dy * dy < rr * rr:
+                    if write:
+                        out[m] = j
                     m += 1
-    e = 0
-    if vertices.shape[0] > 0:
-        e = edges_near(px, py, radius[i] + skin, og_origin, og_cell, og_nx, og_ny, og_cell_start,
-                       og_cell_edges, og_edge_cells, scratch, scratch.shape[0])
-    return m, e
+    return m
 
 
 @parallel_kernel()
@@ -137,10 +134,13 @@ def _list_counts(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sor
         lo = (n * c) // nchunks
         hi = (n * (c + 1)) // nchunks
         for i in range(lo, hi):
-            out_nbr[i], out_edge[i] = _count_near(
-                pos, radius, 0.0, skin, origin, cell, nx, ny, cell_start, order, sorted_pos,
-                vertices, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
-                og_edge_cells, scratch[c], i)
+            out_nbr[i] = _neighbours_near(i, pos, radius, skin, origin, cell, nx, ny, cell_start, order,
+                                          sorted_pos, scratch[c], False)
+            out_edge[i] = 0
+            if vertices.shape[0] > 0:
+                out_edge[i] = edges_near(pos[i, 0], pos[i, 1], radius[i] + skin, og_origin, og_cell, og_nx,
+                                         og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch[c],
+                                         scratch.shape[1])
 
 
 @parallel_kernel()
@@ -150,29 +150,12 @@ def _list_fill(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorte
     """Fill each row's neighbour and edge lists at its offsets (pass 2 of 2)."""
     n = pos.shape[0]
     for i in prange(n):
-        px = pos[i, 0]
-        py = pos[i, 1]
-        inv = 1.0 / cell
-        cx = int((px - origin[0]) * inv)
-        cy = int((py - origin[1]) * inv)
-        m = nbr_start[i]
-        for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
-            for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
-                c = gy * nx + gx
-                for k in range(cell_start[c], cell_start[c + 1]):
-                    j = order[k]
-                    if j == i:
-                        continue
-                    dx = px - sorted_pos[k, 0]
-                    dy = py - sorted_pos[k, 1]
-                    rr = radius[i] + radius[j] + skin
-                    if dx * dx + dy * dy < rr * rr:
-                        out_nbr[m] = j
-                        m += 1
+        _neighbours_near(i, pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos,
+                         out_nbr[nbr_start[i]:nbr_start[i + 1]], True)
         if vertices.shape[0] > 0:
             e0 = edge_start[i]
-            edges_near(px, py, radius[i] + skin, og_origin, og_cell, og_nx, og_ny, og_cell_start,
-                       og_cell_edges, og_edge_cells, out_edge[e0:edge_start[i + 1]],
+            edges_near(pos[i, 0], pos[i, 1], radius[i] + skin, og_origin, og_cell, og_nx, og_ny,
+                       og_cell_start, og_cell_edges, og_edge_cells, out_edge[e0:edge_start[i + 1]],
                        edge_start[i + 1] - e0)
 
 
@@ -546,52 +529,20 @@ def resolve_contacts(pos: np.ndarray, radius: np.ndarray, is_user: np.ndarray,
         cap *= 4
 
 
-@njit(cache=True)
-def overlapping_pairs(pos, radius, tolerance):
+def overlapping_pairs(pos: np.ndarray, radius: np.ndarray, tolerance: float) -> np.ndarray:
     """Pairs ``(i, j)``, ``i < j``, whose discs overlap by more than ``tolerance``.
 
-    Returns an ``(P, 2) int64`` array, rows sorted; for metrics and tests.
+    Returns an ``(P, 2) int64`` array, rows sorted; for metrics and tests. The discs are
+    footprints that never turn (:func:`pedvr.crowd.overlap.pair_overlaps`).
     """
+    pos = np.ascontiguousarray(pos, np.float64)
+    radius = np.ascontiguousarray(radius, np.float64)
     n = pos.shape[0]
-    if n == 0:
-        return np.zeros((0, 2), np.int64)
-    rmax = 0.0
-    for i in range(n):
-        rmax = max(rmax, radius[i])
-    origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(
-        pos, 2.0 * rmax * 1.0001)
-    inv = 1.0 / cell
-    cap = 64
-    pairs = np.empty((cap, 2), np.int64)
-    m = 0
-    for i in range(n):
-        px = pos[i, 0]
-        py = pos[i, 1]
-        cx = int((px - origin[0]) * inv)
-        cy = int((py - origin[1]) * inv)
-        for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
-            for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
-                cc = gy * nx + gx
-                for k in range(cell_start[cc], cell_start[cc + 1]):
-                    j = order[k]
-                    if j <= i:
-                        continue
-                    dx = px - sorted_pos[k, 0]
-                    dy = py - sorted_pos[k, 1]
-                    rr = radius[i] + radius[j]
-                    if rr - np.sqrt(dx * dx + dy * dy) > tolerance:
-                        if m == cap:
-                            grown = np.empty((2 * cap, 2), np.int64)
-                            grown[:m] = pairs[:m]
-                            pairs = grown
-                            cap *= 2
-                        pairs[m, 0] = i
-                        pairs[m, 1] = j
-                        m += 1
-    out = pairs[:m].copy()
+    facing = np.zeros((n, 2))
+    facing[:, 0] = 1.0
+    _, out = pair_overlaps(pos, radius, radius, facing, float(tolerance))
     # Sort rows lexicographically (i then j) for a canonical order.
-    key = out[:, 0] * n + out[:, 1]
-    return out[np.argsort(key)]
+    return out[np.argsort(out[:, 0] * n + out[:, 1])]
 
 
 @njit(cache=True)
