@@ -568,12 +568,12 @@ class SetSpeed(Action):
 # -- conditions ------------------------------------------------------------------------------------
 
 
-class Near(Condition):
-    """``actor`` within ``within`` m of ``target`` (centre to centre)."""
+class _TargetCondition(Condition):
+    """A condition on ``actor`` and a ``target`` (resolved when the condition starts)."""
 
     __slots__ = ("actor", "target", "within")
 
-    def __init__(self, actor: int, target: Target, *, within: float, name: str = "") -> None:
+    def __init__(self, actor: int, target: Target, *, within: float = 0.0, name: str = "") -> None:
         super().__init__(name)
         self.actor = actor
         self.target = target
@@ -582,52 +582,48 @@ class Near(Condition):
     def initialise(self, ctx: Context) -> None:
         self.target.resolve(ctx)
 
-    def check(self, ctx: Context) -> bool:
+    def _points(self, ctx: Context) -> tuple[tuple[float, float], tuple[float, float]] | None:
+        """The target's point and the actor's position, or None when either is gone."""
         tp = self.target.point(ctx)
         if tp is None or ctx.find(self.actor) is None:
+            return None
+        return tp, ctx.pos(self.actor)
+
+
+class Near(_TargetCondition):
+    """``actor`` within ``within`` m of ``target`` (centre to centre)."""
+
+    __slots__ = ()
+
+    def check(self, ctx: Context) -> bool:
+        pts = self._points(ctx)
+        if pts is None:
             return False
-        a = ctx.pos(self.actor)
+        tp, a = pts
         return math.hypot(tp[0] - a[0], tp[1] - a[1]) < self.within
 
 
-class Sees(Condition):
+class Sees(_TargetCondition):
     """``target`` is inside ``actor``'s field of view (±100°) and not occluded (2D)."""
 
-    __slots__ = ("actor", "target")
-
-    def __init__(self, actor: int, target: Target, name: str = "") -> None:
-        super().__init__(name)
-        self.actor = actor
-        self.target = target
-
-    def initialise(self, ctx: Context) -> None:
-        self.target.resolve(ctx)
+    __slots__ = ()
 
     def check(self, ctx: Context) -> bool:
-        tp = self.target.point(ctx)
-        return tp is not None and ctx.find(self.actor) is not None and ctx.in_view(self.actor, tp)
+        pts = self._points(ctx)
+        return pts is not None and ctx.in_view(self.actor, pts[0])
 
 
-class Facing(Condition):
+class Facing(_TargetCondition):
     """``actor``'s heading points at ``target`` within ``within`` rad (for the user: where the
     head points, the HMD's yaw, the only gaze pedvr knows of the user)."""
 
-    __slots__ = ("actor", "target", "within")
-
-    def __init__(self, actor: int, target: Target, *, within: float, name: str = "") -> None:
-        super().__init__(name)
-        self.actor = actor
-        self.target = target
-        self.within = within
-
-    def initialise(self, ctx: Context) -> None:
-        self.target.resolve(ctx)
+    __slots__ = ()
 
     def check(self, ctx: Context) -> bool:
-        tp = self.target.point(ctx)
-        if tp is None or ctx.find(self.actor) is None:
+        pts = self._points(ctx)
+        if pts is None:
             return False
-        a = ctx.pos(self.actor)
+        tp, a = pts
         if math.hypot(tp[0] - a[0], tp[1] - a[1]) < 1e-9:
             return True
         want = math.atan2(tp[1] - a[1], tp[0] - a[0])
