@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from pedvr.crowd.footprint import Footprints, footprints, pair_support
-from pedvr.crowd.overlap import nearest_edges, pair_overlaps
+from pedvr.crowd.footprint import footprints
+from pedvr.crowd.overlap import motion_extremes, nearest_edges, pair_overlaps, user_clearance, wall_overlaps
 from pedvr.crowd.state import CrowdState
 from pedvr.world.visibility_kernels import EdgeGrid
 
@@ -25,6 +25,14 @@ INSIDE_EVERY = 30  # steps between point-in-obstacle tests of rows far from ever
 CLEARANCE_RANGE = 2.0  # m: the user's clearance is sampled while the nearest agent is this close
 STALL_DISTANCE = 0.5  # m: an agent with a goal that moved less than this ...
 STALL_SECONDS = 20.0  # s: ... in this long is stalled (a deadlock, or a jam that does not clear)
+
+
+def _user_row(crowd: CrowdState) -> int:
+    """The user's row (the simulation keeps it at row 0), -1 when there is none."""
+    if len(crowd) and crowd.is_user[0]:
+        return 0
+    rows = np.flatnonzero(crowd.is_user)
+    return int(rows[0]) if rows.size else -1
 
 
 @dataclass
@@ -108,54 +116,43 @@ class Metrics:
                                                                   - self._seen.shape[0], np.bool_)])
             self._seen[ids] = True
         if virt.any():
-            speed = np.linalg.norm(crowd.vel[virt], axis=1)
-            self.speed_sum += float(speed.sum())
-            self.speed_count += int(speed.size)
-            acc = np.linalg.norm(crowd.vel[virt] - prev_vel[virt], axis=1) / dt
-            self.max_accel = max(self.max_accel, float(acc.max()))
-            dh = np.abs((crowd.heading[virt] - prev_heading[virt] + np.pi) % (2 * np.pi) - np.pi) / dt
-            self.max_turn_rate = max(self.max_turn_rate, float(dh.max()))
+            total, rows, acc, turn = motion_extremes(crowd.vel, prev_vel, crowd.heading, prev_heading,
+                                                     crowd.is_user, dt)
+            self.speed_sum += total
+            self.speed_count += rows
+            self.max_accel = max(self.max_accel, acc)
+            self.max_turn_rate = max(self.max_turn_rate, turn)
         self._overlaps(crowd)
 
-    def _user(self, crowd: CrowdState, fp: Footprints) -> None:
+    def _user(self, crowd: CrowdState) -> None:
         """The user's distances, every step (not only when some pair of discs is close):
         the closest centre distance, the deepest any footprint cuts into the user's disc,
         and the clearance (surface to surface) to the nearest agent within
-        ``CLEARANCE_RANGE``, sampled once per step for the distribution."""
-        user = np.flatnonzero(crowd.is_user)
-        others = np.flatnonzero(~crowd.is_user)
-        if not (user.size and others.size):
+        ``CLEARANCE_RANGE``, sampled once per step for the distribution (one kernel pass,
+        :func:`pedvr.crowd.overlap.user_clearance`)."""
+        u = _user_row(crowd)
+        if u < 0 or len(crowd) < 2:
             return
-        u = user[0]
-        self.min_user_distance = min(self.min_user_distance,
-                                     float(np.hypot(*(crowd.pos[others] - crowd.pos[u]).T).min()))
-        rel = fp.centre[others] - crowd.pos[u]  # footprints about their centres (a pram's is ahead)
-        du = np.hypot(rel[:, 0], rel[:, 1])
-        unit = np.divide(rel, du[:, None], out=np.zeros_like(rel), where=du[:, None] > 1e-12)
-        reach = pair_support(fp.radius, fp.depth, fp.facing, others, -unit)
-        clear = du - reach - crowd.radius[u]
-        k = int(np.argmin(clear))
-        self.user_overlap = max(self.user_overlap, float(-clear[k]))
-        if du[k] <= CLEARANCE_RANGE:
-            self.user_clearance.append(float(clear[k]))
-            if clear[k] < self.personal_space:
+        nearest, clear, dist = user_clearance(crowd.pos, crowd.radius, crowd.turn, crowd.torso,
+                                              crowd.heading, crowd.ahead, crowd.length, u, crowd.pos[u],
+                                              float(crowd.radius[u]))
+        self.min_user_distance = min(self.min_user_distance, nearest)
+        self.user_overlap = max(self.user_overlap, -clear)
+        if dist <= CLEARANCE_RANGE:
+            self.user_clearance.append(clear)
+            if clear < self.personal_space:
                 self.steps_in_user_margin += 1
 
     def observe_user_contact(self, crowd: CrowdState, proposed: np.ndarray) -> None:
         """Count a step in which steering left some agent's proposed position ``proposed``
         (before the contact pass) more than 1 cm inside the user's disc: a contact the
         contact pass then undid (with the safety step on, there are none)."""
-        user = np.flatnonzero(crowd.is_user)
-        others = np.flatnonzero(~crowd.is_user)
-        if not (user.size and others.size):
+        u = _user_row(crowd)
+        if u < 0 or len(crowd) < 2:
             return
-        fp = footprints(proposed, crowd.radius, crowd.turn, crowd.torso, crowd.heading, crowd.ahead,
-                        crowd.length)
-        rel = fp.centre[others] - crowd.pos[user[0]]
-        d = np.hypot(rel[:, 0], rel[:, 1])
-        unit = np.divide(rel, d[:, None], out=np.zeros_like(rel), where=d[:, None] > 1e-12)
-        ov = pair_support(fp.radius, fp.depth, fp.facing, others, -unit) + crowd.radius[user[0]] - d
-        if float(ov.max()) > OVERLAP_TOLERANCE:
+        _, clear, _ = user_clearance(proposed, crowd.radius, crowd.turn, crowd.torso, crowd.heading,
+                                     crowd.ahead, crowd.length, u, crowd.pos[u], float(crowd.radius[u]))
+        if -clear > OVERLAP_TOLERANCE:
             self.user_contact_steps += 1
 
     def observe_progress(self, ids: np.ndarray, pos: np.ndarray, wants: np.ndarray, t: float) -> None:
@@ -190,7 +187,7 @@ class Metrics:
             return
         fp = footprints(crowd.pos, crowd.radius, crowd.turn, crowd.torso, crowd.heading, crowd.ahead,
                         crowd.length)
-        self._user(crowd, fp)
+        self._user(crowd)
         pos, rad, depth, facing = fp.centre, fp.radius, fp.depth, fp.facing
         worst, pairs = pair_overlaps(pos, rad, depth, facing, OVERLAP_TOLERANCE)
         self.max_overlap = max(self.max_overlap, worst)
@@ -199,7 +196,6 @@ class Metrics:
         if self.seg_a.shape[0]:
             d, away = self._edge_distance(pos, float(rad.max()))
             near = np.isfinite(d)
-            reach = np.where(near, pair_support(rad, depth, facing, np.arange(n), away), rad)
             # A centre that enters an obstacle is near its edges first (nobody crosses a
             # wall's thickness in one step), so rows near an edge are tested every step and
             # the others every INSIDE_EVERY steps.
@@ -207,11 +203,10 @@ class Metrics:
             inside = np.zeros(n, np.bool_)
             if check.any():
                 inside[check] = self.inside(pos[check])  # type: ignore[operator]
-            ov = np.where(inside, reach + np.where(near, d, 0.0), reach - d)
-            ov = np.where(crowd.is_user, -np.inf, ov)  # the user is not steered, only measured
-            self.max_overlap = max(self.max_overlap, float(ov.max()))
-            self.wall_overlap = max(self.wall_overlap, float(ov.max()))
-            for k in np.flatnonzero(ov > OVERLAP_TOLERANCE):
+            worst, cut = wall_overlaps(rad, depth, facing, d, away, inside, crowd.is_user, OVERLAP_TOLERANCE)
+            self.max_overlap = max(self.max_overlap, worst)
+            self.wall_overlap = max(self.wall_overlap, worst)
+            for k in cut.tolist():
                 self.overlap_pairs.add((int(crowd.ids[k]), -1))
 
     def _edge_distance(self, pos: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from pedvr.crowd.footprint import support
+from pedvr.crowd.footprint import depth_of, support
 from pedvr.crowd.neighbors import build_agent_grid_arrays
 
 
@@ -119,3 +119,95 @@ def nearest_edges(pos, reach, p1, p2, origin, cell, shape, start, items, out_dis
             out_dist[i] = np.inf
             out_away[i, 0] = 0.0
             out_away[i, 1] = 0.0
+
+
+@njit(cache=True)
+def user_clearance(pos, radius, turn, torso, heading, ahead, length, user, user_pos, user_radius):
+    """The user's distances in one pass over the rows (``user`` is the user's row, left out):
+    ``(nearest, clear, dist)`` — the least centre distance from ``user_pos`` to any row's
+    ``pos``, and the least clearance (m, surface to the user's disc of ``user_radius``,
+    negative inside it) of any row's footprint, with that footprint's centre distance. Footprints
+    are :func:`pedvr.crowd.footprint.footprints`'s (discs, turned ellipses, carried objects'
+    ellipses ahead), built row by row here rather than as arrays: the metrics need one number
+    each, and the arrays cost more than the pass. ``(inf, inf, inf)`` when there are no others."""
+    nearest = math.inf
+    best = math.inf
+    best_d = math.inf
+    ux = user_pos[0]
+    uy = user_pos[1]
+    for i in range(pos.shape[0]):
+        if i == user:
+            continue
+        cx = pos[i, 0]
+        cy = pos[i, 1]
+        nearest = min(nearest, math.hypot(cx - ux, cy - uy))
+        if length[i] > 0.0:  # a pram's or box's ellipse, centred ahead, long along the heading
+            c = math.cos(heading[i])
+            s = math.sin(heading[i])
+            cx += ahead[i] * c
+            cy += ahead[i] * s
+            a = length[i]
+            b = radius[i]
+            fx = -s
+            fy = c
+        else:
+            a = radius[i]
+            b = depth_of(radius[i], turn[i])
+            fx = math.cos(torso[i])
+            fy = math.sin(torso[i])
+        rx = cx - ux
+        ry = cy - uy
+        d = math.hypot(rx, ry)
+        reach = support(a, b, fx, fy, -rx / d, -ry / d) if d > 1e-12 else 0.0
+        clear = d - reach - user_radius
+        if clear < best:
+            best = clear
+            best_d = d
+    return nearest, best, best_d
+
+
+@njit(cache=True)
+def motion_extremes(vel, prev_vel, heading, prev_heading, is_user, dt):
+    """One pass over the virtual rows: ``(speed sum, rows, max acceleration m/s², max turn
+    rate rad/s)`` between the previous step's velocities and headings and this one's."""
+    total = 0.0
+    rows = 0
+    acc = 0.0
+    turn = 0.0
+    for i in range(vel.shape[0]):
+        if is_user[i]:
+            continue
+        total += math.hypot(vel[i, 0], vel[i, 1])
+        rows += 1
+        acc = max(acc, math.hypot(vel[i, 0] - prev_vel[i, 0], vel[i, 1] - prev_vel[i, 1]) / dt)
+        turn = max(turn, abs((heading[i] - prev_heading[i] + math.pi) % (2.0 * math.pi) - math.pi) / dt)
+    return total, rows, acc, turn
+
+
+@njit(cache=True)
+def wall_overlaps(radius, depth, facing, dist, away, inside, is_user, tolerance):
+    """``(worst, rows)``: how deep footprints cut into walls, from each row's nearest edge
+    ``dist`` (inf where none is within reach) and the unit ``away`` from it, and whether its
+    centre is ``inside`` an obstacle (then the whole reach plus the distance back out counts);
+    the deepest cut (m, ``-inf`` with no rows) and the rows cut more than ``tolerance``. The
+    user's row is measured by no one here: it is not steered."""
+    worst = -math.inf
+    rows = np.empty(radius.shape[0], np.int64)
+    m = 0
+    for i in range(radius.shape[0]):
+        if is_user[i]:
+            continue
+        near = math.isfinite(dist[i])
+        if near:
+            reach = support(radius[i], depth[i], facing[i, 0], facing[i, 1], away[i, 0], away[i, 1])
+        else:
+            reach = radius[i]
+        if inside[i]:
+            ov = reach + (dist[i] if near else 0.0)
+        else:
+            ov = reach - dist[i]
+        worst = max(worst, ov)
+        if ov > tolerance:
+            rows[m] = i
+            m += 1
+    return worst, rows[:m]
