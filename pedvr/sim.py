@@ -39,6 +39,7 @@ from pedvr.etiquette.user import DoorUser
 from pedvr.record import Metrics, Recording
 from pedvr.scene.config import CONDITIONS, USER_WALKS, AgentProfile, SceneConfig, SequenceGoal, Spawn
 from pedvr.world import NavMesh, Visibility, edges, obstacle_set, walkable_area
+from pedvr.world.pathing import follow_paths
 
 PHASES = ("sense", "decide", "plan", "avoid", "animate", "sync", "record")
 SLOWING_DIST = 0.8  # m: agents slow down linearly inside this distance of their final waypoint
@@ -123,6 +124,7 @@ class Simulation:
         # Each row's profile, as an index into list(scene.profiles) (-1: the user); for drawing.
         self.profile_index = np.zeros(0, np.int64)
         self._flat: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._replanned: list[int] = []  # rows whose new path is not in self._flat yet
         self._next_id = 0
         self._leaving = np.zeros(0, np.bool_)
         self._new_vel = np.zeros((0, 2))
@@ -374,7 +376,7 @@ class Simulation:
         """A new path to the row's goal; unreachable goals leave it standing (or raise, if strict)."""
         goal = self.behavior.goal[row]
         self.cursor[row] = 1
-        self._flat = None
+        self._replanned.append(row)
         if np.isnan(goal[0]):
             self.paths[row] = np.zeros((0, 2))
             return
@@ -388,6 +390,27 @@ class Simulation:
             self.unreachable_goals += 1
 
     def _flat_paths(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every row's path as one array for the kernels: ``(points (P, 2), starts (N,), lens (N,))``.
+
+        Built whole when rows come or go; a replanned row's new path is appended and its
+        slice pointed at it, the old points left unreferenced until they outweigh the live
+        ones (then it is built whole again): a replan costs its own path, not the crowd's."""
+        if self._flat is not None and self._replanned:
+            pts, starts, lens = self._flat
+            rows = sorted(set(self._replanned))
+            new = [self.paths[r] for r in rows]
+            live = int(lens.sum())
+            if pts.shape[0] + sum(p.shape[0] for p in new) > 2 * live + 64:
+                self._flat = None
+            else:
+                starts, lens = starts.copy(), lens.copy()
+                at = pts.shape[0]
+                for r, p in zip(rows, new, strict=True):
+                    starts[r], lens[r] = at, p.shape[0]
+                    at += p.shape[0]
+                pts = np.ascontiguousarray(np.concatenate([pts, *new]), dtype=np.float64)
+                self._flat = (pts, starts, lens)
+        self._replanned.clear()
         if self._flat is None:
             lens = np.fromiter((p.shape[0] for p in self.paths), np.int64, len(self.paths))
             starts = np.concatenate([[0], np.cumsum(lens)[:-1]]).astype(np.int64)
@@ -396,51 +419,39 @@ class Simulation:
         return self._flat
 
     def _plan(self) -> None:
-        """Preferred velocity toward the furthest visible waypoint, facing it (PedVR §3.2.1)."""
+        """Preferred velocity toward the furthest visible waypoint, facing it (PedVR §3.2.1).
+
+        A push (contact, a crowd) can leave the waypoint behind a corner the cursor already
+        passed: the agent would walk into the wall for ever. Each agent checks its waypoint
+        is still in sight at the decision rate, and those that lost it replan from where
+        they stand. The checks are staggered: each step takes the agents whose id falls on
+        it (``id % decision_every``), so a decision step costs what the others cost."""
         crowd = self.crowd
         pts, starts, lens = self._flat_paths()
         cursor = self.visibility.furthest_visible(crowd.pos, crowd.radius, pts, starts, lens,
                                                   self.cursor, lookahead=LOOKAHEAD)
-        target, has_path = self._targets(pts, starts, lens, cursor)
-        if self.step_index % self.scene.decision_every == 0 and has_path.any():
-            # A push (contact, a crowd) can leave the waypoint behind a corner the
-            # cursor already passed: the agent would walk into the wall for ever.
-            # Replan those from where they stand (at the decision rate, rarely).
-            lost = has_path & ~self.visibility.visible(crowd.pos, target, crowd.radius * 0.25)
-            if lost.any():
-                for row in np.flatnonzero(lost):
+        n = len(crowd)
+        target, pref_vel, pref_heading = np.empty((n, 2)), np.empty((n, 2)), np.empty(n)
+        follow = (crowd.pos, pts, starts, lens, cursor, crowd.is_user, crowd.pref_speed,
+                  self.behavior.speed_scale, self.behavior.face, crowd.heading, crowd.vel, SLOWING_DIST)
+        follow_paths(*follow, target, pref_vel, pref_heading)
+        every = self.scene.decision_every
+        due = np.flatnonzero((crowd.ids % every == self.step_index % every) & (lens >= 2) & ~crowd.is_user)
+        if due.size:
+            lost = due[~self.visibility.visible(crowd.pos[due], target[due], crowd.radius[due] * 0.25)]
+            if lost.size:
+                for row in lost:
                     self._replan(int(row))
                 pts, starts, lens = self._flat_paths()
-                cursor = np.where(lost, 1, cursor)
-                target, has_path = self._targets(pts, starts, lens, cursor)
-        cur = np.minimum(cursor, np.maximum(lens - 1, 0))
-        d = target - crowd.pos
-        dist = np.linalg.norm(d, axis=1)
-        speed = crowd.pref_speed * self.behavior.speed_scale
-        last = cur >= lens - 1
-        speed = np.where(last, speed * np.minimum(1.0, dist / SLOWING_DIST), speed)
-        unit = np.divide(d, dist[:, None], out=np.zeros_like(d), where=dist[:, None] > 1e-9)
-        moving = has_path & (dist > 1e-6)
-        pref_vel = np.where(moving[:, None], unit * speed[:, None], 0.0)
-        still = np.where(np.isnan(self.behavior.face), crowd.heading, self.behavior.face)  # the Face action
-        pref_heading = np.where(moving, np.arctan2(unit[:, 1], unit[:, 0]), still)
+                cursor[lost] = 1
+                follow = (crowd.pos, pts, starts, lens, cursor, *follow[5:])
+                follow_paths(*follow, target, pref_vel, pref_heading)
         # commit
         self.cursor = cursor
-        crowd.pref_vel = np.where(crowd.is_user[:, None], crowd.vel, pref_vel)
-        crowd.pref_heading = np.where(crowd.is_user, crowd.heading, pref_heading)
+        crowd.pref_vel = pref_vel
+        crowd.pref_heading = pref_heading
         if self.etiquette is not None:  # pedestrians at a door go where the door interaction says
             self.etiquette.steer(crowd)
-
-    def _targets(self, pts: np.ndarray, starts: np.ndarray, lens: np.ndarray,
-                 cursor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Each row's current waypoint (its own position when it has no path)."""
-        crowd = self.crowd
-        has_path = (lens >= 2) & ~crowd.is_user
-        if not len(pts):
-            return crowd.pos.copy(), has_path
-        cur = np.minimum(cursor, np.maximum(lens - 1, 0))
-        target = np.where(has_path[:, None], pts[np.minimum(starts + cur, len(pts) - 1)], crowd.pos)
-        return target, has_path
 
     def _avoid(self) -> None:
         """ORCA: reciprocal between agents, asymmetric toward the user (the agent's share ρ of

@@ -226,3 +226,51 @@ def _funnel(lefts, rights):  # noqa: ANN001, ANN202
             k += 1
     out[k] = pts[npts - 1]
     return out[: k + 1].copy()
+
+
+@njit(cache=True)
+def follow_paths(pos, pts, starts, lens, cursor, is_user, pref_speed, speed_scale, face, heading, vel,
+                 slowing, target, pref_vel, pref_heading):
+    """The ``plan`` phase's arithmetic for every row in one pass (PedVR §3.2.1): each row's
+    current waypoint ``target (N, 2)`` (its own position when it has no path of two or more
+    points; the user has none), and its preferred velocity toward it, ``pref_speed ×
+    speed_scale``, slowed linearly inside ``slowing`` m of its last waypoint, with the heading
+    of that velocity, or where it stands still its ``face`` (NaN: keep ``heading``). The user's
+    rows keep their input ``vel`` and ``heading``. Written in place; the same operations, in the
+    same order, as the numpy expression it replaces, so the results are the same bits."""
+    m = pts.shape[0]
+    for i in range(pos.shape[0]):
+        has_path = lens[i] >= 2 and not is_user[i]
+        cur = min(cursor[i], max(lens[i] - 1, 0))
+        if has_path and m:
+            k = min(starts[i] + cur, m - 1)
+            target[i, 0] = pts[k, 0]
+            target[i, 1] = pts[k, 1]
+        else:
+            target[i, 0] = pos[i, 0]
+            target[i, 1] = pos[i, 1]
+        if is_user[i]:
+            pref_vel[i, 0] = vel[i, 0]
+            pref_vel[i, 1] = vel[i, 1]
+            pref_heading[i] = heading[i]
+            continue
+        dx = target[i, 0] - pos[i, 0]
+        dy = target[i, 1] - pos[i, 1]
+        dist = math.sqrt(dx * dx + dy * dy)
+        speed = pref_speed[i] * speed_scale[i]
+        if cur >= lens[i] - 1:
+            speed = speed * min(1.0, dist / slowing)
+        if dist > 1e-9:
+            ux = dx / dist
+            uy = dy / dist
+        else:
+            ux = 0.0
+            uy = 0.0
+        if has_path and dist > 1e-6:
+            pref_vel[i, 0] = ux * speed
+            pref_vel[i, 1] = uy * speed
+            pref_heading[i] = math.atan2(uy, ux)
+        else:
+            pref_vel[i, 0] = 0.0
+            pref_vel[i, 1] = 0.0
+            pref_heading[i] = heading[i] if math.isnan(face[i]) else face[i]
