@@ -64,6 +64,8 @@ ACTION_TICK = 1.0 / 30.0  # s: the subconscious scheduler runs at the decision r
 # takes about 1.2 us: below 256 bodies a parallel run saves under 0.15 ms, and one stalled
 # fork-join on a busy machine costs milliseconds, so smaller crowds stay serial.
 _POSE_CHOOSER = Chooser(serial_rows=256)
+_IS_ARM_ACTION = np.zeros(ARM_GOALS.shape[0] + 1, np.bool_)  # by action kind: it takes an arm
+_IS_ARM_ACTION[ARM_ACTIONS] = True
 BODY_ORDER = ("locomotion", "sitting", "gesture", "idle", "gaze", "reach")
 
 
@@ -450,7 +452,7 @@ class FullBody:
         g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur) & ~held
         g_env = np.clip(np.minimum(t - b.g_start, b.g_start + b.g_dur - t) / 0.4, 0.0, 1.0)
         co.set_target("gesture", np.where(g_active, g_env, 0.0))
-        arm_act = np.isin(b.run_kind, ARM_ACTIONS).any(axis=1)
+        arm_act = _IS_ARM_ACTION[b.run_kind].any(axis=1)  # -1 (no action) reads the last slot, False
         co.set_target("reach", (b.reach_on.any(axis=1) | held | arm_act).astype(np.float64))
         co.smooth(dt)
         # The clip plays on while its weight fades out, so it ends where it was going.

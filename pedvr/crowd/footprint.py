@@ -196,8 +196,10 @@ def footprint_arrays(radius: np.ndarray, turn: np.ndarray,
                      torso: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``depth (N,)`` (the ellipse's ``b``, m) and ``facing (N, 2)`` (unit ``f``) for the kernels."""
     depth = radius * (1.0 - turn * (1.0 - DEPTH_RATIO))
-    facing = np.stack([np.cos(torso), np.sin(torso)], axis=1)
-    return np.ascontiguousarray(depth), np.ascontiguousarray(facing)
+    facing = np.empty((np.shape(torso)[0], 2))
+    np.cos(torso, out=facing[:, 0])
+    np.sin(torso, out=facing[:, 1])
+    return np.ascontiguousarray(depth), facing
 
 
 def pair_support(radius: np.ndarray, depth: np.ndarray, facing: np.ndarray, rows: np.ndarray,

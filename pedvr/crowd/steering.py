@@ -15,8 +15,11 @@ expected.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
+from numba import njit
 
 from pedvr.crowd import contact as _contact
 from pedvr.crowd import deadlock as _deadlock
@@ -32,6 +35,28 @@ from pedvr.world.obstacles import ObstacleSet
 # max_speed + radius) for walking agents, so a query touches ~4 cells.
 OBSTACLE_CELL = 2.0
 _CHUNKS_PER_THREAD = 4
+
+
+_FIELDS = tuple((name, tail, np.dtype(dtype)) for name, tail, dtype in (
+    ("pos", (2,), np.float64), ("vel", (2,), np.float64), ("pref_vel", (2,), np.float64),
+    ("heading", (), np.float64), ("radius", (), np.float64), ("pref_speed", (), np.float64),
+    ("max_speed", (), np.float64), ("responsibility", (), np.float64), ("is_user", (), np.bool_),
+    ("limits", (N_LIMITS,), np.float64), ("turn", (), np.float64), ("torso", (), np.float64),
+))  # CrowdState's fields that steering reads: (name, shape after the row axis, dtype)
+
+
+@njit(cache=True)
+def _values_ok(pos, vel, pref_vel, heading, radius, responsibility):  # noqa: ANN001, ANN202
+    """True when positions, velocities and headings are finite, radii positive and
+    responsibilities inside [0, 1] (NaN fails every test)."""
+    for i in range(pos.shape[0]):
+        if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1]) and math.isfinite(vel[i, 0])
+                and math.isfinite(vel[i, 1]) and math.isfinite(pref_vel[i, 0])
+                and math.isfinite(pref_vel[i, 1]) and math.isfinite(heading[i])):
+            return False
+        if not (radius[i] > 0.0 and 0.0 <= responsibility[i] <= 1.0):
+            return False
+    return True
 
 
 class SteeringInputError(PedvrError, ValueError):
@@ -84,6 +109,7 @@ class Steering:
         self.obstacle_grid = _nb.build_obstacle_grid(self._verts, self._next, OBSTACLE_CELL)
         self._obst_cap = max(1, min(32, len(obstacles)))
         self._scratch_key: tuple[int, int, int] | None = None
+        self._bounds = np.zeros(0, np.int64)  # chunk bounds of the last row count
         self._neighbors: tuple[np.ndarray, np.ndarray] | None = None
         # The late safety step toward the user (pedvr.crowd.encounter): ORCA's line toward
         # the user has this horizon; 0 switches it off.
@@ -116,6 +142,8 @@ class Steering:
         threads = numba.get_num_threads()
         chunks = max(1, min(n, threads * _CHUNKS_PER_THREAD))
         key = (chunks, k, self._obst_cap)
+        if self._bounds.shape[0] != chunks + 1 or self._bounds[-1] != n:
+            self._bounds = np.linspace(0, n, chunks + 1).astype(np.int64)
         if self._scratch_key != key:
             cap = self._obst_cap + k + _orca.MAX_MOTION_LINES
             self._lines = np.zeros((chunks, cap, 4))
@@ -123,21 +151,21 @@ class Steering:
             self._oidx = np.zeros((chunks, self._obst_cap), np.int64)
             self._odsq = np.zeros((chunks, self._obst_cap))
             self._scratch_key = key
-        bounds = np.linspace(0, n, chunks + 1).astype(np.int64)
-        return bounds, self._lines, self._proj, self._oidx, self._odsq
+        return self._bounds, self._lines, self._proj, self._oidx, self._odsq
 
     def validate(self, state: CrowdState) -> None:
-        """Check every field's shape and dtype; raise :class:`SteeringInputError`."""
+        """Check every field's shape and dtype; raise :class:`SteeringInputError`.
+
+        Every step calls it, so the common case (all well) is one pass over the fields'
+        shapes and one kernel over their values; the messages are made only on failure."""
         n = len(state)
-        for name, shape, dtype in (
-            ("pos", (n, 2), np.float64), ("vel", (n, 2), np.float64),
-            ("pref_vel", (n, 2), np.float64), ("heading", (n,), np.float64),
-            ("radius", (n,), np.float64), ("pref_speed", (n,), np.float64),
-            ("max_speed", (n,), np.float64), ("responsibility", (n,), np.float64),
-            ("is_user", (n,), np.bool_), ("limits", (n, N_LIMITS), np.float64),
-            ("turn", (n,), np.float64), ("torso", (n,), np.float64),
-        ):
-            _check(f"CrowdState.{name}", getattr(state, name), shape, dtype)
+        for name, tail, dtype in _FIELDS:
+            a = getattr(state, name)
+            if type(a) is not np.ndarray or a.dtype != dtype or a.shape != (n, *tail):
+                _check(f"CrowdState.{name}", a, (n, *tail), dtype)
+        if n and _values_ok(state.pos, state.vel, state.pref_vel, state.heading, state.radius,
+                            state.responsibility):
+            return
         for name in ("pos", "vel", "pref_vel", "heading"):
             a = getattr(state, name)
             if n and not np.isfinite(a).all():
