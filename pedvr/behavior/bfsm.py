@@ -33,11 +33,42 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
+from numba import njit
 
 from pedvr.behavior.goals import GoalContext, Walkable, selectors
 from pedvr.scene.config import BehaviorConfig, SequenceGoal, StateConfig
 
 NO_STATE = -1
+
+
+@njit(cache=True)
+def _candidates(state, frozen, goal, pos, arrive, idle_arrival, has_prob, seq_until, timer_end, tree_done,
+                t, flags):  # noqa: ANN001, ANN202
+    """One pass over the rows for :meth:`BFSM.decide`: per active row (a state, not frozen)
+    ``flags[i] = (has_goal, at_goal, timer, candidate)``, where a candidate may transition this
+    tick (at its goal or its sequence entry's end, its timer run out, its tree done, an
+    arrival with no goal, or a state with probability transitions); clears the active rows'
+    ``tree_done`` (the caller keeps a copy). Returns the number of active rows."""
+    active = 0
+    for i in range(state.shape[0]):
+        if state[i] < 0 or frozen[i]:
+            continue
+        active += 1
+        s = state[i]
+        has = not math.isnan(goal[i, 0])
+        at = False
+        if has:
+            dx = goal[i, 0] - pos[i, 0]
+            dy = goal[i, 1] - pos[i, 1]
+            at = math.sqrt(dx * dx + dy * dy) < arrive[s]
+        at = at or t >= seq_until[i]
+        timer = t >= timer_end[i]
+        flags[i, 0] = has
+        flags[i, 1] = at
+        flags[i, 2] = timer
+        flags[i, 3] = at or timer or tree_done[i] != 0 or (not has and idle_arrival[s]) or has_prob[s]
+        tree_done[i] = 0
+    return active
 
 
 @dataclass
@@ -105,7 +136,7 @@ class BFSM:
         self.names: tuple[str, ...] = tuple(config.states)
         self.ids = {n: i for i, n in enumerate(self.names)}
         self._states: tuple[StateConfig, ...] = tuple(config.states[n] for n in self.names)
-        self._arrive = np.array([s.arrive_dist for s in self._states])
+        self._arrive = np.array([s.arrive_dist for s in self._states], np.float64)
         self._has_prob = np.array([any(tr.on == "probability" for tr in s.transitions)
                                    for s in self._states], np.bool_)
         # A state without a goal "arrives" at once: only worth a look if it listens for arrival.
@@ -158,27 +189,18 @@ class BFSM:
         n = b.state.shape[0]
         goal_changed = np.zeros(n, np.bool_)
         leaving = np.zeros(n, np.bool_)
-        active = b.state >= 0
-        if frozen is not None:
-            active &= ~frozen
-        if not active.any():
-            return Decision(goal_changed, leaving, 0)
-        sid = np.where(active, b.state, 0)
-        has_goal = ~np.isnan(b.goal[:, 0])
-        dist = np.where(has_goal, np.linalg.norm(np.nan_to_num(b.goal) - pos, axis=1), 0.0)
-        at_goal = active & has_goal & (dist < self._arrive[sid])
-        # An idle/flow/flee sequence entry ends by time instead of distance.
-        at_goal |= active & (t >= b.seq_until)
-        timer = active & (t >= b.timer_end)
-        done = active & (b.tree_done != 0)
-        candidates = np.flatnonzero(
-            at_goal | timer | done | (active & ~has_goal & self._idle_arrival[sid])
-            | (active & self._has_prob[sid]))
+        flags = np.zeros((n, 4), np.bool_)  # has_goal, at_goal, timer, candidate
         tree_done = b.tree_done.copy()
-        b.tree_done[active] = 0
+        count = _candidates(b.state, np.zeros(n, np.bool_) if frozen is None else frozen, b.goal, pos,
+                            self._arrive, self._idle_arrival, self._has_prob, b.seq_until, b.timer_end,
+                            b.tree_done, float(t), flags)
+        if count == 0:
+            return Decision(goal_changed, leaving, 0)
+        has_goal, at_goal, timer = flags[:, 0], flags[:, 1], flags[:, 2]
+        candidates = np.flatnonzero(flags[:, 3])
         arrived = 0
         for row in candidates.tolist():
-            s = self._states[sid[row]]
+            s = self._states[int(b.state[row])]
             seq = sequences[row]
             if at_goal[row]:
                 arrived += int(has_goal[row])
