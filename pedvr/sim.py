@@ -44,6 +44,7 @@ from pedvr.world.pathing import follow_paths
 PHASES = ("sense", "decide", "plan", "avoid", "animate", "sync", "record")
 SLOWING_DIST = 0.8  # m: agents slow down linearly inside this distance of their final waypoint
 LOOKAHEAD = 8  # waypoints checked for visibility ahead of the current one
+LOST_CHECK_S = 0.1  # s: how often each agent checks its waypoint is still in sight (10 Hz)
 STALL_GOAL_DIST = 0.5  # m: an agent this close to its goal (or with none) is not stalled, only waiting
 
 
@@ -431,9 +432,9 @@ class Simulation:
 
         A push (contact, a crowd) can leave the waypoint behind a corner the cursor already
         passed: the agent would walk into the wall for ever. Each agent checks its waypoint
-        is still in sight at the decision rate, and those that lost it replan from where
-        they stand. The checks are staggered: each step takes the agents whose id falls on
-        it (``id % decision_every``), so a decision step costs what the others cost."""
+        is still in sight every ``LOST_CHECK_S`` and, if it lost it, replans from where it
+        stands. The checks are staggered by id over the interval, so every step checks the
+        same share of the crowd (a thick ray each, about 1 µs per agent in a 70 m plaza)."""
         crowd = self.crowd
         pts, starts, lens = self._flat_paths()
         cursor = self.visibility.furthest_visible(crowd.pos, crowd.radius, pts, starts, lens,
@@ -443,7 +444,7 @@ class Simulation:
         follow = (crowd.pos, pts, starts, lens, cursor, crowd.is_user, crowd.pref_speed,
                   self.behavior.speed_scale, self.behavior.face, crowd.heading, crowd.vel, SLOWING_DIST)
         follow_paths(*follow, target, pref_vel, pref_heading)
-        every = self.scene.decision_every
+        every = max(1, round(LOST_CHECK_S / self.dt))
         due = np.flatnonzero((crowd.ids % every == self.step_index % every) & (lens >= 2) & ~crowd.is_user)
         if due.size:
             lost = due[~self.visibility.visible(crowd.pos[due], target[due], crowd.radius[due] * 0.25)]

@@ -112,3 +112,34 @@ def test_go_to_capability_walks_the_agent_there() -> None:
     assert handle.status.name == "SUCCESS"
     stop = sim.body.go_to(agent, None)
     assert stop.status.name == "SUCCESS" and np.isnan(sim.behavior.goal[row]).all()
+
+
+def test_an_agent_pushed_out_of_sight_of_its_waypoint_replans() -> None:
+    """An agent pushed back behind the corner it already turned (its waypoints all out of
+    sight) replans from where it stands within LOST_CHECK_S (plus a step) and walks round
+    again to its goal, instead of walking into the wall for ever."""
+    from pedvr.scene.loader import parse_scene
+    from pedvr.sim import LOST_CHECK_S
+
+    scene = parse_scene({
+        "scene": {"name": "lost_waypoint", "seed": 3, "duration": 40.0},
+        "world": {"bounds": [[-10.0, -10.0], [10.0, 10.0]],
+                  "obstacles": [{"box": [-0.25, -10.0, 0.25, 5.0], "height": 3.0}]},
+        "agents": {"profiles": {"adult": {"radius": 0.25, "pref_speed": 1.3, "max_speed": 1.6}},
+                   "spawns": [{"profile": "adult", "state": "go", "count": 1,
+                               "region": {"box": [-5.1, -0.1, -4.9, 0.1]}}]},
+        "behavior": {"states": {"go": {"goal": {"selector": "point", "at": [5.0, 0.0]}, "transitions": []}}},
+        "user": {"start": [-9.0, 9.0], "heading_deg": 0.0},
+    }, source="<lost waypoint>")
+    sim = Simulation(scene, condition="decoupled")
+    row = int(np.flatnonzero(~sim.crowd.is_user)[0])
+    while not (sim.crowd.pos[row, 0] > 1.0 and sim.cursor[row] == len(sim.paths[row]) - 1):
+        sim.step()  # round the wall's end, heading down to the goal
+        assert sim.t < 20.0
+    pushed = np.array([-3.0, 0.0])
+    assert not sim.visibility.visible(pushed[None], np.array([[5.0, 0.0]]), np.array([0.0625]))[0]
+    sim.crowd.pos[row] = pushed
+    sim.advance_to(sim.t + LOST_CHECK_S + 2 * sim.dt)
+    assert np.linalg.norm(sim.paths[row][0] - pushed) < 0.2  # replanned from where it was pushed to
+    sim.advance_to(sim.t + 16.0)
+    assert np.linalg.norm(sim.crowd.pos[row] - [5.0, 0.0]) < 0.5
