@@ -16,6 +16,7 @@ See :mod:`pedvr.body` for the pose API the renderer reads.
 
 from __future__ import annotations
 
+import bisect
 import math
 import time
 from collections.abc import Callable
@@ -586,11 +587,13 @@ class FullBody:
                             started)
         b.run_start[started] = t
         # subconscious gestures play through the gesture choreographer
-        for a, clip in ((act.A_TALK, ps.G_TALK), (act.A_SHRUG, ps.G_SHRUG)) if started.any() else ():
-            rows = np.flatnonzero(((b.run_kind == a) & started).any(axis=1) & ~g_active)
+        some = np.flatnonzero(started.any(axis=1) & ~g_active)  # rows that started an action now
+        for a, clip in ((act.A_TALK, ps.G_TALK), (act.A_SHRUG, ps.G_SHRUG)) if some.size else ():
+            this = b.run_kind[some] == a
+            rows = some[(this & started[some]).any(axis=1)]
             b.g_kind[rows] = clip
             b.g_start[rows] = t
-            b.g_dur[rows] = ((b.run_end - t) * (b.run_kind == a)).max(axis=1)[rows]
+            b.g_dur[rows] = ((b.run_end[rows] - t) * (b.run_kind[rows] == a)).max(axis=1)
         # PedVR §4.3: gestures from the BFSM state's set, Poisson with the set's rate
         gs = self.gestures
         p = 1.0 - math.exp(-gs.rate * tick)
@@ -601,7 +604,7 @@ class FullBody:
             name = None if state_names is None else str(state_names[row])
             names, weights = gs.by_state.get(name or "", gs.standing if standing[row] else gs.walking)
             cw = np.cumsum(weights) / np.sum(weights)
-            chosen = names[int(np.searchsorted(cw, pick[row], side="right").clip(0, len(names) - 1))]
+            chosen = names[min(bisect.bisect_right(cw.tolist(), float(pick[row])), len(names) - 1)]
             b.g_kind[row] = ps.GESTURES.index(chosen)
             b.g_start[row] = t
             b.g_dur[row] = durs[row]
