@@ -451,7 +451,7 @@ class FullBody:
         co.set_target("sitting", b.sitting.astype(np.float64))
         held = b.carrying != carry.NONE  # a carrier's arms stay on what it carries (no swing, no gesture)
         g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur) & ~held
-        g_env = np.clip(np.minimum(t - b.g_start, b.g_start + b.g_dur - t) / 0.4, 0.0, 1.0)
+        g_env = np.minimum(np.maximum(np.minimum(t - b.g_start, b.g_start + b.g_dur - t) / 0.4, 0.0), 1.0)
         co.set_target("gesture", np.where(g_active, g_env, 0.0))
         arm_act = _IS_ARM_ACTION[b.run_kind].any(axis=1)  # -1 (no action) reads the last slot, False
         co.set_target("reach", (b.reach_on.any(axis=1) | held | arm_act).astype(np.float64))
@@ -459,7 +459,7 @@ class FullBody:
         # The clip plays on while its weight fades out, so it ends where it was going.
         fading = co.weights[:, co.index["gesture"]] > 0.0
         kind = np.where(g_active | fading, b.g_kind, 0)
-        idle_w = np.clip(1.0 - speed / 0.3, 0.0, 1.0) * ~b.sitting
+        idle_w = np.minimum(np.maximum(1.0 - speed / 0.3, 0.0), 1.0) * ~b.sitting  # np.clip costs 3x more
         order, masks, moves_pelvis = co.graph()
         self.hand_paths.apply(self.ids, b.reach_on, b.reach_pt, t)  # reach_along's paths, at t
         reach_on, reach_pt = self._carry_reach()

@@ -63,7 +63,7 @@ class SteeringInputError(PedvrError, ValueError):
     """An array handed to :class:`Steering` has the wrong shape, dtype or value."""
 
 
-def _check(name: str, a: np.ndarray, shape: tuple[int, ...], dtype: type) -> np.ndarray:
+def _check(name: str, a: np.ndarray, shape: tuple[int, ...], dtype: type | np.dtype) -> np.ndarray:
     if not isinstance(a, np.ndarray):
         raise SteeringInputError(f"{name}: expected a numpy array, got {type(a).__name__}")
     if a.dtype != np.dtype(dtype) or a.shape != shape:
