@@ -27,6 +27,24 @@ most ``MAX_WIDTH`` sideways and ``MAX_BACK`` behind it, and within
 the spot, small shuffles); walking starts when the root moves faster than
 ``V_WALK`` and stops, with the feet together, when it slows below it.
 
+Short repositions (PLACE §5: "short-range repositioning in 2–4 steps"). Our
+reading: side or back-side steps whose last, closing step ends the
+reposition. A lead side step is planned for a body that keeps moving, so when
+the body brakes (the demonstrator's profile) it lands past its place beside
+where the body stops; squaring that would be a fifth step. So a side step
+closing toward such a lead foot (:func:`side_closing`: more inward than along
+the facing, more than ``MIN_WIDTH``) lands abreast of it and as far to its
+own side of the stopping point, and that *wide stance* (:func:`wide_stance`:
+abreast, the root midway, wider than the hip and at most ``STANCE_MAX``,
+about shoulder width, apart) is kept while standing. A body braking while
+moving more than 60° off its facing (side or back stepping) plans its
+landings ``v / 2|a|`` s ahead, where it will stop, rather than ``τ + T/2``.
+Forward walking and its stops, turning on the spot and shuffles are
+unchanged: their steps are not side closing ones, so their feet end beside
+the root as before (a stance wider than the hip lowers the pelvis, and a
+pram pusher's hands would leave the handle). Repositions of up to about
+0.6 m take 2–4 steps; longer ones take more.
+
 Step rate: walking forward ``f = F0 · (v / 1.35)^k · scale^-0.35`` steps/s
 (``k`` = 0.26 below 1.35 m/s, 0.6 above; clamped to ``[F_MIN, F_MAX]``),
 step length = v / f: 1.8–2.1 steps/s and 0.65–0.78 m steps at 1.3–1.4 m/s
@@ -98,6 +116,7 @@ FAR = 0.46  # m (reference adult): a stance foot never waits farther than this f
 FAR_TRAIL = 0.56  # m: nor a trailing foot (heel up, its ankle higher and nearer)
 RESTEP_DIST = 0.07  # m (reference adult)
 RESTEP_YAW = 0.35  # rad
+STANCE_MAX = 0.38  # m (reference adult): a wide stance's feet at most this far apart (about shoulder width)
 V_CLIP = 1.35  # m/s: speed the decoupled cycle was "authored" at
 RATE_MIN, RATE_MAX = 0.5, 1.5
 VEL_SMOOTH = 0.08  # s: time constant of the velocity the planner uses (contact jitter)
@@ -162,6 +181,36 @@ def stand_ref(rx, ry, heading, side, half_width):  # type: ignore[no-untyped-def
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
+def stance_offset(x, y, rx, ry, heading, side):  # type: ignore[no-untyped-def]
+    """A foot at ``(x, y)`` in the frame of a root at ``(rx, ry)``: how far (m) it is to its own side
+    (``side``) of the root, and how far ahead of it."""
+    dx, dy = x - rx, y - ry
+    sgn = 1.0 if side == LEFT else -1.0
+    ch, sh = math.cos(heading), math.sin(heading)
+    return sgn * (dx * sh - dy * ch), dx * ch + dy * sh
+
+
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def wide_stance(w_a, lon_a, w_b, lon_b, half_width, scale):  # type: ignore[no-untyped-def]
+    """Whether two feet, ``w`` m to their own sides of the root and ``lon`` m ahead of it, stand in a
+    wide stance the gait keeps (a short reposition's closing side step leaves one): abreast, the root
+    midway between them, between hip width and ``STANCE_MAX`` apart, within ``RESTEP_DIST`` ahead of
+    or behind the root. Feet at hip width beside the root are the usual stance, not a wide one."""
+    tol = 0.25 * RESTEP_DIST * scale
+    return abs(lon_a - lon_b) < tol and abs(w_a - w_b) < tol and min(w_a, w_b) > half_width and \
+        max(w_a, w_b) <= 0.5 * STANCE_MAX * scale and abs(lon_a + lon_b) < 2.0 * RESTEP_DIST * scale
+
+
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def side_closing(ox, oy, tx, ty, heading, side, scale):  # type: ignore[no-untyped-def]
+    """Whether a swing of foot ``side`` from ``(ox, oy)`` to ``(tx, ty)`` is a side step closing toward
+    the other foot: more than ``MIN_WIDTH`` inward, and more inward than along the facing (so not a
+    squaring shuffle, nor a forward or back step)."""
+    inward, along = stance_offset(ox, oy, tx, ty, heading, side)
+    return inward > max(abs(along), MIN_WIDTH * scale)
+
+
+@njit(cache=True, fastmath=FASTMATH, inline="always")
 def foot_yaw_for(heading, side):  # type: ignore[no-untyped-def]
     return heading - TOE_OUT if side == LEFT else heading + TOE_OUT
 
@@ -205,10 +254,10 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
         amp_t = min(speed / 1.3, 1.3)
         amp[i] += (amp_t - amp[i]) * (1.0 - math.exp(-dt / 0.25))
         walking = speed > V_WALK
+        acc = 0.0  # m/s², the smoothed velocity's rate of change along itself (coupled mode)
         if coupled or is_user[i]:
             # A body speeding up steps at the rate of the speed it is reaching (the smoothed velocity
             # lags the raw one by acceleration × VEL_SMOOTH), so its early steps are not drawn out.
-            acc = 0.0
             ahead = speed
             if speed > 1e-9:
                 acc = ((vx - svx) * svx + (vy - svy) * svy) / (speed * VEL_SMOOTH)
@@ -290,9 +339,16 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
         if not stepping[i]:
             worst = 0.0
             pick = -1
+            # a wide stance left by a closing side step holds while its feet stay abreast about the root
+            px, py = root[i, 0] + svx * T, root[i, 1] + svy * T
+            w_l, lon_l = stance_offset(foot_ref[i, LEFT, 0], foot_ref[i, LEFT, 1], px, py, h, LEFT)
+            w_r, lon_r = stance_offset(foot_ref[i, RIGHT, 0], foot_ref[i, RIGHT, 1], px, py, h, RIGHT)
+            wide = wide_stance(w_l, lon_l, w_r, lon_r, hw, sc)
             for f in range(2):
-                tx, ty = stand_ref(root[i, 0] + svx * T, root[i, 1] + svy * T, h, f, hw)
+                tx, ty = stand_ref(px, py, h, f, hw)
                 d = math.hypot(foot_ref[i, f, 0] - tx, foot_ref[i, f, 1] - ty)
+                if wide:
+                    d = abs(lon_l if f == LEFT else lon_r)
                 dyaw = abs(wrap(foot_yaw[i, f] - foot_yaw_for(h, f)))
                 err = d / (RESTEP_DIST * sc) + dyaw / RESTEP_YAW
                 if err > worst:
@@ -347,11 +403,27 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
             lead = 0.5 * T_nom
             if first[i] and walking:
                 lead *= LEAD_START
-            px = root[i, 0] + svx * (tau + lead)
-            py = root[i, 1] + svy * (tau + lead)
+            ahead_t = tau + lead
+            if walking and acc < 0.0 and fwd_speed < 0.5 * speed:
+                # side / back stepping and braking: the root runs on about v / 2|a| s more, not tau + lead
+                ahead_t = min(ahead_t, 0.5 * speed / -acc)
+            px = root[i, 0] + svx * ahead_t
+            py = root[i, 1] + svy * ahead_t
             tx, ty = stand_ref(px, py, h, sw, hw)
             lx, ly = math.sin(h), -math.cos(h)
             sgn = 1.0 if sw == LEFT else -1.0
+            w_st, lon_st = stance_offset(foot_ref[i, st, 0], foot_ref[i, st, 1], px, py, h, st)
+            ox, oy = foot_ref[i, sw, 0], foot_ref[i, sw, 1]  # where the swing started (or starts)
+            if s[i] >= DS:
+                ox, oy = lift_ref[i, 0], lift_ref[i, 1]
+            if side_closing(ox, oy, tx, ty, h, sw, sc) and wide_stance(w_st, lon_st, w_st, lon_st, hw, sc):
+                # PLACE §5, short-range repositioning in 2-4 steps: a side step closing toward a lead foot
+                # that stepped out past its place beside where the body stops (it was planned for a body
+                # that kept moving, which then braked), by no more than a wide stance allows, lands
+                # abreast of it and as far to its own side: the reposition ends on its closing step, not
+                # with a squaring shuffle. Forward and back stops, and shuffles, close as before.
+                tx = px + sgn * w_st * lx + lon_st * fx
+                ty = py + sgn * w_st * ly + lon_st * fy
             # In the body's frame about the stance foot: stay on its own side (no crossing over),
             # side steps no wider than MAX_WIDTH, back steps no longer than MAX_BACK, any step no
             # longer than MAX_STEP.
@@ -425,7 +497,12 @@ def gait_kernel(coupled, dt, t, root, root_prev, heading, is_user, scale, half_w
                 ox, oy = stand_ref(root[i, 0], root[i, 1], h, st, hw)
                 d = math.hypot(foot_ref[i, st, 0] - ox, foot_ref[i, st, 1] - oy)
                 dyaw = abs(wrap(foot_yaw[i, st] - foot_yaw_for(h, st)))
-                if walking or d > 0.5 * RESTEP_DIST * sc or dyaw > 0.5 * RESTEP_YAW:
+                # stopped in a wide stance (a closing side step's, above): nothing to square
+                rx, ry = root[i, 0], root[i, 1]
+                w_st, lon_st = stance_offset(foot_ref[i, st, 0], foot_ref[i, st, 1], rx, ry, h, st)
+                w_sw, lon_sw = stance_offset(tx, ty, rx, ry, h, sw)
+                closed = not walking and wide_stance(w_st, lon_st, w_sw, lon_sw, hw, sc)
+                if walking or (d > 0.5 * RESTEP_DIST * sc and not closed) or dyaw > 0.5 * RESTEP_YAW:
                     s[i] = s[i] - 1.0 if walking else 0.0
                     swing[i] = st
                     trail_pitch0[i] = foot_pitch[i, st]

@@ -165,10 +165,6 @@ def test_a_large_move_of_the_user_triggers_a_replan_and_a_short_reposition() -> 
     assert held > 10.0
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "with main's gait a 0.6 m reposition is 4 side / back steps and then the gait's own squaring shuffle "
-    "(7 cm) once stopped: 5 foot lifts; fewer needs longer side steps or no squaring after a side step "
-    "in pedvr/body/locomotion.py"))
 def test_a_short_reposition_takes_two_to_four_steps() -> None:
     """§5: short-range repositioning in 2-4 steps, no turning around."""
     _, tr, e = _reposition()
