@@ -9,11 +9,13 @@ run can report them without keeping the trajectory.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from pedvr.crowd.footprint import footprints
 from pedvr.crowd.overlap import motion_extremes, nearest_edges, pair_overlaps, user_clearance, wall_overlaps
@@ -33,6 +35,37 @@ def _user_row(crowd: CrowdState) -> int:
         return 0
     rows = np.flatnonzero(crowd.is_user)
     return int(rows[0]) if rows.size else -1
+
+
+@njit(cache=True)
+def progress_kernel(ids, pos, wants, t, distance, seconds, anchor_pos, anchor_t, stalled):  # noqa: ANN001, ANN201
+    """:meth:`Metrics.observe_progress`'s pass over the rows: an id's anchor moves to its row's
+    position (time ``t``) when the row has no goal to walk to (``wants`` False) or is ``distance``
+    or more from it (a NaN anchor, never set, counts as that far); rows that want to walk and whose
+    anchor is ``seconds`` old or older are stalled. Writes their ids to ``stalled[:m]``, returns m."""
+    m = 0
+    for k in range(ids.shape[0]):
+        i = ids[k]
+        d = math.hypot(pos[k, 0] - anchor_pos[i, 0], pos[k, 1] - anchor_pos[i, 1])
+        if not wants[k] or not d < distance:
+            anchor_pos[i, 0] = pos[k, 0]
+            anchor_pos[i, 1] = pos[k, 1]
+            anchor_t[i] = t
+        if wants[k] and t - anchor_t[i] >= seconds:
+            stalled[m] = i
+            m += 1
+    return m
+
+
+@njit(cache=True)
+def _root_sync(pelvis, pos, is_user, seated):  # noqa: ANN001, ANN202
+    """The largest horizontal distance (m) between a virtual, unseated row's pelvis ``(N, 3)``
+    (Y up) and its 2D position; 0 when there is none."""
+    worst = 0.0
+    for i in range(pos.shape[0]):
+        if not (is_user[i] or seated[i]):
+            worst = max(worst, math.hypot(pelvis[i, 0] - pos[i, 0], pelvis[i, 2] - pos[i, 1]))
+    return worst
 
 
 @dataclass
@@ -77,12 +110,11 @@ class Metrics:
         horizontal distance (virtual agents; it includes the pelvis's deliberate sway). Seated
         bodies (``seated (N,)``) are left out: a chair's sitting pose puts the pelvis 0.3 m behind
         the agent by design (pedvr.behavior.objects.Chair)."""
-        virt = ~crowd.is_user
-        if seated is not None and seated.shape[0] == len(crowd):
-            virt = virt & ~seated
-        if virt.any() and pelvis.shape[0] == len(crowd):
-            d = np.hypot(pelvis[virt, 0] - crowd.pos[virt, 0], pelvis[virt, 2] - crowd.pos[virt, 1])
-            self.root_sync_error = max(self.root_sync_error, float(d.max()))
+        n = len(crowd)
+        if pelvis.shape[0] == n:
+            sitting = seated if seated is not None and seated.shape[0] == n else np.zeros(n, np.bool_)
+            worst = _root_sync(pelvis, crowd.pos, crowd.is_user, sitting)
+            self.root_sync_error = max(self.root_sync_error, worst)
 
     def body_summary(self, *, slides: np.ndarray, steps: list[np.ndarray]) -> dict[str, object]:
         """Body metrics: foot skate per stance (m), root sync, gaze events, cadence at 1.3–1.4 m/s.
@@ -159,7 +191,7 @@ class Metrics:
         """Track who is stalled: rows with ``wants`` (a goal they have not reached) that stayed
         within ``STALL_DISTANCE`` of where they were ``STALL_SECONDS`` ago, or longer.
 
-        Kept by stable id (ids are small integers), vectorised: each id has an anchor (a
+        Kept by stable id (ids are small integers), one kernel pass: each id has an anchor (a
         position and a time) that moves to the agent whenever it is ``STALL_DISTANCE`` away
         or has no goal to walk to.
         """
@@ -168,14 +200,11 @@ class Metrics:
             more = max(top, 2 * self._anchor_t.shape[0]) - self._anchor_t.shape[0]
             self._anchor_pos = np.concatenate([self._anchor_pos, np.full((more, 2), np.nan)])
             self._anchor_t = np.concatenate([self._anchor_t, np.full(more, np.nan)])
-        a = self._anchor_pos[ids]
-        moved = ~(np.hypot(*(pos - a).T) < STALL_DISTANCE)  # NaN anchors count as moved
-        reset = moved | ~wants
-        self._anchor_pos[ids[reset]] = pos[reset]
-        self._anchor_t[ids[reset]] = t
-        stalled = wants & (t - self._anchor_t[ids] >= STALL_SECONDS)
-        self._stalled_now = ids[stalled]
-        if stalled.any():
+        stalled = np.empty(ids.shape[0], np.int64)
+        m = progress_kernel(ids, pos, wants, float(t), STALL_DISTANCE, STALL_SECONDS, self._anchor_pos,
+                            self._anchor_t, stalled)
+        self._stalled_now = stalled[:m]
+        if m:
             self.stalled_ever.update(int(i) for i in self._stalled_now)
 
     def _overlaps(self, crowd: CrowdState) -> None:

@@ -49,3 +49,24 @@ def test_an_agent_that_arrived_is_not_stalled() -> None:
     sim.advance_to(25.0)
     s = sim.summary()
     assert s["stalled_agents"] == 0 and s["stalled_agents_ever"] == 0
+
+
+def test_root_sync_is_the_largest_pelvis_offset_of_walking_virtual_agents() -> None:
+    """observe_body: the horizontal pelvis-to-agent distance, its largest over virtual rows that
+    are not seated (the user's and a seated body's pelvis may be anywhere)."""
+    from pedvr.crowd.state import N_LIMITS, CrowdState
+    from pedvr.record import Metrics
+
+    n = 4
+    crowd = CrowdState(ids=np.arange(n), pos=np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [3.0, 3.0]]),
+                       vel=np.zeros((n, 2)), pref_vel=np.zeros((n, 2)), heading=np.zeros(n),
+                       pref_heading=np.zeros(n), radius=np.full(n, 0.25), pref_speed=np.ones(n),
+                       max_speed=np.ones(n), responsibility=np.ones(n), is_user=np.array([True, False, False, False]),
+                       limits=np.zeros((n, N_LIMITS)))
+    # pelvis (x, height, z) against the 2D (x, z): the user 1 m off, row 1 3 cm, row 2 (seated) 0.3 m, row 3 4 cm
+    pelvis = np.array([[1.0, 0.9, 0.0], [1.03, 0.9, 1.0], [2.0, 0.5, 2.3], [3.0, 0.9, 3.04]])
+    m = Metrics(np.zeros((0, 2)), np.zeros((0, 2)), inside=None)
+    m.observe_body(crowd, pelvis=pelvis, seated=np.array([False, False, True, False]))
+    assert abs(m.root_sync_error - 0.04) < 1e-12
+    m.observe_body(crowd, pelvis=pelvis, seated=None)  # nobody seated: row 2's 0.3 m counts
+    assert abs(m.root_sync_error - 0.3) < 1e-12
