@@ -70,3 +70,41 @@ def test_root_sync_is_the_largest_pelvis_offset_of_walking_virtual_agents() -> N
     assert abs(m.root_sync_error - 0.04) < 1e-12
     m.observe_body(crowd, pelvis=pelvis, seated=None)  # nobody seated: row 2's 0.3 m counts
     assert abs(m.root_sync_error - 0.3) < 1e-12
+
+
+def test_the_metric_kernels_match_their_numpy_definitions() -> None:
+    """user_clearance and motion_extremes (pedvr.crowd.overlap) against the array expressions they
+    replaced, on random crowds with turned ellipses and carried objects' footprints."""
+    from pedvr.crowd.footprint import footprints, pair_support
+    from pedvr.crowd.overlap import motion_extremes, user_clearance
+
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        n = int(rng.integers(2, 60))
+        pos = rng.uniform(-4.0, 4.0, (n, 2))
+        radius, turn, torso = rng.uniform(0.2, 0.4, n), rng.uniform(0.0, 1.0, n), rng.uniform(-3, 3, n)
+        heading = rng.uniform(-3.0, 3.0, n)
+        length = np.where(rng.random(n) < 0.2, rng.uniform(0.5, 0.8, n), 0.0)
+        ahead = np.where(length > 0.0, 0.4, 0.0)
+        u = int(rng.integers(0, n))
+        others = np.delete(np.arange(n), u)
+        fp = footprints(pos, radius, turn, torso, heading, ahead, length)
+        rel = fp.centre[others] - pos[u]
+        du = np.hypot(rel[:, 0], rel[:, 1])
+        clear = du - pair_support(fp.radius, fp.depth, fp.facing, others, -rel / du[:, None]) - radius[u]
+        k = int(np.argmin(clear))
+        nearest, got_clear, got_d = user_clearance(pos, radius, turn, torso, heading, ahead, length, u, pos[u],
+                                                   float(radius[u]))
+        assert abs(nearest - np.hypot(*(pos[others] - pos[u]).T).min()) < 1e-12
+        assert abs(got_clear - clear[k]) < 1e-9 and abs(got_d - du[k]) < 1e-9
+
+        vel, prev = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
+        h0, h1 = rng.uniform(-3.1, 3.1, n), rng.uniform(-3.1, 3.1, n)
+        user = np.zeros(n, np.bool_)
+        user[u] = True
+        total, rows, acc, turn_rate = motion_extremes(vel, prev, h1, h0, user, 0.01)
+        virt = ~user
+        assert rows == n - 1 and abs(total - np.linalg.norm(vel[virt], axis=1).sum()) < 1e-9
+        assert abs(acc - (np.linalg.norm(vel[virt] - prev[virt], axis=1) / 0.01).max()) < 1e-9
+        dh = np.abs((h1[virt] - h0[virt] + np.pi) % (2 * np.pi) - np.pi) / 0.01
+        assert abs(turn_rate - dh.max()) < 1e-9
