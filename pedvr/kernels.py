@@ -17,7 +17,12 @@ same source, and a :class:`Chooser` picks one per call:
   loses, up to ``EXPLORE_MAX`` calls (about 20 s at 90 Hz for a once-per-step
   kernel), so a loaded machine pays a slow parallel call rarely. A try's time
   replaces the twin's old cost; if it was a lucky one, the next calls average
-  it back up and the chooser switches back.
+  it back up and the chooser switches back;
+* when the twin in use turns dearer than the other (one slow call, a worker
+  descheduled, is enough to tip the average), the other is re-tried after
+  ``EXPLORE_FIRST`` calls, not after the backed-off gap: a hiccup costs a few
+  calls on the slower twin (issue 12: in one 1000-agent run a single slow call
+  left the neighbour search serial, at twice the cost, for 374 steps).
 
 Results do not depend on the choice: the kernels' outputs are written per row,
 with no reductions across threads, so the bytes are the same whatever twin ran
@@ -110,11 +115,17 @@ class Chooser:
         old = self.cost[k]
         # A rare try replaces what was known (it may be minutes old); calls in a row average.
         self.cost[k] = c if math.isnan(old) or self.exploring else old + ALPHA * (c - old)
+        other = self.cost[1 - k]
         if self.exploring:
-            other = self.cost[1 - k]
             won = not math.isnan(other) and self.cost[k] < other
             self.gap = EXPLORE_FIRST if won else min(2 * self.gap, EXPLORE_MAX)
             self.exploring = False
+        elif not math.isnan(old) and old <= other < self.cost[k]:
+            # The twin in use just became the dearer one: one slow call (a worker descheduled)
+            # can do that. Re-try the other soon rather than after a long backed-off gap, so a
+            # hiccup costs a few calls on the slower twin, not thousands.
+            self.gap = EXPLORE_FIRST
+            self.count = 0
 
 
 class SizeDispatch:

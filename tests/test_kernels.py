@@ -76,3 +76,24 @@ def test_chooser_takes_the_cheaper_twin_and_backs_off() -> None:
         par = c.choose(1000)
         c.record(par, 1000, 0.0005 if par else 0.001)
     assert c.choose(1000) is True
+
+
+def test_one_slow_call_does_not_lock_the_chooser_onto_the_slower_twin() -> None:
+    """A hiccup (one parallel call 20x slow, a worker descheduled) tips the average to serial;
+    parallel is re-tried within EXPLORE_FIRST calls, not after the backed-off gap, and kept."""
+    from pedvr.kernels import EXPLORE_FIRST
+
+    c = Chooser(min_rows=512)
+    for _ in range(3000):  # a quiet machine: parallel 2x faster; the serial tries back off
+        par = c.choose(1000)
+        c.record(par, 1000, 0.0005 if par else 0.001)
+    assert c.gap >= 1024 and c.choose(1000) is True
+    c.record(True, 1000, 0.01)  # the hiccup
+    picks = []
+    for _ in range(4 * EXPLORE_FIRST):
+        par = c.choose(1000)
+        picks.append(par)
+        c.record(par, 1000, 0.0005 if par else 0.001)
+    assert picks[0] is False  # the hiccup made serial look cheaper ...
+    assert picks[EXPLORE_FIRST - 1] is True  # ... until parallel was re-tried, soon,
+    assert sum(picks[EXPLORE_FIRST:]) >= len(picks[EXPLORE_FIRST:]) - 3  # and kept (serial tried back off again)
