@@ -144,10 +144,17 @@ class _Circle:
 class _Region:
     PARAMS = {"box": Param(box)}
 
-    def __call__(self, params: dict[str, Any], ctx: GoalContext) -> Vec2 | None:
-        from shapely.geometry import box as shapely_box
+    def __init__(self) -> None:
+        self._boxes: dict[tuple[float, ...], Any] = {}  # box -> its shapely polygon, made once
 
-        return ctx.walkable.random_point(ctx.rng, shapely_box(*params["box"]))
+    def __call__(self, params: dict[str, Any], ctx: GoalContext) -> Vec2 | None:
+        key = tuple(float(v) for v in params["box"])
+        region = self._boxes.get(key)
+        if region is None:
+            from shapely.geometry import box as shapely_box
+
+            region = self._boxes[key] = shapely_box(*key)
+        return ctx.walkable.random_point(ctx.rng, region)
 
 
 class _Sequence:

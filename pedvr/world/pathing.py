@@ -229,6 +229,17 @@ def _funnel(lefts, rights):  # noqa: ANN001, ANN202
 
 
 @njit(cache=True)
+def path_length(path):  # noqa: ANN001, ANN201
+    """Length (m) of the polyline ``path (K, 2)``."""
+    total = 0.0
+    for k in range(path.shape[0] - 1):
+        dx = path[k + 1, 0] - path[k, 0]
+        dy = path[k + 1, 1] - path[k, 1]
+        total += math.sqrt(dx * dx + dy * dy)
+    return total
+
+
+@njit(cache=True)
 def follow_paths(pos, pts, starts, lens, cursor, is_user, pref_speed, speed_scale, face, heading, vel,
                  slowing, target, pref_vel, pref_heading):
     """The ``plan`` phase's arithmetic for every row in one pass (PedVR §3.2.1): each row's
