@@ -39,8 +39,9 @@ demonstrator through PLACE:
    :data:`MIN_MOVE` m away), or if the current one became invalid (the
    observer stands too close, or cannot be seen), and not within
    :data:`DWELL` s of arriving: the demonstrator never dances. A reposition
-   is a short walk at reduced speed (2–4 steps over a metre or so; within
-   :data:`SIDESTEP` m side or back steps that keep facing the new θ), with the
+   is a short walk at reduced speed (within :data:`SIDESTEP` m side or back steps
+   that keep facing the new θ: 2–4 steps up to about 0.6 m, §5's short range, as
+   tests/body/test_short_reposition.py checks; longer ones take more), with the
    arm retracted on the way and pointing again on arrival; the talk goes on
    for the time that was left.
 
