@@ -19,3 +19,4 @@ def test_paths_benchmark_reports_one_line_per_scene() -> None:
     for row in rows:
         assert row["triangles"] > 10 and 0 < row["queries"] <= 20
         assert 0 < row["ms_mean"] <= row["ms_p95"] * 10
+        assert row["build_ms"] > 0 and row["locate_100_ms"] > 0

@@ -1,4 +1,3 @@
-import time
 
 import numpy as np
 import pytest
@@ -177,18 +176,25 @@ def test_bad_clearance_and_full_world_rejected():
         NavMesh.build(EMPTY, clearance=5.0)
 
 
-def test_build_is_fast():
+def _left_of(u: np.ndarray, v: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Twice the signed area of (u, v, p), row by row: > 0 where p is left of u -> v."""
+    return (v[:, 0] - u[:, 0]) * (p[:, 1] - u[:, 1]) - (v[:, 1] - u[:, 1]) * (p[:, 0] - u[:, 0])
+
+
+def test_large_worlds_build_and_locate_every_sampled_point():
+    """60 random boxes in 40 m, and a SteerSuite-sized 200 x 200 m world with six boxes: every
+    point sampled on the mesh is located in a triangle that holds it. (Build and locate times are
+    a benchmark's, ``python bench/paths.py``, not a test's: CI machines are shared.)"""
     crowded = random_box_world(np.random.default_rng(11), 60, 40.0)
-    # SteerSuite-sized: 200 x 200 m with six boxes.
     corners = [(x, y) for x in (-80.0, 0.0, 80.0) for y in (-80.0, 80.0)]
     steer = WorldConfig(((-100, -100), (100, 100)),
                         tuple(box_obstacle(x, y, x + 2, y + 3) for x, y in corners))
-    NavMesh.build(crowded, clearance=R).locate(np.zeros((1, 2)))  # warm the numba cache
     for world in (crowded, steer):
-        t0 = time.perf_counter()
         mesh = NavMesh.build(world, clearance=R)
-        assert time.perf_counter() - t0 < 0.5
-        pts = np.array([mesh.random_point(np.random.default_rng(0)) for _ in range(100)])
-        t0 = time.perf_counter()
-        mesh.locate(pts)
-        assert time.perf_counter() - t0 < 0.01
+        rng = np.random.default_rng(0)
+        pts = np.array([mesh.random_point(rng) for _ in range(100)])
+        tri = mesh.locate(pts)
+        assert (tri >= 0).all()
+        a, b, c = (mesh.verts[mesh.tris[tri, k]] for k in range(3))
+        sides = [_left_of(u, v, pts) for u, v in ((a, b), (b, c), (c, a))]  # CCW: inside is left of each edge
+        assert (np.min(sides, axis=0) >= -1e-9).all()
