@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numba import njit
 
 from pedvr.body import skeleton as sk
 from pedvr.body.steps import LEFT, RIGHT, generate_steps
@@ -871,16 +872,25 @@ class DoorEtiquette:
 
 
 def _segments_cross(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``(S,)`` whether each segment ``a[i] -> b[i]`` crosses the segment ``p -> q``."""
-    def orient(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-        return ((y[..., 0] - x[..., 0]) * (z[..., 1] - x[..., 1])
-                - (y[..., 1] - x[..., 1]) * (z[..., 0] - x[..., 0]))
+    """``(S,)`` whether each segment ``a[i] -> b[i]`` crosses the segment ``p -> q`` (touching
+    ``p -> q``'s line counts, an endpoint on the segment's own line does not)."""
+    out = np.empty(a.shape[0], np.bool_)
+    _segments_cross_kernel(np.ascontiguousarray(a, np.float64), np.ascontiguousarray(b, np.float64),
+                           float(p[0]), float(p[1]), float(q[0]), float(q[1]), out)
+    return out
 
-    o1 = orient(a, b, np.broadcast_to(p, a.shape))
-    o2 = orient(a, b, np.broadcast_to(q, a.shape))
-    o3 = orient(np.broadcast_to(p, a.shape), np.broadcast_to(q, a.shape), a)
-    o4 = orient(np.broadcast_to(p, a.shape), np.broadcast_to(q, a.shape), b)
-    return (o1 * o2 <= 0.0) & (o3 * o4 < 0.0)
+
+@njit(cache=True)
+def _segments_cross_kernel(a, b, px, py, qx, qy, out):  # noqa: ANN001, ANN202
+    """:func:`_segments_cross` over the rows: the signs of the four orientations (one pass at the
+    decision rate for every walker and door; the array expressions cost 40 µs a door)."""
+    for i in range(a.shape[0]):
+        ax, ay, bx, by = a[i, 0], a[i, 1], b[i, 0], b[i, 1]
+        o1 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+        o2 = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
+        o3 = (qx - px) * (ay - py) - (qy - py) * (ax - px)
+        o4 = (qx - px) * (by - py) - (qy - py) * (bx - px)
+        out[i] = o1 * o2 <= 0.0 and o3 * o4 < 0.0
 
 
 def _point_segment(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
