@@ -75,8 +75,9 @@ def test_root_sync_is_the_largest_pelvis_offset_of_walking_virtual_agents() -> N
 def test_the_metric_kernels_match_their_numpy_definitions() -> None:
     """user_clearance and motion_extremes (pedvr.crowd.overlap) against the array expressions they
     replaced, on random crowds with turned ellipses and carried objects' footprints."""
-    from pedvr.crowd.footprint import footprints, pair_support
+    from pedvr.crowd.footprint import footprints
     from pedvr.crowd.overlap import motion_extremes, user_clearance
+    from tests.crowd._helpers import pair_support
 
     rng = np.random.default_rng(7)
     for _ in range(20):

@@ -202,16 +202,6 @@ def footprint_arrays(radius: np.ndarray, turn: np.ndarray,
     return np.ascontiguousarray(depth), facing
 
 
-def pair_support(radius: np.ndarray, depth: np.ndarray, facing: np.ndarray, rows: np.ndarray,
-                 d: np.ndarray) -> np.ndarray:
-    """Vectorised :func:`support` of ``rows`` along unit directions ``d (P, 2)`` (for metrics)."""
-    a, b, f = radius[rows], depth[rows], facing[rows]
-    along_f = d[:, 0] * f[:, 0] + d[:, 1] * f[:, 1]
-    along_s = -d[:, 0] * f[:, 1] + d[:, 1] * f[:, 0]
-    return np.sqrt(a * a * along_s * along_s + b * b * along_f * along_f)
-
-
-
 class Footprints(NamedTuple):
     """Every row's footprint in the kernels' terms: the ellipse centred at ``centre (N, 2)`` m
     with semi-axis ``radius (N,)`` along ``(-facing_y, facing_x)`` (the bounding one) and
@@ -242,6 +232,17 @@ def footprints(pos: np.ndarray, radius: np.ndarray, turn: np.ndarray, torso: np.
         facing[rigid] = np.stack([-s, c], axis=1)  # the kernels' b across, so their a lies along the heading
     return Footprints(np.ascontiguousarray(centre), np.ascontiguousarray(a), np.ascontiguousarray(depth),
                       np.ascontiguousarray(facing), np.ascontiguousarray(rigid))
+
+
+@njit(cache=True, inline="always")
+def row_footprint(x, y, radius, turn, torso, heading, ahead, length):  # type: ignore[no-untyped-def]
+    """One row of :func:`footprints`, for kernels that need a few rows' footprints and not the
+    arrays: ``(cx, cy, a, b, fx, fy)``, the centre, the semi-axis ``a`` across ``(fx, fy)`` and
+    ``b`` along it, for a body at ``(x, y)``."""
+    if length > 0.0:  # a carried object's ellipse, centred ahead, long along the heading
+        c, s = math.cos(heading), math.sin(heading)
+        return x + ahead * c, y + ahead * s, length, radius, -s, c
+    return x, y, radius, depth_of(radius, turn), math.cos(torso), math.sin(torso)
 
 
 def positions_of(centre: np.ndarray, heading: np.ndarray, ahead: np.ndarray) -> np.ndarray:

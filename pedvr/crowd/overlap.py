@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from pedvr.crowd.footprint import depth_of, support
+from pedvr.crowd.footprint import row_footprint, support
 from pedvr.crowd.neighbors import build_agent_grid_arrays
 
 
@@ -128,8 +128,9 @@ def user_clearance(pos, radius, turn, torso, heading, ahead, length, user, user_
     ``pos``, and the least clearance (m, surface to the user's disc of ``user_radius``,
     negative inside it) of any row's footprint, with that footprint's centre distance. Footprints
     are :func:`pedvr.crowd.footprint.footprints`'s (discs, turned ellipses, carried objects'
-    ellipses ahead), built row by row here rather than as arrays: the metrics need one number
-    each, and the arrays cost more than the pass. ``(inf, inf, inf)`` when there are no others."""
+    ellipses ahead), built row by row (:func:`pedvr.crowd.footprint.row_footprint`) rather than
+    as arrays: the metrics need one number each, and the arrays cost more than the pass.
+    ``(inf, inf, inf)`` when there are no others."""
     nearest = math.inf
     best = math.inf
     best_d = math.inf
@@ -138,23 +139,9 @@ def user_clearance(pos, radius, turn, torso, heading, ahead, length, user, user_
     for i in range(pos.shape[0]):
         if i == user:
             continue
-        cx = pos[i, 0]
-        cy = pos[i, 1]
-        nearest = min(nearest, math.hypot(cx - ux, cy - uy))
-        if length[i] > 0.0:  # a pram's or box's ellipse, centred ahead, long along the heading
-            c = math.cos(heading[i])
-            s = math.sin(heading[i])
-            cx += ahead[i] * c
-            cy += ahead[i] * s
-            a = length[i]
-            b = radius[i]
-            fx = -s
-            fy = c
-        else:
-            a = radius[i]
-            b = depth_of(radius[i], turn[i])
-            fx = math.cos(torso[i])
-            fy = math.sin(torso[i])
+        nearest = min(nearest, math.hypot(pos[i, 0] - ux, pos[i, 1] - uy))
+        cx, cy, a, b, fx, fy = row_footprint(pos[i, 0], pos[i, 1], radius[i], turn[i], torso[i], heading[i],
+                                             ahead[i], length[i])
         rx = cx - ux
         ry = cy - uy
         d = math.hypot(rx, ry)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import shapely
@@ -140,8 +139,6 @@ class NavMesh:
     _region_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = field(
         default_factory=dict, repr=False
     )
-    # the last region asked for and its triangles: goal selectors ask with the same object again
-    _last_region: list[Any] = field(default_factory=lambda: [None, None], repr=False)  # [region, triangles]
 
     @classmethod
     def build(cls, world: WorldConfig, clearance: float, *, quad_segs: int = 4) -> NavMesh:
@@ -308,13 +305,9 @@ class NavMesh:
     # -- sampling ----------------------------------------------------------
 
     def _region_triangles(self, region: BaseGeometry) -> tuple[np.ndarray, np.ndarray]:
-        last = self._last_region
-        if last[0] is region:  # the same geometry object as last time (shapely's are immutable)
-            return last[1]  # type: ignore[no-any-return]
         key = shapely.to_wkb(region)
         hit = self._region_cache.get(key)
         if hit is not None:
-            last[:] = [region, hit]
             return hit
         inter = shapely.intersection(self.polygon, region)
         polys = [g for g in shapely.get_parts(inter) if isinstance(g, Polygon) and g.area > 0.0]
@@ -329,7 +322,6 @@ class NavMesh:
         if len(self._region_cache) >= _REGION_CACHE_SIZE:
             self._region_cache.pop(next(iter(self._region_cache)))
         self._region_cache[key] = (corners, _cum_area(corners))
-        last[:] = [region, self._region_cache[key]]
         return self._region_cache[key]
 
     def random_point(

@@ -65,3 +65,13 @@ def disjoint_boxes(rng: np.random.Generator, k: int, size: float) -> list[np.nda
         y1 = y0 + rng.uniform(0.3, 0.6) * w
         boxes.append(f32(np.array([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])))
     return boxes
+
+
+def pair_support(radius: np.ndarray, depth: np.ndarray, facing: np.ndarray, rows: np.ndarray,
+                 d: np.ndarray) -> np.ndarray:
+    """Vectorised :func:`pedvr.crowd.footprint.support` of ``rows`` along unit directions
+    ``d (P, 2)``: an array oracle for the kernels that measure footprints row by row."""
+    a, b, f = radius[rows], depth[rows], facing[rows]
+    along_f = d[:, 0] * f[:, 0] + d[:, 1] * f[:, 1]
+    along_s = -d[:, 0] * f[:, 1] + d[:, 1] * f[:, 0]
+    return np.sqrt(a * a * along_s * along_s + b * b * along_f * along_f)

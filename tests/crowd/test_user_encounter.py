@@ -9,10 +9,11 @@ import itertools
 import numpy as np
 import pytest
 
-from pedvr.crowd.footprint import DEPTH_RATIO, pair_support, support
+from pedvr.crowd.footprint import DEPTH_RATIO, support
 from pedvr.scene.loader import load_scene, parse_scene
 from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
+from tests.crowd._helpers import pair_support
 
 # -- the head-on corridor trials (PedVR §6) --------------------------------------------------
 
