@@ -228,3 +228,22 @@ def test_moving_segments_are_obstacles_for_orca_and_contacts() -> None:
     assert pushed[0, 0] <= 0.35 + 1e-3  # the contact pass keeps discs off it too
     s.set_moving_segments(np.zeros((0, 2)), np.zeros((0, 2)))  # the leaf swung away
     np.testing.assert_allclose(s.compute_velocities(agent_at(0.0), 0.05), [[1.3, 0.0]])
+
+
+def test_every_checked_value_is_named_when_bad() -> None:
+    """The per-step check's fast path (one kernel) lets nothing through that the messages name."""
+    s = Steering(PARAMS, ObstacleSet.empty(), coupled=False)
+    for name, bad, message in (
+        ("pos", np.array([[0.0, 0.0], [np.inf, 0.0]]), r"CrowdState\.pos\[1\] = \[inf  0\.\]: must be finite"),
+        ("vel", np.array([[0.0, np.nan], [0.0, 0.0]]), r"CrowdState\.vel\[0\] = \[ 0\. nan\]: must be finite"),
+        ("pref_vel", np.array([[0.0, 0.0], [0.0, -np.inf]]), r"CrowdState\.pref_vel\[1\].*must be finite"),
+        ("radius", np.array([0.25, -0.1]), "radius min = -0.1: every radius must be > 0"),
+        ("responsibility", np.array([0.5, 1.5]), r"responsibility outside \[0, 1\]: min 0\.5, max 1\.5"),
+        ("responsibility", np.array([np.nan, 1.0]), r"responsibility outside \[0, 1\]"),
+        ("pos", [[0.0, 0.0], [1.0, 0.0]], "CrowdState.pos: expected a numpy array, got list"),
+        ("is_user", np.zeros(2, np.int64), r"CrowdState\.is_user has shape \(2,\) dtype int64: must be 2 bool"),
+    ):
+        state = crowd([(0.0, 0.0), (1.0, 0.0)])
+        setattr(state, name, bad)
+        with pytest.raises(SteeringInputError, match=message):
+            s.compute_velocities(state, 0.1)
