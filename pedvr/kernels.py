@@ -21,8 +21,7 @@ same source, and a :class:`Chooser` picks one per call:
 * when the twin in use turns dearer than the other (one slow call, a worker
   descheduled, is enough to tip the average), the other is re-tried after
   ``EXPLORE_FIRST`` calls, not after the backed-off gap: a hiccup costs a few
-  calls on the slower twin (issue 12: in one 1000-agent run a single slow call
-  left the neighbour search serial, at twice the cost, for 374 steps).
+  calls on the slower twin, not a backed-off gap of up to ``EXPLORE_MAX`` (issue 12).
 
 Results do not depend on the choice: the kernels' outputs are written per row,
 with no reductions across threads, so the bytes are the same whatever twin ran
