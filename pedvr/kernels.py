@@ -1,4 +1,4 @@
-"""numba kernels that run in parallel only when it pays, measured as they run.
+"""numba kernels that run in parallel only where one thread would not do, measured as they run.
 
 A ``prange`` loop is a fork–join: every launch waits for every worker
 thread. For the tens of agents of a VR scene that wait costs more than the
@@ -9,19 +9,26 @@ a little slower. So each parallel kernel gets a serial twin compiled from the
 same source, and a :class:`Chooser` picks one per call:
 
 * fewer than ``SERIAL_ROWS`` rows, or one numba thread: always serial;
-* otherwise the twin whose measured cost per row (an exponential average of
-  wall time per row) is lower; the untried twin starts as the size rule says
-  (parallel from ``min_rows``) and the other is tried after a few calls;
-* the other twin is re-tried now and then to notice a change in the machine's
-  load: after ``EXPLORE_FIRST`` calls, then with the gap doubling each time it
-  loses, up to ``EXPLORE_MAX`` calls (about 20 s at 90 Hz for a once-per-step
-  kernel), so a loaded machine pays a slow parallel call rarely. A try's time
-  replaces the twin's old cost; if it was a lucky one, the next calls average
-  it back up and the chooser switches back;
+* serial while the serial twin's call fits in ``SERIAL_BUDGET_S`` (its measured
+  cost per row, an exponential average of wall time per row, times the rows): a
+  kernel that one thread runs in under 2 ms takes no other core. The time the
+  second core would save is small next to a 11.1 ms frame, and a step that never
+  waits on another thread takes as long on a loaded machine as on a quiet one, as
+  single-threaded RVO2 does (issue 12: at 1000 and 4000 agents,
+  ``pedvr bench steering --vs rvo2 --load 0 --load 1``). The first call of a kernel
+  runs serial, to measure it;
+* over the budget, the twin whose measured cost per row is lower; parallel is
+  tried first, and the other twin is re-tried now and then to notice a change in
+  the machine's load: after ``EXPLORE_FIRST`` calls, then with the gap doubling
+  each time it loses, up to ``EXPLORE_MAX`` calls (about 20 s at 90 Hz for a
+  once-per-step kernel), so a loaded machine pays a slow parallel call rarely. A
+  try's time replaces the twin's old cost; if it was a lucky one, the next calls
+  average it back up and the chooser switches back. A serial try that fits the
+  budget again returns the kernel to one thread;
 * when the twin in use turns dearer than the other (one slow call, a worker
   descheduled, is enough to tip the average), the other is re-tried after
   ``EXPLORE_FIRST`` calls, not after the backed-off gap: a hiccup costs a few
-  calls on the slower twin, not a backed-off gap of up to ``EXPLORE_MAX`` (issue 12).
+  calls on the slower twin, not a backed-off gap of up to ``EXPLORE_MAX``.
 
 Results do not depend on the choice: the kernels' outputs are written per row,
 with no reductions across threads, so the bytes are the same whatever twin ran
@@ -41,11 +48,33 @@ from typing import Any
 import numba
 from numba import njit
 
-PARALLEL_MIN_ROWS = 512  # where the size rule starts in parallel before anything is measured
 SERIAL_ROWS = 64  # below this, never parallel
+SERIAL_BUDGET_S = 0.002  # a call one thread runs in this long, or less, stays on one thread
 EXPLORE_FIRST = 8
 EXPLORE_MAX = 2048
 ALPHA = 0.25  # weight of the newest measurement in the running cost
+
+
+def row_njit(*, fastmath: Any = None, inline: str = "never") -> Any:
+    """``njit`` for what kernels call once per row or per neighbour: functions that
+    allocate nothing and return no array (issue 12).
+
+    numba counts references to every array a compiled function receives or slices, an
+    atomic increment and decrement per array per call. ORCA passes some thirty arrays
+    down five calls deep, per agent and per neighbour, and counting them cost more than
+    the geometry: the steering core took 1.17 ms a step on one thread at 1000 agents
+    with the counting and 0.66 ms without (``NUMBA_NUM_THREADS=1 pedvr bench steering
+    --agents 1000``, before and after). These functions are compiled without numba's
+    runtime (``_nrt=False``): one that allocates fails to compile, loudly, and one may
+    not return an array (nothing would own it). ``fastmath`` unset means the caller's
+    flags, as for ``njit``. (numpy's error model, which drops the zero test before each
+    division, saved another tenth but changed ORCA's rounding enough to make a coupled
+    agent's own motion limits infeasible in tests/crowd/test_steering.py: not used.)
+    """
+    options: dict[str, Any] = {"cache": True, "_nrt": False, "inline": inline}
+    if fastmath is not None:  # unset, numba compiles it with its caller's fastmath flags
+        options["fastmath"] = fastmath
+    return njit(**options)
 
 
 CHOOSERS: list[Chooser] = []  # every chooser made, for benchmarks that warm both twins up
@@ -68,10 +97,9 @@ def forcing(parallel: bool) -> Iterator[None]:
 class Chooser:
     """Serial or parallel for the next call, from measured cost (see the module docstring)."""
 
-    __slots__ = ("min_rows", "serial_rows", "cost", "gap", "count", "exploring", "calls", "forced")
+    __slots__ = ("serial_rows", "cost", "gap", "count", "exploring", "calls", "forced")
 
-    def __init__(self, min_rows: int = PARALLEL_MIN_ROWS, serial_rows: int = SERIAL_ROWS) -> None:
-        self.min_rows = min_rows
+    def __init__(self, serial_rows: int = SERIAL_ROWS) -> None:
         self.serial_rows = serial_rows  # below this many rows, never parallel
         self.forced: bool | None = None  # pin a twin (tests, experiments); None: measure
         CHOOSERS.append(self)
@@ -86,18 +114,11 @@ class Chooser:
         if self.forced is not None:
             self.exploring = False
             return self.forced
-        if n < self.serial_rows or numba.get_num_threads() < 2:
-            self.exploring = False
-            return False
         serial, par = self.cost
-        if math.isnan(serial) and math.isnan(par):
-            best = n >= self.min_rows
-        elif math.isnan(serial):
-            best = True
-        elif math.isnan(par):
-            best = False
-        else:
-            best = par < serial
+        if n < self.serial_rows or numba.get_num_threads() < 2 or not serial * n > SERIAL_BUDGET_S:
+            self.exploring = False  # tiny, one thread, not measured yet (NaN), or fits the budget
+            return False
+        best = math.isnan(par) or par < serial
         self.count += 1
         self.exploring = self.count >= self.gap
         if self.exploring:
@@ -130,10 +151,10 @@ class Chooser:
 class SizeDispatch:
     """Call the serial or the parallel twin, as its :class:`Chooser` decides, and time it."""
 
-    def __init__(self, parallel: Any, serial: Any, min_rows: int) -> None:
+    def __init__(self, parallel: Any, serial: Any) -> None:
         self.parallel = parallel
         self.serial = serial
-        self.chooser = Chooser(min_rows)
+        self.chooser = Chooser()
         self.__doc__ = parallel.py_func.__doc__
         self.__wrapped__ = parallel.py_func
 
@@ -146,21 +167,25 @@ class SizeDispatch:
         return out
 
 
-def parallel_kernel(*, fastmath: Any = False,
-                    min_rows: int = PARALLEL_MIN_ROWS) -> Callable[[Any], SizeDispatch]:
+def parallel_kernel(*, fastmath: Any = False, allocates: bool = True) -> Callable[[Any], SizeDispatch]:
     """Decorator: ``njit(cache=True, parallel=True)`` plus a serial twin.
 
     The twin gets its own qualified name so numba's on-disk cache keeps the
-    two compilations apart.
+    two compilations apart. ``allocates=False``: a kernel that allocates nothing
+    and returns nothing but scalars; both twins are compiled as :func:`row_njit`
+    compiles (no reference counting).
     """
+    options: dict[str, Any] = {"cache": True, "fastmath": fastmath}
+    if not allocates:
+        options.update(_nrt=False)
 
     def wrap(f: Callable[..., Any]) -> SizeDispatch:
-        par = njit(cache=True, parallel=True, fastmath=fastmath)(f)
+        par = njit(parallel=True, **options)(f)
         twin = types.FunctionType(f.__code__, f.__globals__, f.__name__ + "_serial", f.__defaults__,
                                   f.__closure__)
         twin.__qualname__ = f.__qualname__ + "_serial"
         twin.__module__ = f.__module__
-        ser = njit(cache=True, fastmath=fastmath)(twin)
-        return SizeDispatch(par, ser, min_rows)
+        ser = njit(**options)(twin)
+        return SizeDispatch(par, ser)
 
     return wrap

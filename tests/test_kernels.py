@@ -8,7 +8,7 @@ import pytest
 from pedvr.crowd import contact, orca
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
-from pedvr.kernels import Chooser
+from pedvr.kernels import SERIAL_BUDGET_S, Chooser
 from pedvr.scene.config import SteeringParams
 from pedvr.world.obstacles import ObstacleSet
 
@@ -61,20 +61,48 @@ def test_contact_pass_twins_give_the_same_bytes(monkeypatch: pytest.MonkeyPatch)
     assert len(contact.overlapping_pairs(out[True], radius, 0.01)) == 0
 
 
-def test_chooser_takes_the_cheaper_twin_and_backs_off() -> None:
-    c = Chooser(min_rows=512)
+def test_chooser_keeps_a_kernel_that_fits_the_budget_on_one_thread() -> None:
+    """Issue 12: a kernel whose serial call fits SERIAL_BUDGET_S never opens a parallel region,
+    however much cheaper parallel would be: its step time does not depend on another core."""
+    c = Chooser()
     assert c.choose(10) is False  # tiny: always serial, nothing recorded
-    assert c.choose(1000) is True  # nothing measured: the size rule
+    assert c.choose(1000) is False  # nothing measured: serial first, to measure it
+    call = 0.5 * SERIAL_BUDGET_S
+    picks = []
+    for _ in range(500):
+        par = c.choose(1000)
+        picks.append(par)
+        c.record(par, 1000, call / 4 if par else call)
+    assert not any(picks) and c.calls == [500, 0]
+    c.record(False, 1000, 40 * SERIAL_BUDGET_S)  # the crowd grew (or the core got busy): over budget
+    assert c.choose(1000) is True  # parallel is tried ...
+    c.record(True, 1000, 80 * SERIAL_BUDGET_S)  # ... and loses (a loaded machine)
+    picks = []
+    for _ in range(40):
+        par = c.choose(1000)
+        picks.append(par)
+        c.record(par, 1000, 80 * SERIAL_BUDGET_S if par else 0.5 * SERIAL_BUDGET_S)
+    # the serial calls fit again: once their average is back under the budget (a dozen calls),
+    # one thread, and no more tries
+    assert sum(picks) <= 2 and not any(picks[15:])
+
+
+def test_chooser_takes_the_cheaper_twin_over_the_budget_and_backs_off() -> None:
+    c = Chooser()
+    slow = 2 * SERIAL_BUDGET_S  # a serial call over the budget
+    assert c.choose(1000) is False
+    c.record(False, 1000, slow)
+    assert c.choose(1000) is True  # over the budget, parallel not measured: try it
     picks = []
     for _ in range(200):
         par = c.choose(1000)
         picks.append(par)
-        c.record(par, 1000, 0.004 if par else 0.001)  # parallel 4x slower (a loaded machine)
+        c.record(par, 1000, 4 * slow if par else slow)  # parallel 4x slower (a loaded machine)
     assert picks[-1] is False and sum(picks[-100:]) <= 4  # serial, trying parallel rarely
     assert c.gap > 8  # each lost try doubles the wait before the next
     for _ in range(300):  # the machine gets quiet: parallel is 2x faster when tried
         par = c.choose(1000)
-        c.record(par, 1000, 0.0005 if par else 0.001)
+        c.record(par, 1000, slow / 2 if par else slow)
     assert c.choose(1000) is True
 
 
@@ -83,17 +111,39 @@ def test_one_slow_call_does_not_lock_the_chooser_onto_the_slower_twin() -> None:
     parallel is re-tried within EXPLORE_FIRST calls, not after the backed-off gap, and kept."""
     from pedvr.kernels import EXPLORE_FIRST
 
-    c = Chooser(min_rows=512)
+    c = Chooser()
+    slow = 2 * SERIAL_BUDGET_S
     for _ in range(3000):  # a quiet machine: parallel 2x faster; the serial tries back off
         par = c.choose(1000)
-        c.record(par, 1000, 0.0005 if par else 0.001)
+        c.record(par, 1000, slow / 2 if par else slow)
     assert c.gap >= 1024 and c.choose(1000) is True
-    c.record(True, 1000, 0.01)  # the hiccup
+    c.record(True, 1000, 10 * slow)  # the hiccup
     picks = []
     for _ in range(4 * EXPLORE_FIRST):
         par = c.choose(1000)
         picks.append(par)
-        c.record(par, 1000, 0.0005 if par else 0.001)
+        c.record(par, 1000, slow / 2 if par else slow)
     assert picks[0] is False  # the hiccup made serial look cheaper ...
     assert picks[EXPLORE_FIRST - 1] is True  # ... until parallel was re-tried, soon,
     assert sum(picks[EXPLORE_FIRST:]) >= len(picks[EXPLORE_FIRST:]) - 3  # and kept (serial tried back off again)
+
+
+def test_a_row_function_that_allocates_does_not_compile() -> None:
+    """row_njit compiles without numba's runtime (no reference counting): a function that would
+    allocate an array is refused when it is compiled, not run with memory nothing owns."""
+    import numba
+
+    from pedvr.kernels import row_njit
+
+    def grows(n):  # type: ignore[no-untyped-def]
+        return np.zeros(n).sum()
+
+    def sums(a):  # type: ignore[no-untyped-def]
+        s = 0.0
+        for x in a[1:]:  # a view of an argument: no allocation, fine
+            s += x
+        return s
+
+    with pytest.raises(numba.core.errors.TypingError):
+        row_njit()(grows)(3)
+    assert row_njit()(sums)(np.arange(4.0)) == 6.0

@@ -123,7 +123,7 @@ def _neighbours_near(i, pos, radius, skin, origin, cell, nx, ny, cell_start, ord
     return m
 
 
-@parallel_kernel()
+@parallel_kernel(allocates=False)
 def _list_counts(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos, vertices,
                  og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
                  scratch, out_nbr, out_edge):
@@ -143,7 +143,7 @@ def _list_counts(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sor
                                          scratch.shape[1])
 
 
-@parallel_kernel()
+@parallel_kernel(allocates=False)
 def _list_fill(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorted_pos, vertices,
                og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells,
                nbr_start, edge_start, out_nbr, out_edge):
@@ -159,7 +159,7 @@ def _list_fill(pos, radius, skin, origin, cell, nx, ny, cell_start, order, sorte
                        edge_start[i + 1] - e0)
 
 
-@parallel_kernel(fastmath={"nsz", "arcp", "contract"})
+@parallel_kernel(fastmath={"nsz", "arcp", "contract"}, allocates=False)
 def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, edge_start, edge_idx,
              vertices, nxt, prv, n_static, momentum, step, out_pos, depth):
     """One Jacobi iteration, fused: each row's correction from ``cur`` (its neighbour and

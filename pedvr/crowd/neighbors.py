@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, prange
 
-from pedvr.kernels import parallel_kernel
+from pedvr.kernels import parallel_kernel, row_njit
 
 # Grids never have more cells than this many per agent (or per edge): keeps a
 # few far-flung agents from allocating a huge, empty grid.
@@ -142,14 +142,14 @@ def build_agent_grid(pos: np.ndarray, cell_size: float) -> AgentGrid:
     return AgentGrid(origin, float(cell), (int(nx), int(ny)), cs, order, spos)
 
 
-@njit(cache=True, inline="always")
+@row_njit(inline="always")
 def _box_dist_sq(px, py, x0, y0, x1, y1):
     dx = max(0.0, max(x0 - px, px - x1))
     dy = max(0.0, max(y0 - py, py - y1))
     return dx * dx + dy * dy
 
 
-@njit(cache=True)
+@row_njit()
 def agent_neighbors_of(i, px, py, range_sq, max_neighbors, origin, cell, nx, ny,
                        cell_start, order, sorted_pos, out_idx, out_dsq):
     """The ``max_neighbors`` nearest agents to agent ``i`` at ``(px, py)``.
@@ -213,7 +213,7 @@ def agent_neighbors_of(i, px, py, range_sq, max_neighbors, origin, cell, nx, ny,
     return count
 
 
-@parallel_kernel()
+@parallel_kernel(allocates=False)
 def agent_neighbors_kernel(pos, neighbor_dist, max_neighbors, origin, cell, nx, ny,
                            cell_start, order, sorted_pos, out_idx, out_dsq, out_count):
     """Batch form of :func:`agent_neighbors_of` for every row (parallel over agents)."""
@@ -317,7 +317,7 @@ def build_obstacle_grid(vertices: np.ndarray, nxt: np.ndarray, cell_size: float)
     return ObstacleGrid(o, float(c), (int(nx), int(ny)), cs, ce, ec)
 
 
-@njit(cache=True, inline="always")
+@row_njit(inline="always")
 def dist_sq_point_segment(ax, ay, bx, by, px, py):
     """RVO2's ``distSqPointLineSegment``: squared distance from p to segment ab."""
     ex = bx - ax
@@ -335,7 +335,7 @@ def dist_sq_point_segment(ax, ay, bx, by, px, py):
     return dx * dx + dy * dy
 
 
-@njit(cache=True)
+@row_njit()
 def edges_near(px, py, reach, origin, cell, nx, ny, cell_start, cell_edges, edge_cells,
                out_idx, capacity):
     """Every edge whose bounding-box cells meet the square ``p ± reach``, each once.
@@ -370,7 +370,7 @@ def edges_near(px, py, reach, origin, cell, nx, ny, cell_start, cell_edges, edge
     return total
 
 
-@njit(cache=True)
+@row_njit()
 def obstacle_neighbors_of(px, py, range_sq, vertices, nxt, origin, cell, nx, ny, cell_start,
                           cell_edges, edge_cells, out_idx, out_dsq):
     """Obstacle edges an agent at ``(px, py)`` takes into account (RVO2's rule).
@@ -423,7 +423,7 @@ def obstacle_neighbors_of(px, py, range_sq, vertices, nxt, origin, cell, nx, ny,
     return count
 
 
-@parallel_kernel()
+@parallel_kernel(allocates=False)
 def obstacle_neighbors_kernel(pos, ranges_sq, vertices, nxt, origin, cell, nx, ny, cell_start,
                               cell_edges, edge_cells, out_idx, out_dsq, out_count):
     """Batch form of :func:`obstacle_neighbors_of` (parallel over agents)."""

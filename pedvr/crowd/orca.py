@@ -77,7 +77,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import obstacle_neighbors_of
@@ -89,7 +89,7 @@ from pedvr.crowd.state import (
     LIMIT_TURN_STANDING,
     LIMIT_TURN_WALKING,
 )
-from pedvr.kernels import parallel_kernel
+from pedvr.kernels import parallel_kernel, row_njit
 
 RVO_EPSILON = 1e-5  # RVO2's RVO_EPSILON
 STOPPED_SPEED = 0.05  # m/s: below this the motion direction is the heading
@@ -109,12 +109,12 @@ _FM = {"nsz", "arcp", "contract", "afn"}  # no reassociation, no nnan/ninf (RVO2
 # --------------------------------------------------------------------------- linear programs
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@row_njit(fastmath=_FM, inline="always")
 def _det(ax, ay, bx, by):
     return ax * by - ay * bx
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def linear_program1(lines, line_no, radius, opt_x, opt_y, direction_opt):
     """Optimise on line ``line_no`` subject to lines ``[0, line_no)`` and the disc.
 
@@ -166,7 +166,7 @@ def linear_program1(lines, line_no, radius, opt_x, opt_y, direction_opt):
     return True, px + t * dx, py + t * dy
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def linear_program2(lines, n, radius, opt_x, opt_y, direction_opt):
     """Closest point to ``opt`` (or furthest along it) in lines ``[0, n)`` ∩ disc.
 
@@ -198,7 +198,7 @@ def linear_program2(lines, n, radius, opt_x, opt_y, direction_opt):
     return n, rx, ry
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def linear_program3(lines, n, num_hard, begin, radius, rx, ry, proj):
     """Dense case (paper §5.3): minimise the largest violation of the soft lines.
 
@@ -258,7 +258,7 @@ def linear_program3(lines, n, num_hard, begin, radius, rx, ry, proj):
 # --------------------------------------------------------------------------- ORCA lines
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, rigid, inv_tho, obst_idx, n_obst,
                    vertices, nxt, prv, direction, convex, n_static):
     """Append obstacle ORCA lines (RVO2's first loop) and return the new count.
@@ -504,7 +504,7 @@ def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, rigid, 
     return n
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def agent_line(lines, n, px, py, vx, vy, radius, qx, qy, wvx, wvy, other_radius, inv_th,
                inv_dt, share):
     """Append the ORCA line induced by one neighbour; ``share`` is i's part of ``u``."""
@@ -565,7 +565,7 @@ def agent_line(lines, n, px, py, vx, vy, radius, qx, qy, wvx, wvy, other_radius,
 # --------------------------------------------------------------------------- motion limits
 
 
-@njit(cache=True, inline="always")
+@row_njit(inline="always")
 def _put_line(lines, n, px, py, dx, dy):
     lines[n, 0] = px
     lines[n, 1] = py
@@ -574,7 +574,7 @@ def _put_line(lines, n, px, py, dx, dy):
     return n + 1
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def velocity_limit_lines(lines, n, vx, vy, heading, limits, pref_speed, dt):
     """Append (a) acceleration polygon and (b) turn-rate pair; return the new count.
 
@@ -632,7 +632,7 @@ def velocity_limit_lines(lines, n, vx, vy, heading, limits, pref_speed, dt):
     return n
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def heading_limit_lines(lines, n, heading, limits):
     """Append (c): backward speed and speed-dependent sideways speed w.r.t. the heading."""
     hx = math.cos(heading)
@@ -667,7 +667,7 @@ def heading_limit_lines(lines, n, heading, limits):
 # --------------------------------------------------------------------------- one agent
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def _shift_lines(lines, src, dst, count):
     for k in range(count):
         lines[dst + k, 0] = lines[src + k, 0]
@@ -676,7 +676,7 @@ def _shift_lines(lines, src, dst, count):
         lines[dst + k, 3] = lines[src + k, 3]
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def _solve(lines, n, num_hard, max_speed, prx, pry, proj):
     fail, rx, ry = linear_program2(lines, n, max_speed, prx, pry, False)
     if fail < n:
@@ -684,7 +684,7 @@ def _solve(lines, n, num_hard, max_speed, prx, pry, proj):
     return rx, ry
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def agent_lines(i, pos, vel, radius, depth, facing, rigid, is_user, heading, pref_speed, limits,
                 nbr_idx, nbr_count, obst_idx, n_obst, vertices, nxt, prv, direction, convex,
                 n_static, time_horizon, time_horizon_obst, user_horizon, dt, coupled, lines):
@@ -749,7 +749,7 @@ def agent_lines(i, pos, vel, radius, depth, facing, rigid, is_user, heading, pre
     return n, num_obst, num_vel_lim, num_hard
 
 
-@njit(cache=True, fastmath=_FM)
+@row_njit(fastmath=_FM)
 def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user,
                        heading, pref_speed, limits, nbr_idx, nbr_count, obst_idx, n_obst,
                        vertices, nxt, prv, direction, convex, n_static, time_horizon,
@@ -792,7 +792,7 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
 # --------------------------------------------------------------------------- batch
 
 
-@parallel_kernel(fastmath=_FM)
+@parallel_kernel(fastmath=_FM, allocates=False)
 def orca_kernel(pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user, heading,
                 pref_speed, limits, nbr_idx, nbr_count, vertices, nxt, prv, direction, convex,
                 n_static, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
