@@ -17,10 +17,10 @@ pram's in metres whoever pushes it (a pram has its own size: :func:`object_scale
   handle; its footprint is not the body's (the crowd layer's, see the scene docs).
 
 Both arms reach for these points every step (the reach choreographer, which replaces
-the walk's arm swing on the arms it moves), so the hands follow the body. Sharp edge: the
-pose graph solves the arms before the legs' IK sets the pelvis height, so where the knees
-bend (starting to walk, slowing down) the hands ride a few centimetres below their points
-(up to about 6 cm measured in ``door_assist``, 4 cm starting a walk): the box is drawn between the hands
+the walk's arm swing on the arms it moves), so the hands follow the body; the pose graph
+solves the reaching arms again after the legs' IK has set the pelvis height, so where the
+knees bend (starting to walk, slowing down) the hands stay on their points
+(:func:`pedvr.body.graph._arms_again`). The box is drawn between the hands
 (:func:`object_frame`), the pram's handle stays at its height; a hand the
 behaviour layer takes explicitly (``FullBody.reach_for``) leaves the carry for as long
 as it is taken (§4.6's carrier who, after waiting alone, frees a hand to pull a door:

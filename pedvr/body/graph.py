@@ -29,6 +29,7 @@ from pedvr.body import actions as act
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
 from pedvr.body.quat import FASTMATH, fk_row, qmul4, qrot3
+from pedvr.kernels import row_njit
 
 NODE_NAMES = ("locomotion", "sitting", "gesture", "idle", "gaze", "reach")
 LOCOMOTION, SITTING, GESTURE, IDLE, GAZE, REACH = range(6)
@@ -168,13 +169,13 @@ def _arm_busy(i, side, run_kind, run_mask, arm_goals):  # type: ignore[no-untype
     return -1
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@row_njit(fastmath=FASTMATH)
 def _sit_node(sc, pelvis_rest, w, mask, moves_pelvis, pq, pp, sq, sp):  # type: ignore[no-untyped-def]
     ps.sit_row(sc, pelvis_rest, sq, sp)
     ps.blend_row(pq, pp, sq, sp, w, mask, moves_pelvis)
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@row_njit(fastmath=FASTMATH)
 def _gesture_node(t, g, start, duration, off, w, clip_masks, mask, pq, sq, sp, q1, q2, tq, tp):  # type: ignore[no-untyped-def]
     """The clip's shadow, blended only on the joints the clip drives (and the node's mask)."""
     ps.gesture_row(t, g, start, duration, off, sq, sp, q1, q2, tq, tp)
@@ -183,13 +184,13 @@ def _gesture_node(t, g, start, duration, off, w, clip_masks, mask, pq, sq, sp, q
             ps.blend_joint(pq, sq, j, w)
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@row_njit(fastmath=FASTMATH)
 def _idle_node(t, seed, strength, sc, perm, w, mask, moves_pelvis, pq, pp, sq, sp):  # type: ignore[no-untyped-def]
     ps.idle_row(t, seed, strength, sc, perm, pq, pp, sq, sp)
     ps.blend_row(pq, pp, sq, sp, w, mask, moves_pelvis)
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@row_njit(fastmath=FASTMATH)
 def _gaze_node(dt, w, mask, has, goal, head, yaw, running, share, yaw_lim, pitch_lim, speed, alpha, ang,
                eye_l, eye_r, head_q, closed, pq, pp, sq, sp):  # type: ignore[no-untyped-def]
     ps.gaze_row(dt, has, goal, head, yaw, running, share, yaw_lim, pitch_lim, speed, alpha, ang, pq, sq,
@@ -205,7 +206,7 @@ def _reach_needed(i, run_kind, run_mask, reach_on, arm_goals):  # type: ignore[n
     return False
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@row_njit(fastmath=FASTMATH)
 def _reach_node(i, t, w, mask, run_kind, run_mask, reach_on, reach_pt, arm_goals, scale, seed, parents,
                 offsets, root, yaw, pq, pp, sq, sp, wp, wq, active, target, q1, q2):  # type: ignore[no-untyped-def]
     # the thorax and the head where the blend has put them so far
@@ -221,6 +222,22 @@ def _reach_node(i, t, w, mask, run_kind, run_mask, reach_on, reach_pt, arm_goals
                 active[side] = True
     ps.reach_row(active, target, wq[sk.SPINE3], wp[sk.SPINE3], offsets[i], pq, sq, q1, q2)
     ps.blend_row(pq, pp, sq, sp, w, mask, False)
+
+
+@row_njit(fastmath=FASTMATH)
+def _arms_again(i, yaw, parents, offsets, root, pq, pp, wp, wq, active, target, q1, q2):  # type: ignore[no-untyped-def]
+    """Solve the reaching arms again on the thorax where the legs' IK has just put it.
+
+    The reach node solves the arms before the legs' IK sets the pelvis height, so where the knees
+    bend (a walk starting or slowing) the hands would ride below what they hold by the height the
+    pelvis dropped (up to 6 cm, a pram pusher in ``door_assist``). Solved again here, in the
+    untwisted frame (the shoulders turn after this, taking the arms with the chest), the hands
+    stay on their targets. Only a full-weight reach is solved again: a fading one blends."""
+    fk_row(parents, offsets[i], pq, root[i, 0], 0.0, root[i, 1], yaw, pp, wp, wq, sk.HEAD + 1)
+    for side in range(2):
+        if active[side]:
+            ps.arm_to(side, wq[sk.SPINE3], wp[sk.SPINE3], target[side, 0], target[side, 1], target[side, 2],
+                      offsets[i], pq, q1, q2)
 
 
 @njit(cache=True, fastmath=FASTMATH)
@@ -248,9 +265,31 @@ def _pose_rows(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, p
     wp = np.empty((nk, 3))
     wq = np.empty((nk, 4))
     alpha = np.empty(tau.shape[0])
+    whole = np.empty(order.shape[0], np.bool_)
+    _pose_span(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp, style, scale,
+               pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind, gaze_point,
+               gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share, yaw_lim, pitch_lim,
+               speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt, arm_goals, root, foot_ref,
+               foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing, h_prev, ik_miss, heads, fresh,
+               shoulder_turn, parents, local_q, pelvis, world_pos, world_q,
+               sq, sp, q1, q2, tq, tp, anks, hips, trig, reach, goal, reach_active, reach_target, wp, wq,
+               alpha, whole)
+
+
+@row_njit(fastmath=FASTMATH)
+def _pose_span(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp, style, scale,
+               pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind, gaze_point,
+               gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share, yaw_lim, pitch_lim,
+               speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt, arm_goals, root, foot_ref,
+               foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing, h_prev, ik_miss, heads, fresh,
+               shoulder_turn, parents, local_q, pelvis, world_pos, world_q,
+               sq, sp, q1, q2, tq, tp, anks, hips, trig, reach, goal, reach_active, reach_target, wp, wq,
+               alpha, whole):  # type: ignore[no-untyped-def]
+    """:func:`_pose_rows`' work, in the scratch it allocated: no array is allocated or
+    reference-counted here (:func:`pedvr.kernels.row_njit`)."""
+    nk = parents.shape[0]
     ps.gaze_alpha(dt, tau, alpha)
-    whole = np.zeros(order.shape[0], np.bool_)  # positions whose node drives every joint and the pelvis
-    for c in range(order.shape[0]):
+    for c in range(order.shape[0]):  # whole[c]: the node at position c drives every joint and the pelvis
         whole[c] = moves_pelvis[c]
         for j in range(masks.shape[1]):
             whole[c] = whole[c] and masks[c, j]
@@ -262,6 +301,7 @@ def _pose_rows(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, p
         pp[1] = 0.0
         pp[2] = 0.0
         yaw = 0.5 * math.pi - heading[i]
+        reached = False  # a full-weight reach moved the arms (they are solved again after the legs' IK)
         for c in range(order.shape[0]):
             node = order[c, 0]
             w = weights[i, order[c, 1]]
@@ -300,11 +340,14 @@ def _pose_rows(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, p
                     _reach_node(i, t, w, masks[c], run_kind, run_mask, reach_on, reach_pt, arm_goals, scale,
                                 noise_seed, parents, offsets, root, yaw, pq, pp, sq, sp, wp, wq, reach_active,
                                 reach_target, q1, q2)
-        if shoulder_turn[i] != 0.0:
-            turn_shoulders(pq, shoulder_turn[i])
+                    reached = w >= 1.0
         h_prev[i] = ps.leg_ik_row(dt, root[i, 0], root[i, 1], yaw, offsets[i], foot_ref[i], foot_yaw[i],
                                   foot_pitch[i], foot_lift[i], planted[i], stepping[i], s[i], swing[i],
                                   h_prev[i], pq, pp, ik_miss[i], q1, q2, anks, hips, trig, reach)
+        if reached:
+            _arms_again(i, yaw, parents, offsets, root, pq, pp, wp, wq, reach_active, reach_target, q1, q2)
+        if shoulder_turn[i] != 0.0:  # after the legs' IK, which does not read the spine
+            turn_shoulders(pq, shoulder_turn[i])
         fk_row(parents, offsets[i], pq, root[i, 0], 0.0, root[i, 1], yaw, pp, world_pos[i], world_q[i], nk)
 
 

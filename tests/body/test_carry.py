@@ -46,12 +46,10 @@ def test_both_hands_stay_on_what_is_carried_while_walking(kind: str) -> None:
     local = np.stack([want[:, 0], want[:, 1], -want[:, 2]], axis=1)
     settled = hands[3:]  # from the first steps on (the first FK is a step late): it starts out holding
     assert body.state.stepping[0] or body.state.phase[0] > 0  # it is walking
-    # Both hands on the box's sides / the handle's ends at every step: no arm swing. Across and
-    # along the walk to within 1 cm; in height within 4.5 cm (the pelvis the legs' IK lowers after
-    # the arms are solved, carry's sharp edge), and within 1 cm once walking steadily.
-    assert np.abs(settled - local)[:, :, [0, 2]].max() < 0.01
-    assert np.abs(settled - local)[:, :, 1].max() < 0.045
-    assert np.abs(settled[-90:] - local).max() < 0.01
+    # Both hands on the box's sides / the handle's ends at every step, to within 1 mm: no arm
+    # swing, and no sag as the knees bend starting the walk (the arms are solved again after the
+    # legs' IK lowers the pelvis; they rode up to 4.5 cm low before).
+    assert np.abs(settled - local).max() < 0.001
     # Left hand on the left, right on the right, the object's width apart.
     width = carry.BOX_SIZE[2] if kind == "box" else carry.PRAM_HANDLE_WIDTH
     assert np.allclose(settled[:, 0, 2] - settled[:, 1, 2], width, atol=0.01)

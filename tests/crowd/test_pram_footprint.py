@@ -189,7 +189,9 @@ def test_door_assist_carriers_keep_both_hands_on_what_they_carry() -> None:
     m = _measure("door_assist", 90.0)
     assert m["forced"] == 0.0 and m["reached"] == 0.0, m
     assert m["box_hands"] < 0.01, m  # the box is drawn between the hands
-    assert m["pram_hands"] < 0.06, m  # the handle stays put; the hands ride below it as knees bend
+    # the handle stays put and the hands stay on it as the knees bend: the arms are solved again
+    # after the legs' IK (it was up to 6 cm before: pedvr.body.graph._arms_again)
+    assert m["pram_hands"] < 0.005, m
 
 
 def test_the_footprint_holds_pusher_and_pram() -> None:
