@@ -60,11 +60,10 @@ FOV_HALF = math.radians(100.0)  # half field of view for the gaze rule (human â‰
 STEP_EVENT_CAP = 4096
 RUNNING_SPEED = 2.2  # m/s: above this the "running" message is posted
 ACTION_TICK = 1.0 / 30.0  # s: the subconscious scheduler runs at the decision rate
-# The pose graph runs serial or over chunks of bodies in parallel, as measured (pedvr.kernels):
-# bodies are independent, so the bytes are the same either way (tests/body/test_threads.py). A body
-# takes about 1.2 us: below 256 bodies a parallel run saves under 0.15 ms, and one stalled
-# fork-join on a busy machine costs milliseconds, so smaller crowds stay serial.
-_POSE_CHOOSER = Chooser(serial_rows=256)
+# The pose graph runs serial, or over chunks of bodies in parallel once a serial call takes more
+# than pedvr.kernels.SERIAL_BUDGET_S (a body takes about 1.1 us on one thread: some 1800 bodies):
+# bodies are independent, so the bytes are the same either way (tests/body/test_threads.py).
+_POSE_CHOOSER = Chooser()
 _IS_ARM_ACTION = np.zeros(ARM_GOALS.shape[0] + 1, np.bool_)  # by action kind: it takes an arm
 _IS_ARM_ACTION[ARM_ACTIONS] = True
 BODY_ORDER = ("locomotion", "sitting", "gesture", "idle", "gaze", "reach")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import numba
 import numpy as np
 import pytest
@@ -9,6 +11,7 @@ import pytest
 from pedvr.crowd.contact import max_obstacle_penetration, overlapping_pairs
 from pedvr.crowd.neighbors import agent_neighbors
 from pedvr.crowd.steering import Steering
+from pedvr.kernels import forcing
 from pedvr.scene.config import SteeringParams
 from pedvr.world.obstacles import ObstacleSet
 from tests.crowd._helpers import crowd, spread_points
@@ -131,27 +134,34 @@ def test_grid_neighbours_equal_brute_force() -> None:
 
 
 def _run(threads: int, coupled: bool) -> bytes:
+    """With more than one thread every kernel is pinned to its parallel twin (200 agents fit the
+    serial budget, pedvr.kernels.SERIAL_BUDGET_S, and left alone would run on one thread)."""
     prev = numba.get_num_threads()
     numba.set_num_threads(threads)
     try:
-        rng = np.random.default_rng(4)
-        n = 200
-        state = crowd(spread_points(rng, n, 12.0, 0.5), heading=rng.uniform(-3, 3, n))
-        state.is_user[0] = True
-        state.responsibility[:] = 0.8
-        goals = rng.uniform(0.0, 12.0, (n, 2))
-        s = Steering(PARAMS, ObstacleSet.from_polygons([BOX]), coupled=coupled)
-        stuck = np.zeros(n)
-        for _ in range(30):
-            d = goals - state.pos
-            pref = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9) * 1.3
-            state.pref_vel = s.unstick(state.vel, pref, state.is_user, stuck, 0.1)
-            v = s.compute_velocities(state, 0.1)
-            state.vel = v.copy()
-            state.pos = s.resolve_contacts(state.pos + v * 0.1, state.radius, state.is_user)
-        return state.pos.tobytes() + state.vel.tobytes() + stuck.tobytes()
+        with forcing(True) if threads > 1 else contextlib.nullcontext():
+            return _steps(coupled)
     finally:
         numba.set_num_threads(prev)
+
+
+def _steps(coupled: bool) -> bytes:
+    rng = np.random.default_rng(4)
+    n = 200
+    state = crowd(spread_points(rng, n, 12.0, 0.5), heading=rng.uniform(-3, 3, n))
+    state.is_user[0] = True
+    state.responsibility[:] = 0.8
+    goals = rng.uniform(0.0, 12.0, (n, 2))
+    s = Steering(PARAMS, ObstacleSet.from_polygons([BOX]), coupled=coupled)
+    stuck = np.zeros(n)
+    for _ in range(30):
+        d = goals - state.pos
+        pref = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9) * 1.3
+        state.pref_vel = s.unstick(state.vel, pref, state.is_user, stuck, 0.1)
+        v = s.compute_velocities(state, 0.1)
+        state.vel = v.copy()
+        state.pos = s.resolve_contacts(state.pos + v * 0.1, state.radius, state.is_user)
+    return state.pos.tobytes() + state.vel.tobytes() + stuck.tobytes()
 
 
 @pytest.mark.parametrize("coupled", [False, True])
