@@ -12,7 +12,7 @@ same source, and a :class:`Chooser` picks one per call:
 * serial while the serial twin's call fits in ``SERIAL_BUDGET_S`` (its measured
   cost per row, an exponential average of wall time per row, times the rows): a
   kernel that one thread runs in under 2 ms takes no other core. The time the
-  second core would save is small next to a 11.1 ms frame, and a step that never
+  second core would save is small next to an 11.1 ms frame, and a step that never
   waits on another thread takes as long on a loaded machine as on a quiet one, as
   single-threaded RVO2 does (issue 12: at 1000 and 4000 agents,
   ``pedvr bench steering --vs rvo2 --load 0 --load 1``). The first call of a kernel
@@ -62,14 +62,15 @@ def row_njit(*, fastmath: Any = None, inline: str = "never") -> Any:
     numba counts references to every array a compiled function receives or slices, an
     atomic increment and decrement per array per call. ORCA passes some thirty arrays
     down five calls deep, per agent and per neighbour, and counting them cost more than
-    the geometry: the steering core took 1.17 ms a step on one thread at 1000 agents
-    with the counting and 0.66 ms without (``NUMBA_NUM_THREADS=1 pedvr bench steering
-    --agents 1000``, before and after). These functions are compiled without numba's
-    runtime (``_nrt=False``): one that allocates fails to compile, loudly, and one may
-    not return an array (nothing would own it). ``fastmath`` unset means the caller's
-    flags, as for ``njit``. (numpy's error model, which drops the zero test before each
-    division, saved another tenth but changed ORCA's rounding enough to make a coupled
-    agent's own motion limits infeasible in tests/crowd/test_steering.py: not used.)
+    the geometry: the steering core took 1.19 ms a step on one thread at 1000 agents
+    with the counting and 0.65 ms without (``NUMBA_NUM_THREADS=1 pedvr bench steering
+    --agents 1000 --vs rvo2``, before and after; the bytes are the same). These
+    functions are compiled without numba's runtime (``_nrt=False``): one that allocates
+    fails to compile, loudly, and one may not return an array (nothing would own it).
+    ``fastmath`` unset means the caller's flags, as for ``njit``. (numpy's error model,
+    which drops the zero test before each division, saved another tenth but changed
+    ORCA's rounding enough to make a coupled agent's own motion limits infeasible in
+    tests/crowd/test_steering.py: not used.)
     """
     options: dict[str, Any] = {"cache": True, "_nrt": False, "inline": inline}
     if fastmath is not None:  # unset, numba compiles it with its caller's fastmath flags
