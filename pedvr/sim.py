@@ -35,7 +35,15 @@ from pedvr.etiquette.objects import DOOR_HOLD_EVENT, DOOR_HOLD_TREE
 from pedvr.etiquette.system import DoorEtiquette
 from pedvr.etiquette.user import DoorUser
 from pedvr.record import Metrics, Recording
-from pedvr.scene.config import CONDITIONS, USER_WALKS, AgentProfile, SceneConfig, SequenceGoal, Spawn
+from pedvr.scene.config import (
+    CONDITIONS,
+    PRAM_MIN_RADIUS,
+    USER_WALKS,
+    AgentProfile,
+    SceneConfig,
+    SequenceGoal,
+    Spawn,
+)
 from pedvr.world import NavMesh, Visibility, edges, obstacle_set, walkable_area
 from pedvr.world.pathing import follow_paths
 
@@ -225,15 +233,18 @@ class Simulation:
         )
         first = len(self.crowd)
         prof = list(self.scene.profiles.values())[profile] if profile >= 0 else None
-        if prof is not None and prof.carrying == "perambulator" and not is_user:
-            rows.ahead[:], rows.length[:] = enclosing_ellipse(radius, PRAM_HULL)  # one footprint (§4.6)
+        carrying = self.scene.user.carrying if is_user else prof.carrying if prof is not None else "none"
+        if carrying == "perambulator":  # pusher and pram: one footprint (§4.6), the user's too
+            # A profile's pusher is validated at least as wide as the pram; the user (whose radius
+            # defaults to a body's, and whom a study protocol may hand a pram) is widened to it.
+            rows.radius[:] = np.maximum(rows.radius, PRAM_MIN_RADIUS)
+            rows.ahead[:], rows.length[:] = enclosing_ellipse(float(rows.radius[0]), PRAM_HULL)
         dims = None
         if prof is not None and prof.sex:  # a profile that says who its agents are (door etiquette's Care)
             dims = sk.draw_dims(self.body.rng, n, sex=sk.SEX_FEMALE if prof.sex == "female" else sk.SEX_MALE)
         rows.pref_speed *= self.body.append(n, ids=ids, pos=rows.pos, heading=rows.heading, is_user=is_user,
                                             limits=rows.limits, dims=dims,
-                                            carrying=self.scene.user.carrying if is_user
-                                            else prof.carrying if prof is not None else "none")
+                                            carrying=carrying)
         if self.etiquette is not None:
             self.etiquette.append(ids, profile=prof, is_user=is_user,
                                   female=self.body.state.dims[first:first + n, sk.DIM_SEX] == sk.SEX_FEMALE)

@@ -317,9 +317,10 @@ def _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx, og
 @njit(cache=True, fastmath={"nsz", "arcp", "contract"})
 def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt, og_origin,
                  og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch):
-    """Project the agents ``near`` the user row ``user`` out of the user's disc (the user's
-    body cannot be moved, so it wins over walls and other agents); their heavy-ball
-    momentum is dropped so the next iteration does not carry them back in.
+    """Project the agents ``near`` the user row ``user`` out of the user's footprint (its
+    disc, or the ellipse of a user pushing a pram: the user cannot be moved, so it wins over
+    walls and other agents); their heavy-ball momentum is dropped so the next iteration does
+    not carry them back in.
 
     A push never carries an agent's centre through a wall: it stops at the wall and
     slides along it; where not even that frees the user (the user walked into a corner
@@ -342,7 +343,10 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
         else:
             nx = 1.0
             ny = 0.0
-        rr = ru + support(radius[i], fp_depth[i], facing[i, 0], facing[i, 1], -nx, -ny)
+        su = ru  # the user's reach toward the agent: its radius, or a pram's ellipse's support
+        if fp_depth[user] < ru:
+            su = support(ru, fp_depth[user], facing[user, 0], facing[user, 1], nx, ny)
+        rr = su + support(radius[i], fp_depth[i], facing[i, 0], facing[i, 1], -nx, -ny)
         if d >= rr:
             continue
         x0 = cur[i, 0]

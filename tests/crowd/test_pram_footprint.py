@@ -79,6 +79,23 @@ route = [[-4.0, 0.3], [4.0, 0.3], [7.0, -2.0]]
 """
 
 
+# The user pushes the pram (a study protocol's participant_carrying, or [user] carrying) down the
+# corridor's right half, straight at three walkers on the same line: the user is not steered, so
+# they must step round the pram's front, which reaches 1.2 m ahead of the user.
+USER_PRAM = CORRIDOR.replace("""[[agents.spawns]]
+profile = "pram"
+state = "east"
+positions = [[-7.5, 0.0]]
+facing_deg = 0
+""", "").replace("positions = [[6.5, 0.4], [7.2, -0.5], [8.0, 0.2]]",
+                 "positions = [[6.0, -0.3], [7.0, -0.3], [8.0, -0.3]]").split("[user]")[0] + """[user]
+start = [-7.5, -0.3]
+heading_deg = 0
+route = [[7.5, -0.3]]
+carrying = "perambulator"
+"""
+
+
 _DIRS = np.stack([np.cos(np.linspace(0.0, 2.0 * np.pi, 1440, endpoint=False)),
                   np.sin(np.linspace(0.0, 2.0 * np.pi, 1440, endpoint=False))], axis=1)
 
@@ -113,7 +130,7 @@ def _measure(which: str, seconds: float) -> dict[str, float]:
         scene = load_scene(resolve_scene("door_assist"))
     else:
         path = Path(__file__).with_name("_pram_corridor.toml")
-        path.write_text(CORRIDOR)
+        path.write_text(USER_PRAM if which == "user_pram" else CORRIDOR)
         try:
             scene = load_scene(path)
         finally:
@@ -121,11 +138,10 @@ def _measure(which: str, seconds: float) -> dict[str, float]:
     sim = Simulation(scene, seed=scene.seed)
     walls = [_points_support(ob.vertices) for ob in scene.world.obstacles]  # convex blocks here
     out = {"agents": 0.0, "leaves": 0.0, "walls": 0.0, "user": 0.0, "moved": 0.0, "box_hands": 0.0,
-           "pram_hands": 0.0,
-           "reached": 0.0, "forced": 0.0}
+           "pram_hands": 0.0, "reached": 0.0, "forced": 0.0, "user_pram": 0.0, "user_pram_near": math.inf}
     b = sim.body.state
     c = sim.crowd
-    start = c.pos[c.radius >= 0.4].copy()  # the pram pushers (the only profile this wide)
+    start = c.pos[c.length > 0.0].copy()  # the pram pushers (their footprint reaches ahead)
     for _ in range(round(seconds / sim.dt)):
         sim.step()
         c = sim.crowd
@@ -166,7 +182,20 @@ def _measure(which: str, seconds: float) -> dict[str, float]:
                 out["walls"] = max(out["walls"], _penetration(h_i, h_w))
             for h, tip in zip(sim.doors.hinge, sim.doors.tips(), strict=True):
                 out["leaves"] = max(out["leaves"], _penetration(h_i, _points_support([h, tip])))
-    out["moved"] = float(np.hypot(*(c.pos[c.radius >= 0.4] - start).T).max())
+        if scene.user is not None and scene.user.carrying == "perambulator":
+            # The user's pram from the geometry alone (not from the crowd's footprint arrays): the
+            # hull of pusher and pram round the user's position and heading, every walker's disc.
+            u = int(np.flatnonzero(c.is_user)[0])
+            h = float(c.heading[u])
+            rot = np.array([[math.cos(h), -math.sin(h)], [math.sin(h), math.cos(h)]])
+            h_u = _points_support(c.pos[u] + carry.PRAM_HULL @ rot.T)
+            for j in np.flatnonzero(~c.is_user):
+                gap = float(np.hypot(*(c.pos[j] - c.pos[u])))
+                if gap < 2.0:
+                    out["user_pram"] = max(out["user_pram"], _penetration(h_u, _DIRS @ c.pos[j] + c.radius[j]))
+                    out["user_pram_near"] = min(out["user_pram_near"], -_penetration(h_u, _DIRS @ c.pos[j]
+                                                                                         + c.radius[j]))
+    out["moved"] = float(np.hypot(*(c.pos[c.length > 0.0] - start).T).max(initial=0.0))
     out["max_overlap"] = sim.metrics.max_overlap
     return out
 
@@ -220,3 +249,35 @@ def test_a_pram_pusher_too_narrow_for_its_pram_is_a_scene_error(tmp_path: Path) 
     with pytest.raises(SceneError, match=r"agents\.profiles\.pram\.radius = 0\.3: must be >= 0\.35 for a "
                                          r"perambulator pusher"):
         load_scene(path)
+
+
+def test_the_users_pram_is_the_users_footprint(tmp_path: Path) -> None:
+    """A user pushing a pram (``[user] carrying``, or a study protocol's ``participant_carrying``) is
+    one footprint with it, as an agent pusher is: at least as wide as the pram, reaching ahead. The
+    walkers of the corridor keep clear of the pram all the way, and an agent that finds itself in the
+    pram's basket (placed there) is out of it after one step, with the user's position untouched."""
+    m = _measure("user_pram", 20.0)
+    assert m["moved"] > 14.0, m  # the user pushed the pram the corridor's length
+    assert m["user_pram"] <= TOL and m["agents"] <= TOL and m["walls"] <= TOL, m
+    assert m["user_pram_near"] < 1.0, m  # they did meet it
+
+    path = tmp_path / "user_pram.toml"
+    path.write_text(USER_PRAM)
+    sim = Simulation(load_scene(path), seed=5)
+    c = sim.crowd
+    u = int(np.flatnonzero(c.is_user)[0])
+    w = int(np.flatnonzero(~c.is_user)[0])
+    assert c.radius[u] == pytest.approx(0.35) and c.length[u] > 0.5 and c.ahead[u] > 0.3
+    sim.step()
+    c = sim.crowd
+    h = float(c.heading[u])
+    ahead = np.array([math.cos(h), math.sin(h)])
+    c.pos[w] = c.pos[u] + 0.9 * ahead  # a walker in the basket
+    before = c.pos[u].copy()
+    sim.step()
+    c = sim.crowd
+    h = float(c.heading[u])
+    rot = np.array([[math.cos(h), -math.sin(h)], [math.sin(h), math.cos(h)]])
+    h_u = _points_support(c.pos[u] + carry.PRAM_HULL @ rot.T)
+    assert _penetration(h_u, _DIRS @ c.pos[w] + c.radius[w]) <= TOL
+    assert np.hypot(*(c.pos[u] - before)) <= sim.dt * 1.3 + 1e-9  # the user walked on, not pushed
