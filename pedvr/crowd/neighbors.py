@@ -213,16 +213,48 @@ def agent_neighbors_of(i, px, py, range_sq, max_neighbors, origin, cell, nx, ny,
     return count
 
 
+@row_njit(inline="always")
+def _bound_from(i, px, py, pos, max_neighbors, prev_idx, prev_count, range_sq):
+    """A search range for agent ``i`` no shorter than its ``max_neighbors``-th nearest neighbour:
+    the farthest of the rows its last list held, where that list was full (any ``max_neighbors``
+    distinct other rows bound it, wherever they now are); ``range_sq`` otherwise. Inclusive: a
+    row exactly that far is still found."""
+    if prev_count.shape[0] != pos.shape[0] or prev_count[i] < max_neighbors or max_neighbors <= 0:
+        return range_sq
+    b = 0.0
+    for q in range(max_neighbors):
+        j = prev_idx[i, q]
+        if j == i or j < 0 or j >= pos.shape[0]:
+            return range_sq
+        dx = px - pos[j, 0]
+        dy = py - pos[j, 1]
+        b = max(b, dx * dx + dy * dy)
+    return min(range_sq, b * (1.0 + 1e-12) + 1e-300)
+
+
 @parallel_kernel(allocates=False)
 def agent_neighbors_kernel(pos, neighbor_dist, max_neighbors, origin, cell, nx, ny,
-                           cell_start, order, sorted_pos, out_idx, out_dsq, out_count):
-    """Batch form of :func:`agent_neighbors_of` for every row (parallel over agents)."""
+                           cell_start, order, sorted_pos, out_idx, out_dsq, out_count, prev_idx, prev_count):
+    """Batch form of :func:`agent_neighbors_of` for every row (parallel over agents).
+
+    ``prev_idx``/``prev_count``: the lists of the last call on the same rows (or ``(0, K)``/``(0,)``
+    arrays: none). Each row's search starts no wider than the farthest of its last neighbours now
+    are (:func:`_bound_from`), so in a dense crowd the far cells and most sorted inserts are
+    skipped; the lists are exactly those of a search from ``neighbor_dist``, since every row the
+    bound leaves out is farther than the ``max_neighbors`` it holds. A row may read its own last
+    list in ``out_idx`` (they may be one array): it reads before it writes, and only its own."""
     n = pos.shape[0]
     rsq = neighbor_dist * neighbor_dist
     for i in prange(n):
-        out_count[i] = agent_neighbors_of(i, pos[i, 0], pos[i, 1], rsq, max_neighbors, origin,
-                                          cell, nx, ny, cell_start, order, sorted_pos,
-                                          out_idx[i], out_dsq[i])
+        px = pos[i, 0]
+        py = pos[i, 1]
+        r = _bound_from(i, px, py, pos, max_neighbors, prev_idx, prev_count, rsq)
+        out_count[i] = agent_neighbors_of(i, px, py, r, max_neighbors, origin, cell, nx, ny, cell_start,
+                                          order, sorted_pos, out_idx[i], out_dsq[i])
+
+
+NO_LISTS = np.zeros((0, 1), np.int64)  # agent_neighbors_kernel's prev_idx/prev_count: no last lists
+NO_COUNTS = np.zeros(0, np.int64)
 
 
 def agent_neighbors(pos: np.ndarray, *, neighbor_dist: float, max_neighbors: int,
@@ -241,7 +273,7 @@ def agent_neighbors(pos: np.ndarray, *, neighbor_dist: float, max_neighbors: int
     dsq = np.zeros((n, max(k, 1)))
     cnt = np.zeros(n, np.int64)
     agent_neighbors_kernel(pos, float(neighbor_dist), k, g.origin, g.cell, g.shape[0], g.shape[1],
-                           g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt)
+                           g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt, NO_LISTS, NO_COUNTS)
     return idx[:, :k], cnt
 
 

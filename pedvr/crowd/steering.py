@@ -215,8 +215,11 @@ class Steering:
         idx = np.empty((n, kk), np.int64)
         dsq = np.empty((n, kk))
         cnt = np.empty(n, np.int64)
+        # the last lists bound each row's search (the same lists come out; pedvr.crowd.neighbors)
+        prev_idx, prev_cnt = self._neighbors or (_nb.NO_LISTS, _nb.NO_COUNTS)
         _nb.agent_neighbors_kernel(pos, float(p.neighbor_dist), k, g.origin, g.cell, g.shape[0],
-                                   g.shape[1], g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt)
+                                   g.shape[1], g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt, prev_idx,
+                                   prev_cnt)
         self._neighbors = (idx, cnt)
         og = self.obstacle_grid
         obst_count = np.empty(n, np.int64)

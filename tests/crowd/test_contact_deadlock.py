@@ -133,6 +133,38 @@ def test_grid_neighbours_equal_brute_force() -> None:
         assert idx[i, :cnt[i]].tolist() == want
 
 
+def test_last_lists_bound_the_search_and_change_nothing() -> None:
+    """Steering starts each row's neighbour search no wider than its last neighbours now are: the
+    lists come out exactly as from a full-range search, after the crowd moved, after rows were
+    shuffled (the last lists then name other agents: still a bound), and with exact ties."""
+    from pedvr.crowd import neighbors as nb
+
+    rng = np.random.default_rng(11)
+    pos = rng.uniform(0.0, 20.0, (500, 2))
+    pos[:120] = rng.uniform(8.0, 10.0, (120, 2))  # a dense knot
+    pos[120:136] = np.stack(np.meshgrid(np.arange(4.0), np.arange(4.0)), -1).reshape(-1, 2) * 0.5 + 25.0  # ties
+    k = 10
+
+    def search(p: np.ndarray, prev: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+        g = nb.build_agent_grid(p, nb.default_cell_size(3.0))
+        idx = np.empty((len(p), k), np.int64)
+        dsq = np.empty((len(p), k))
+        cnt = np.empty(len(p), np.int64)
+        pi, pc = prev if prev is not None else (nb.NO_LISTS, nb.NO_COUNTS)
+        nb.agent_neighbors_kernel(p, 3.0, k, g.origin, g.cell, g.shape[0], g.shape[1], g.cell_start, g.order,
+                                  g.sorted_pos, idx, dsq, cnt, pi, pc)
+        return idx, cnt
+
+    last = search(pos, None)
+    for moved in (pos + rng.uniform(-0.3, 0.3, pos.shape), pos[rng.permutation(len(pos))], pos.copy()):
+        want_idx, want_cnt = search(moved, None)
+        got_idx, got_cnt = search(moved, last)
+        np.testing.assert_array_equal(got_cnt, want_cnt)
+        for i in range(len(moved)):
+            assert got_idx[i, :got_cnt[i]].tolist() == want_idx[i, :want_cnt[i]].tolist()
+    assert (last[1] == k).sum() > 300  # most lists were full: the bound was used
+
+
 def _run(threads: int, coupled: bool) -> bytes:
     """With more than one thread every kernel is pinned to its parallel twin (200 agents fit the
     serial budget, pedvr.kernels.SERIAL_BUDGET_S, and left alone would run on one thread)."""
