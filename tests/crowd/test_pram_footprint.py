@@ -281,3 +281,30 @@ def test_the_users_pram_is_the_users_footprint(tmp_path: Path) -> None:
     h_u = _points_support(c.pos[u] + carry.PRAM_HULL @ rot.T)
     assert _penetration(h_u, _DIRS @ c.pos[w] + c.radius[w]) <= TOL
     assert np.hypot(*(c.pos[u] - before)) <= sim.dt * 1.3 + 1e-9  # the user walked on, not pushed
+
+
+def test_footprints_are_their_definition_row_by_row() -> None:
+    """The footprint arrays every step builds (one kernel pass) equal the module's definition in
+    numpy, bit for bit: discs, shoulder-turned ellipses, and ellipses reaching ahead (length > 0)."""
+    from pedvr.crowd.footprint import DEPTH_RATIO
+
+    rng = np.random.default_rng(3)
+    n = 300
+    pos = rng.uniform(-10.0, 10.0, (n, 2))
+    radius = rng.uniform(0.2, 0.5, n)
+    turn = np.where(rng.random(n) < 0.5, rng.uniform(0.0, 1.0, n), 0.0)
+    torso = rng.uniform(-np.pi, np.pi, n)
+    heading = rng.uniform(-np.pi, np.pi, n)
+    length = np.where(rng.random(n) < 0.2, rng.uniform(0.6, 1.0, n), 0.0)
+    ahead = np.where(length > 0.0, rng.uniform(0.3, 0.5, n), 0.0)
+    fp = footprints(pos, radius, turn, torso, heading, ahead, length)
+    rigid = length > 0.0
+    c, s = np.cos(heading), np.sin(heading)
+    centre = pos + np.where(rigid[:, None], ahead[:, None] * np.stack([c, s], axis=1), 0.0)
+    depth = np.where(rigid, radius, radius * (1.0 - turn * (1.0 - DEPTH_RATIO)))
+    facing = np.where(rigid[:, None], np.stack([-s, c], axis=1), np.stack([np.cos(torso), np.sin(torso)], axis=1))
+    np.testing.assert_array_equal(fp.rigid, rigid)
+    np.testing.assert_array_equal(fp.centre, centre)
+    np.testing.assert_array_equal(fp.radius, np.where(rigid, length, radius))
+    np.testing.assert_array_equal(fp.depth, depth)
+    np.testing.assert_allclose(fp.facing, facing, rtol=0.0, atol=1e-15)
