@@ -220,8 +220,8 @@ def footprints(pos: np.ndarray, radius: np.ndarray, turn: np.ndarray, torso: np.
     """The footprints of a crowd's rows (see the module docstring): discs, turned ellipses, and
     for rows with ``length > 0`` the ellipse ``length`` long along the heading and ``radius``
     across, centred ``ahead`` of ``pos``. Contiguous float64 arrays, ready for the kernels: one
-    pass of :func:`row_footprint` over the rows (every step builds them; the numpy expressions
-    this replaced cost five times as much at 1000 rows)."""
+    pass of :func:`row_footprint` over the rows (every step builds them, some phases twice; the
+    numpy expressions this replaced made a dozen temporary arrays)."""
     n = np.shape(pos)[0]
     out = Footprints(np.empty((n, 2)), np.empty(n), np.empty(n), np.empty((n, 2)), np.empty(n, np.bool_))
     f64 = np.float64
