@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from pedvr.crowd.footprint import footprints
+from pedvr.crowd.footprint import Footprints, footprints
 from pedvr.crowd.overlap import motion_extremes, nearest_edges, pair_overlaps, user_clearance, wall_overlaps
 from pedvr.crowd.state import CrowdState
 from pedvr.world.visibility_kernels import EdgeGrid
@@ -156,7 +156,7 @@ class Metrics:
             self.max_turn_rate = max(self.max_turn_rate, turn)
         self._overlaps(crowd)
 
-    def _user(self, crowd: CrowdState) -> None:
+    def _user(self, crowd: CrowdState, fp: Footprints) -> None:
         """The user's distances, every step (not only when some pair of discs is close):
         the closest centre distance, the deepest any footprint cuts into the user's disc,
         and the clearance (surface to surface) to the nearest agent within
@@ -165,9 +165,8 @@ class Metrics:
         u = _user_row(crowd)
         if u < 0 or len(crowd) < 2:
             return
-        nearest, clear, dist = user_clearance(crowd.pos, crowd.radius, crowd.turn, crowd.torso,
-                                              crowd.heading, crowd.ahead, crowd.length, u, crowd.pos[u],
-                                              float(crowd.radius[u]))
+        nearest, clear, dist = user_clearance(crowd.pos, fp.centre, fp.radius, fp.depth, fp.facing, u,
+                                              crowd.pos[u], float(crowd.radius[u]))
         self.min_user_distance = min(self.min_user_distance, nearest)
         self.user_overlap = max(self.user_overlap, -clear)
         if dist <= CLEARANCE_RANGE:
@@ -182,8 +181,10 @@ class Metrics:
         u = _user_row(crowd)
         if u < 0 or len(crowd) < 2:
             return
-        _, clear, _ = user_clearance(proposed, crowd.radius, crowd.turn, crowd.torso, crowd.heading,
-                                     crowd.ahead, crowd.length, u, crowd.pos[u], float(crowd.radius[u]))
+        fp = footprints(proposed, crowd.radius, crowd.turn, crowd.torso, crowd.heading, crowd.ahead,
+                        crowd.length)
+        _, clear, _ = user_clearance(proposed, fp.centre, fp.radius, fp.depth, fp.facing, u, crowd.pos[u],
+                                     float(crowd.radius[u]))
         if -clear > OVERLAP_TOLERANCE:
             self.user_contact_steps += 1
 
@@ -216,7 +217,7 @@ class Metrics:
             return
         fp = footprints(crowd.pos, crowd.radius, crowd.turn, crowd.torso, crowd.heading, crowd.ahead,
                         crowd.length)
-        self._user(crowd)
+        self._user(crowd, fp)
         pos, rad, depth, facing = fp.centre, fp.radius, fp.depth, fp.facing
         worst, pairs = pair_overlaps(pos, rad, depth, facing, OVERLAP_TOLERANCE)
         self.max_overlap = max(self.max_overlap, worst)

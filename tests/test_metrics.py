@@ -94,7 +94,7 @@ def test_the_metric_kernels_match_their_numpy_definitions() -> None:
         du = np.hypot(rel[:, 0], rel[:, 1])
         clear = du - pair_support(fp.radius, fp.depth, fp.facing, others, -rel / du[:, None]) - radius[u]
         k = int(np.argmin(clear))
-        nearest, got_clear, got_d = user_clearance(pos, radius, turn, torso, heading, ahead, length, u, pos[u],
+        nearest, got_clear, got_d = user_clearance(pos, fp.centre, fp.radius, fp.depth, fp.facing, u, pos[u],
                                                    float(radius[u]))
         assert abs(nearest - np.hypot(*(pos[others] - pos[u]).T).min()) < 1e-12
         assert abs(got_clear - clear[k]) < 1e-9 and abs(got_d - du[k]) < 1e-9

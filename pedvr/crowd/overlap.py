@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from pedvr.crowd.footprint import row_footprint, support
+from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import build_agent_grid_arrays
 
 
@@ -122,14 +122,12 @@ def nearest_edges(pos, reach, p1, p2, origin, cell, shape, start, items, out_dis
 
 
 @njit(cache=True)
-def user_clearance(pos, radius, turn, torso, heading, ahead, length, user, user_pos, user_radius):
+def user_clearance(pos, centre, a, b, facing, user, user_pos, user_radius):
     """The user's distances in one pass over the rows (``user`` is the user's row, left out):
-    ``(nearest, clear, dist)`` — the least centre distance from ``user_pos`` to any row's
-    ``pos``, and the least clearance (m, surface to the user's disc of ``user_radius``,
-    negative inside it) of any row's footprint, with that footprint's centre distance. Footprints
-    are :func:`pedvr.crowd.footprint.footprints`'s (discs, turned ellipses, carried objects'
-    ellipses ahead), built row by row (:func:`pedvr.crowd.footprint.row_footprint`) rather than
-    as arrays: the metrics need one number each, and the arrays cost more than the pass.
+    ``(nearest, clear, dist)`` — the least distance from ``user_pos`` to any row's ``pos``, and
+    the least clearance (m, surface to the user's disc of ``user_radius``, negative inside it)
+    of any row's footprint (``centre``, ``a``, ``b``, ``facing``: the arrays of
+    :func:`pedvr.crowd.footprint.footprints`), with that footprint's centre distance.
     ``(inf, inf, inf)`` when there are no others."""
     nearest = math.inf
     best = math.inf
@@ -140,12 +138,10 @@ def user_clearance(pos, radius, turn, torso, heading, ahead, length, user, user_
         if i == user:
             continue
         nearest = min(nearest, math.hypot(pos[i, 0] - ux, pos[i, 1] - uy))
-        cx, cy, a, b, fx, fy = row_footprint(pos[i, 0], pos[i, 1], radius[i], turn[i], torso[i], heading[i],
-                                             ahead[i], length[i])
-        rx = cx - ux
-        ry = cy - uy
+        rx = centre[i, 0] - ux
+        ry = centre[i, 1] - uy
         d = math.hypot(rx, ry)
-        reach = support(a, b, fx, fy, -rx / d, -ry / d) if d > 1e-12 else 0.0
+        reach = support(a[i], b[i], facing[i, 0], facing[i, 1], -rx / d, -ry / d) if d > 1e-12 else 0.0
         clear = d - reach - user_radius
         if clear < best:
             best = clear
