@@ -68,7 +68,7 @@ def row_njit(*, fastmath: Any = None, inline: str = "never") -> Any:
     functions are compiled without numba's runtime (``_nrt=False``): one that allocates
     fails to compile, loudly, and one may not return an array (nothing would own it).
     ``fastmath`` unset means the caller's flags, as for ``njit``. (numpy's error model,
-    which drops the zero test before each division, saved another tenth but changed
+    which drops the zero test before each division, saved a little more but changed
     ORCA's rounding enough to make a coupled agent's own motion limits infeasible in
     tests/crowd/test_steering.py: not used.)
     """
