@@ -872,7 +872,8 @@ def analyze(*, db: str | Path | None = None, responses: str | Path | None = None
     From a database every section is computed from what it holds; a database
     with only some kinds of data (only the SSQ, only one questionnaire, only
     trials) gets those sections. Only a database with no answers and no trial
-    that ran to its end is an error (nothing to analyse yet).
+    that ran to its end is an error (nothing to analyse yet), and a damaged
+    one (:class:`~pedvr.study.errors.DamagedStoreError`).
     """
     if (db is None) == (responses is None):
         from pedvr.errors import UsageError
@@ -884,6 +885,8 @@ def analyze(*, db: str | Path | None = None, responses: str | Path | None = None
         out["source"] = {"responses": str(responses)}
         return out
     assert db is not None
+    with open_store(db, read_only=True) as store:
+        store.check_intact()  # a damaged database is one error, before any section reads it
     df, order = responses_from_db(db)
     sample = sample_description(db)
     if df.empty:

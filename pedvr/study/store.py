@@ -38,7 +38,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from pedvr.study.errors import ParticipantExistsError, StudyStoreError
+from pedvr.study.errors import DamagedStoreError, ParticipantExistsError, StudyStoreError, is_corruption
 
 # 2: gaze_events.target (1 is migrated on open: its gaze table was always empty);
 # 3: answers.response_time_s, samples.spheres (the red spheres reached so far);
@@ -195,11 +195,15 @@ class StudyStore:
                     f"{self.path}: cannot open the study database for writing ({exc})"
                 ) from None
             except sqlite3.DatabaseError as exc:
+                if is_corruption(exc):
+                    raise DamagedStoreError(self.path, str(exc)) from None
                 raise StudyStoreError(f"{self.path}: not a SQLite database ({exc})") from None
         try:
             have = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
         except sqlite3.DatabaseError as exc:
             self.db.close()
+            if is_corruption(exc):
+                raise DamagedStoreError(self.path, str(exc)) from None
             raise StudyStoreError(f"{self.path}: not a SQLite database ({exc})") from None
         if (have or read_only) and "meta" not in have:
             self.db.close()
@@ -252,6 +256,8 @@ class StudyStore:
                     break
         if isinstance(last, sqlite3.OperationalError):
             raise StudyStoreError(f"{self.path}: cannot open the study database to read it ({last})")
+        if last is not None and is_corruption(last):
+            raise DamagedStoreError(self.path, str(last))
         raise StudyStoreError(f"{self.path}: not a SQLite database ({last})")
 
     def _added_since(self, version: str) -> list[tuple[str, str, str, str]]:
@@ -293,6 +299,22 @@ class StudyStore:
         """Roll back a transaction left open by an interrupted write (a signal between BEGIN and COMMIT)."""
         if self.db.in_transaction:
             self.db.execute("ROLLBACK")
+
+    def check_intact(self) -> None:
+        """Raise :class:`DamagedStoreError` when SQLite's ``quick_check`` finds a damaged page.
+
+        It reads every page (seconds for hundreds of MB), so it runs once where a command starts
+        (``study run`` before anything is written, ``analyze`` and ``export`` before anything is read),
+        not on every open.
+        """
+        try:
+            rows = self.db.execute("PRAGMA quick_check(1)").fetchall()
+        except sqlite3.DatabaseError as exc:
+            if not is_corruption(exc):
+                raise
+            raise DamagedStoreError(self.path, str(exc)) from None
+        if rows != [("ok",)]:
+            raise DamagedStoreError(self.path, "; ".join(str(r[0]) for r in rows))
 
     def __enter__(self) -> StudyStore:
         return self
