@@ -789,6 +789,10 @@ def objective_measures(db: str | Path) -> dict[str, Any]:
 def sample_description(db: str | Path) -> dict[str, Any]:
     """Who took part: participants by status, sessions by status, aborts, and the demographics.
 
+    ``protocols`` lists the protocol files the participants ran (by file name, with the number of
+    participants each): one entry, unless the database was filled before pedvr refused a second
+    protocol (:func:`pedvr.study.session.claim_database`).
+
     ``demographics`` summarises the answers to the questionnaire with id
     ``demographics`` (the shipped form): per item, numbers as n, mean, SD,
     minimum and maximum, choices as counts; ``no_answer`` counts the
@@ -799,6 +803,11 @@ def sample_description(db: str | Path) -> dict[str, Any]:
             "SELECT participant, simulated, status FROM participants ORDER BY number", store.db
         )
         sess = pd.read_sql_query("SELECT participant, status FROM sessions", store.db)
+        first = pd.read_sql_query(
+            "SELECT participant, protocol_source FROM sessions WHERE session_id IN "
+            "(SELECT MIN(session_id) FROM sessions GROUP BY participant) ORDER BY session_id",
+            store.db,
+        )
         aborts = pd.read_sql_query(
             "SELECT e.participant, e.step_index, e.utc, e.detail, st.step_key FROM events e "
             "LEFT JOIN steps st ON st.participant = e.participant AND st.step_index = e.step_index "
@@ -811,6 +820,12 @@ def sample_description(db: str | Path) -> dict[str, Any]:
             store.db,
         )
     by_status = {str(k): int(v) for k, v in parts["status"].value_counts().items()}
+    # Protocol files by name (the same file given by another relative path is the same file), each with
+    # the path its first participant ran it by.
+    protocols: dict[str, dict[str, Any]] = {}
+    for src in first["protocol_source"]:
+        entry = protocols.setdefault(Path(str(src)).name, {"source": str(src), "participants": 0})
+        entry["participants"] += 1
     demographics: dict[str, Any] = {}
     for item, g in demo.groupby("item", sort=False):
         nums = g["raw_value"].dropna()
@@ -829,6 +844,7 @@ def sample_description(db: str | Path) -> dict[str, Any]:
         "withdrawn": [str(p) for p in parts.loc[parts["status"] == "withdrawn", "participant"]],
         "not_finished": [str(p) for p in parts.loc[parts["status"] == "in_progress", "participant"]],
         "sessions": {str(k): int(v) for k, v in sess["status"].value_counts().items()},
+        "protocols": list(protocols.values()),
         "aborts": [
             {
                 "participant": str(r.participant),

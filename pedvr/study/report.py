@@ -290,6 +290,13 @@ def _sample(doc: _Doc, result: dict[str, Any]) -> None:
     sess = s["sessions"]
     if sess:
         parts.append("Sessions: " + ", ".join(f"{v} {k}" for k, v in sorted(sess.items())) + ".")
+    protocols = s.get("protocols") or []
+    if len(protocols) > 1:
+        parts.append(
+            f"Participants ran under {len(protocols)} protocol files ("
+            + "; ".join(f"{p['source']}: {p['participants']}" for p in protocols)
+            + "): one database should hold one study; analyse each protocol's participants apart."
+        )
     doc.add(Para(" ".join(parts)))
     lists = []
     if s["withdrawn"]:
