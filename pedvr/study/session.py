@@ -59,6 +59,7 @@ if TYPE_CHECKING:
     from pedvr.sim import Simulation
 
 SAMPLE_CHUNK_FRAMES = 90  # samples are committed about once per simulated second at 90 Hz
+DECLINED = "consent declined"  # the reason stored with the consent step a participant declined
 
 
 def software_version() -> str:
@@ -126,7 +127,7 @@ class Session:
         rows = self._open()
         total = len(self.plan)
         if all(r.status != "pending" for r in rows):
-            self.store.set_participant_status(self.pid, "finished")
+            self.store.settle_last_session(self.pid, "finished")  # killed after its last step: it finished
             return SessionResult(
                 "already_finished",
                 self.pid,
@@ -178,7 +179,7 @@ class Session:
                         index=step.index,
                         status="done",
                         session_id=self.session_id,
-                        reason="consent declined",
+                        reason=DECLINED,
                     )
                     break
                 st = "skipped" if outcome.kind == "skip" else "done"
@@ -267,6 +268,9 @@ class Session:
             )
         self.store.close_dead_sessions(self.pid)
         self.store.mark_interrupted_trials(self.pid)
+        if any(r.reason == DECLINED for r in rows):  # killed after the consent was declined
+            self.store.settle_last_session(self.pid, "withdrawn")
+            raise StudyStoreError(f"participant {self.pid} declined consent; there is nothing to resume")
         return rows
 
     def _store_questionnaires(self) -> None:
