@@ -845,8 +845,8 @@ def sample_description(db: str | Path) -> dict[str, Any]:
     # the path its first participant ran it by.
     protocols: dict[str, dict[str, Any]] = {}
     for src in first["protocol_source"]:
-        entry = protocols.setdefault(Path(str(src)).name, {"source": str(src), "participants": 0})
-        entry["participants"] += 1
+        ran = protocols.setdefault(Path(str(src)).name, {"source": str(src), "participants": 0})
+        ran["participants"] += 1
     demographics: dict[str, Any] = {}
     for item, g in demo.groupby("item", sort=False):
         nums = g["raw_value"].dropna()

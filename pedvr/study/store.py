@@ -439,12 +439,12 @@ class StudyStore:
         times = [
             r["t"]
             for r in self.query(
-                "SELECT started_utc AS t FROM sessions WHERE session_id = :s "
-                "UNION ALL SELECT MAX(finished_utc) FROM steps WHERE session_id = :s "
-                "UNION ALL SELECT MAX(answered_utc) FROM answers WHERE session_id = :s "
-                "UNION ALL SELECT MAX(utc) FROM events WHERE session_id = :s "
-                "UNION ALL SELECT MAX(COALESCE(ended_utc, started_utc)) FROM trials WHERE session_id = :s",
-                {"s": session_id},
+                "SELECT started_utc AS t FROM sessions WHERE session_id = ? "
+                "UNION ALL SELECT MAX(finished_utc) FROM steps WHERE session_id = ? "
+                "UNION ALL SELECT MAX(answered_utc) FROM answers WHERE session_id = ? "
+                "UNION ALL SELECT MAX(utc) FROM events WHERE session_id = ? "
+                "UNION ALL SELECT MAX(COALESCE(ended_utc, started_utc)) FROM trials WHERE session_id = ?",
+                (session_id,) * 5,
             )
             if r["t"] is not None
         ]
