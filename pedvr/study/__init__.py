@@ -2,6 +2,8 @@
 
 * :mod:`~pedvr.study.protocol` — protocols as validated TOML data, each participant's plan
 * :mod:`~pedvr.study.questionnaire` — questionnaires as data, recoding, SSQ scoring
+* :mod:`~pedvr.study.instrument` — the questionnaire vocabulary (scale, item, response), shared by
+  questionnaire and :mod:`~pedvr.study.scoring` (the published keys); it imports nothing of the room
 * :mod:`~pedvr.study.counterbalance` — balanced Latin squares, left/right assignment
 * :mod:`~pedvr.study.session` — the resumable session state machine
 * :mod:`~pedvr.study.presenter` — the participant interface (simulated, terminal; the in-app seam)

@@ -218,17 +218,37 @@ def comparison_stats(g: pd.DataFrame) -> dict[str, Any]:
             "dof": int(t["dof"].iloc[0]),
             "p": _f(t["p_val"].iloc[0]),
             "cohen_d": _f(t["cohen_d"].iloc[0]),
-            "ci95": [_f(v) for v in t["CI95"].iloc[0]],
+            "ci95": mean_ci95(idx.to_numpy()),  # of the mean index (pingouin's CI95 is rounded to .01)
         }
     else:
         out["one_sample_t_vs_4"] = None
     return out
 
 
+def mean_ci95(values: Any) -> list[float | None] | None:
+    """The 95 % confidence interval of the mean of ``values``: mean ± t(.975, n − 1) · SD / √n.
+
+    From scipy's one-sample t-test (the interval pingouin's ``ttest`` reports, at full precision:
+    pingouin 0.7 rounds it to two decimals, too coarse for measures in metres). None for fewer than 2
+    values; ``[mean, mean]`` when they are all equal.
+    """
+    from scipy import stats
+
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size < 2:
+        return None
+    if np.allclose(v, v[0]):
+        return [_f(v.mean()), _f(v.mean())]
+    ci = stats.ttest_1samp(v, 0.0).confidence_interval(0.95)
+    return [_f(ci.low), _f(ci.high)]
+
+
 def within_tests(long: pd.DataFrame, levels: list[str]) -> dict[str, Any]:
     """Within-subjects tests of ``value`` over ``levels`` (``long``: columns subject, level, value).
 
-    Per level the mean, SD and n; then over the subjects who have every level
+    Per level the mean, SD, n and the 95 % confidence interval of the mean
+    (:func:`mean_ci95`, over the subjects with that level); then over the subjects who have every level
     (listwise, as SPSS does; the others are listed under ``excluded``): a
     one-way repeated-measures ANOVA with Mauchly's test and the
     Greenhouse–Geisser correction, Bonferroni-corrected paired post hoc tests
@@ -249,6 +269,7 @@ def within_tests(long: pd.DataFrame, levels: list[str]) -> dict[str, Any]:
                 "n": int(wide[lv].notna().sum()),
                 "mean": _f(wide[lv].mean()),
                 "sd": _f(wide[lv].std(ddof=1)) if wide[lv].notna().sum() > 1 else None,
+                "ci95": mean_ci95(wide[lv].dropna().to_numpy()),
             }
             for lv in levels
         },
@@ -789,6 +810,10 @@ def objective_measures(db: str | Path) -> dict[str, Any]:
 def sample_description(db: str | Path) -> dict[str, Any]:
     """Who took part: participants by status, sessions by status, aborts, and the demographics.
 
+    ``protocols`` lists the protocol files the participants ran (by file name, with the number of
+    participants each): one entry, unless the database was filled before pedvr refused a second
+    protocol (:func:`pedvr.study.session.claim_database`).
+
     ``demographics`` summarises the answers to the questionnaire with id
     ``demographics`` (the shipped form): per item, numbers as n, mean, SD,
     minimum and maximum, choices as counts; ``no_answer`` counts the
@@ -799,6 +824,11 @@ def sample_description(db: str | Path) -> dict[str, Any]:
             "SELECT participant, simulated, status FROM participants ORDER BY number", store.db
         )
         sess = pd.read_sql_query("SELECT participant, status FROM sessions", store.db)
+        first = pd.read_sql_query(
+            "SELECT participant, protocol_source FROM sessions WHERE session_id IN "
+            "(SELECT MIN(session_id) FROM sessions GROUP BY participant) ORDER BY session_id",
+            store.db,
+        )
         aborts = pd.read_sql_query(
             "SELECT e.participant, e.step_index, e.utc, e.detail, st.step_key FROM events e "
             "LEFT JOIN steps st ON st.participant = e.participant AND st.step_index = e.step_index "
@@ -811,6 +841,12 @@ def sample_description(db: str | Path) -> dict[str, Any]:
             store.db,
         )
     by_status = {str(k): int(v) for k, v in parts["status"].value_counts().items()}
+    # Protocol files by name (the same file given by another relative path is the same file), each with
+    # the path its first participant ran it by.
+    protocols: dict[str, dict[str, Any]] = {}
+    for src in first["protocol_source"]:
+        ran = protocols.setdefault(Path(str(src)).name, {"source": str(src), "participants": 0})
+        ran["participants"] += 1
     demographics: dict[str, Any] = {}
     for item, g in demo.groupby("item", sort=False):
         nums = g["raw_value"].dropna()
@@ -829,6 +865,7 @@ def sample_description(db: str | Path) -> dict[str, Any]:
         "withdrawn": [str(p) for p in parts.loc[parts["status"] == "withdrawn", "participant"]],
         "not_finished": [str(p) for p in parts.loc[parts["status"] == "in_progress", "participant"]],
         "sessions": {str(k): int(v) for k, v in sess["status"].value_counts().items()},
+        "protocols": list(protocols.values()),
         "aborts": [
             {
                 "participant": str(r.participant),
@@ -844,11 +881,16 @@ def sample_description(db: str | Path) -> dict[str, Any]:
 
 def response_times(db: str | Path) -> dict[str, Any]:
     """Response times per questionnaire (seconds from the item shown to the answer confirmed):
-    n, median and quartiles over all its answers, and the median per item."""
+    n, median and quartiles over all its answers, and the median per item.
+
+    Only people's answers: a simulated participant answers as soon as it is asked (its times are
+    0.00 s and say nothing), so its answers are left out; the report says how many were.
+    """
     with open_store(db, read_only=True) as store:
         df = pd.read_sql_query(
-            "SELECT questionnaire, item, response_time_s FROM answers WHERE response_time_s IS NOT NULL "
-            "ORDER BY answer_id",
+            "SELECT a.questionnaire, a.item, a.response_time_s FROM answers a "
+            "JOIN participants p USING (participant) "
+            "WHERE a.response_time_s IS NOT NULL AND p.simulated = 0 ORDER BY a.answer_id",
             store.db,
         )
     out: dict[str, Any] = {}
@@ -872,7 +914,8 @@ def analyze(*, db: str | Path | None = None, responses: str | Path | None = None
     From a database every section is computed from what it holds; a database
     with only some kinds of data (only the SSQ, only one questionnaire, only
     trials) gets those sections. Only a database with no answers and no trial
-    that ran to its end is an error (nothing to analyse yet).
+    that ran to its end is an error (nothing to analyse yet), and a damaged
+    one (:class:`~pedvr.study.errors.DamagedStoreError`).
     """
     if (db is None) == (responses is None):
         from pedvr.errors import UsageError
@@ -884,6 +927,8 @@ def analyze(*, db: str | Path | None = None, responses: str | Path | None = None
         out["source"] = {"responses": str(responses)}
         return out
     assert db is not None
+    with open_store(db, read_only=True) as store:
+        store.check_intact()  # a damaged database is one error, before any section reads it
     df, order = responses_from_db(db)
     sample = sample_description(db)
     if df.empty:

@@ -132,22 +132,32 @@ def run_study_command(
     args: argparse.Namespace, *, stdin: TextIO | None = None, stdout: TextIO | None = None
 ) -> int:
     """Run a parsed ``study`` command; return the exit code. Raises :class:`PedvrError` on bad input."""
+    from pedvr.study.errors import damage_reported
+
     out = stdout or sys.stdout
     if args.study_command == "run":
         return _run(args, stdin=stdin or sys.stdin, stdout=out)
     if args.study_command == "export":
         from pedvr.study.export import export_study
 
-        paths = export_study(args.db, out=args.out, force=args.force)
+        with damage_reported(args.db):
+            paths = export_study(args.db, out=args.out, force=args.force)
         print(f"exported {len(paths)} files to {args.out}", file=out)
         return 0
-    return _analyze(args, stdout=out)
+    if args.db is None:
+        return _analyze(args, stdout=out)
+    with damage_reported(args.db):
+        return _analyze(args, stdout=out)
 
 
 def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
-    from pedvr.study.protocol import load_protocol
+    from pedvr.study.errors import damage_reported
+    from pedvr.study.protocol import load_protocol, participant_number
+    from pedvr.study.store import StudyStore
 
     simulated = args.simulated or args.participant == "simulated"
+    if args.participant != "simulated":
+        participant_number(args.participant)  # a bad id is refused before any file is created
     if args.pace is not None and not simulated:
         raise UsageError("--pace applies only to a simulated participant")
     if args.walk is not None and not simulated:
@@ -160,6 +170,9 @@ def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
             "participant "
             "started in with --db, or run from the folder that holds it"
         )
+    if db.is_file():  # a damaged database is refused before anything is written to it
+        with StudyStore(db, read_only=True) as existing:
+            existing.check_intact()
     backend, why = _study_backend(args.backend, simulated=simulated)
     print(why, file=stdout)
     frontend = None
@@ -168,7 +181,10 @@ def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
 
         frontend = open_frontend(backend, eye_height=protocol.eye_height_m)
     try:
-        return _run_in(args, protocol, db, backend, frontend, simulated=simulated, stdin=stdin, stdout=stdout)
+        with damage_reported(db):
+            return _run_in(
+                args, protocol, db, backend, frontend, simulated=simulated, stdin=stdin, stdout=stdout
+            )
     finally:
         if frontend is not None:
             frontend.close()

@@ -118,13 +118,16 @@ def export_study(db: str | Path, *, out: str | Path, force: bool = False) -> lis
 
     Raises :class:`~pedvr.study.errors.OutputError` (one line) when ``out`` is
     not a folder, cannot be created or written, or holds a file the export
-    would write (without ``force``).
+    would write (without ``force``), and
+    :class:`~pedvr.study.errors.DamagedStoreError` when SQLite finds the
+    database damaged (before any file is written).
     """
     from pedvr.study.measures import trial_measures
 
     out = Path(out)
     written: list[Path] = []
     with open_store(db, read_only=True) as store:
+        store.check_intact()  # a damaged database is refused before anything is read or written
         trial_ids = [
             int(r[0])
             for r in store.db.execute("SELECT DISTINCT trial_id FROM agent_samples ORDER BY trial_id")

@@ -40,11 +40,9 @@ from pathlib import Path
 from typing import Any
 
 from pedvr.study.errors import AnswerError, ProtocolError
+from pedvr.study.instrument import ITEM_KINDS, KINDS, Item, Questionnaire, Response, Scale
 from pedvr.study.scoring import scorers
 from pedvr.validation import MISSING, Checker
-
-KINDS = ("ssq", "pairwise", "likert", "form")
-ITEM_KINDS = ("scale", "text", "number", "choice", "consent")
 
 # Kennedy, Lane, Berbaum & Lilienthal (1993), Table 1 ("SSQ scoring"): item
 # numbers 1..16 in the standard order (general discomfort ... burping). Items
@@ -54,6 +52,26 @@ SSQ_OCULOMOTOR = (1, 2, 3, 4, 5, 9, 11)
 SSQ_DISORIENTATION = (5, 8, 10, 11, 12, 13, 14)
 SSQ_WEIGHTS = {"nausea": 9.54, "oculomotor": 7.58, "disorientation": 13.92, "total": 3.74}
 SSQ_ITEMS = 16
+# The 16 symptoms by the ids the shipped file gives them, in Kennedy et al.'s order: the key above is by
+# position, so a file must list exactly these ids in exactly this order (checked at load).
+SSQ_ITEM_IDS = (
+    "general_discomfort",
+    "fatigue",
+    "headache",
+    "eye_strain",
+    "difficulty_focusing",
+    "increased_salivation",
+    "sweating",
+    "nausea",
+    "difficulty_concentrating",
+    "fullness_of_head",
+    "blurred_vision",
+    "dizzy_eyes_open",
+    "dizzy_eyes_closed",
+    "vertigo",
+    "stomach_awareness",
+    "burping",
+)
 # Cell texts that pandas.read_csv (defaults) or R read as missing: not allowed as scale labels, so
 # exported answers keep their labels.
 MISSING_SPELLINGS = frozenset(
@@ -79,77 +97,6 @@ MISSING_SPELLINGS = frozenset(
         "null",
     }
 )
-
-
-@dataclass(frozen=True)
-class Scale:
-    """Integer response scale ``minimum..maximum`` with one label per point."""
-
-    minimum: int
-    maximum: int
-    labels: tuple[str, ...]  # "" = the point has no label of its own
-
-    def label(self, value: int) -> str:
-        return self.labels[value - self.minimum]
-
-
-@dataclass(frozen=True)
-class Item:
-    """One question. ``number`` is its 1-based position in the file."""
-
-    id: str
-    number: int
-    text: str
-    kind: str = "scale"
-    reverse: bool = False
-    required: bool = True
-    choices: tuple[str, ...] = ()
-    minimum: float | None = None
-    maximum: float | None = None
-    labels: tuple[str, ...] = ()  # scale items: one label per point, overriding the scale's
-    step: float | None = None  # number items: answers are minimum + k * step
-
-
-@dataclass(frozen=True)
-class Questionnaire:
-    """A validated questionnaire file."""
-
-    id: str
-    title: str
-    kind: str
-    instructions: str
-    scale: Scale | None
-    items: tuple[Item, ...]
-    source: str
-    content_hash: str
-    citation: str = ""
-    scoring: str = ""  # a scorer registered in pedvr.study.scoring; "" = none
-    document: str = ""  # the file's TOML text (stored in the study database, so analysis can re-score)
-
-    def label(self, item: Item, value: int) -> str:
-        """The label of scale point ``value`` for ``item`` (its own labels, else the scale's); may be ""."""
-        assert self.scale is not None
-        labels = item.labels or self.scale.labels
-        return labels[value - self.scale.minimum]
-
-    def item(self, item_id: str) -> Item:
-        for it in self.items:
-            if it.id == item_id:
-                return it
-        raise KeyError(item_id)
-
-
-@dataclass(frozen=True)
-class Response:
-    """A confirmed answer as the participant gave it.
-
-    ``value`` is the scale point (or the number) as shown; ``text`` is the
-    free text or the chosen option. Both ``None`` means the participant chose
-    not to answer an optional item.
-    """
-
-    value: float | None = None
-    text: str | None = None
 
 
 def load_questionnaire(path: str | Path, *, display_path: str | None = None) -> Questionnaire:
@@ -190,6 +137,8 @@ def parse_questionnaire(data: dict[str, Any], *, source: str, content_hash: str 
         c.bad("scale", f"{scale.minimum}..{scale.maximum}", "the SSQ is scored 0..3 (Kennedy et al. 1993)")
     if kind == "ssq" and items is not None and len(items) != SSQ_ITEMS:
         c.bad("items", f"{len(items)} items", f"the SSQ has exactly {SSQ_ITEMS} items, in the standard order")
+    elif kind == "ssq" and items is not None:
+        _check_ssq_order(c, items)
     if kind == "pairwise" and scale is not None and (scale.maximum - scale.minimum) % 2 != 0:
         c.bad(
             "scale",
@@ -219,6 +168,27 @@ def parse_questionnaire(data: dict[str, Any], *, source: str, content_hash: str 
         if c.problems:
             raise ProtocolError(c.problems)
     return out
+
+
+def _check_ssq_order(c: Checker, items: tuple[Item, ...]) -> None:
+    """The SSQ is scored by item position (Kennedy et al. 1993, Table 1): item k must be symptom k.
+
+    Ids are the only thing a file carries that says which symptom an item is (texts may be
+    translated), so each position must hold the standard id: two swapped items name both positions.
+    """
+    for k, (it, want) in enumerate(zip(items, SSQ_ITEM_IDS, strict=True)):
+        if it.id != want:
+            then = (
+                f"; {it.id} is item {SSQ_ITEM_IDS.index(it.id) + 1}"
+                if it.id in SSQ_ITEM_IDS
+                else f"; the ids are {', '.join(SSQ_ITEM_IDS)}"
+            )
+            c.bad(
+                f"items[{k}].id",
+                it.id,
+                f"expected {want!r}, item {k + 1} of Kennedy et al. (1993): the SSQ is scored by position, "
+                f"so its items keep the standard order{then}",
+            )
 
 
 def _labels(c: Checker, d: dict[str, Any], key: str, path: str) -> tuple[str, ...] | None:

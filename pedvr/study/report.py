@@ -9,15 +9,21 @@ embeds them inline, the Markdown links them.
 Sections, each present when the data is: the sample (participants by status,
 aborted sessions, demographics); per scenario the pairwise responses laid out
 as PedVR Table 3 with Cronbach's α, the repeated-measures ANOVA with Mauchly's
-test and the Greenhouse–Geisser correction, Bonferroni post hoc tests,
-one-sample tests against 4 and the Friedman test, in APA style, with
-histograms like PedVR Fig. 6; questionnaire scores (IPQ, co-presence,
-NASA-TLX, ...) by condition with the same tests; questionnaires given once;
-the objective measures by condition (and by responsibility in a sweep) with
-the same tests and a figure per block; the SSQ before and after with paired t
-and Wilcoxon tests; the head-on corridor by responsibility (contacts, three
-decimals) with trajectory plots marking each start and the direction of
-travel; response times per questionnaire.
+test and the Greenhouse–Geisser correction, Bonferroni post hoc tests with
+Hedges' g, one-sample tests against 4 with the 95 % CI of the mean and
+Cohen's d, and the Friedman test, in APA style, with histograms like PedVR
+Fig. 6; questionnaire scores (IPQ, co-presence, NASA-TLX, ...) by condition
+with the same tests; questionnaires given once; the objective measures by
+condition (and by responsibility in a sweep) with the same tests and a figure
+per block; the SSQ before and after with paired t and Wilcoxon tests; the
+head-on corridor by responsibility (contacts, three decimals) with trajectory
+plots marking each start and the direction of travel; response times per
+questionnaire (people only: a simulated participant answers at once).
+
+The per-condition figures draw each mean with its 95 % confidence interval
+(t distribution over the participants with that condition), and say so in
+the figure and the text; tables give M (SD). A dry run (every participant
+simulated) says so at the top.
 """
 
 from __future__ import annotations
@@ -69,6 +75,19 @@ SCORE_LABELS = {
     "sus_score": "SUS score (0-100)",
     "mean": "mean of the items",
 }
+
+
+CI_NAME = "95 % confidence interval"
+CI_METHOD = (
+    "Figures show each condition's mean and its 95 % confidence interval (t distribution with n − 1 "
+    "degrees of freedom over the participants with that condition; not the SD). The intervals include "
+    "the differences between participants, so two that overlap can still differ within participants: "
+    "the tests say whether they do."
+)
+
+
+def _ci(ci: list[float | None] | None, d: int = 2) -> str:
+    return "–" if not ci or ci[0] is None or ci[1] is None else f"[{ci[0]:.{d}f}, {ci[1]:.{d}f}]"
 
 
 def _name(c: str) -> str:
@@ -236,7 +255,9 @@ def _fig_corridor(corridor: dict[str, Any], path: Path) -> None:
 
 
 def _fig_levels(title: str, panels: list[tuple[str, list[str], dict[str, Any]]], path: Path) -> None:
-    """Mean ± SD per level, one panel per variable: ``(panel title, levels, within_tests result)``."""
+    """Mean and its 95 % confidence interval per level (:func:`~pedvr.study.analysis.mean_ci95`), one panel
+    per variable: ``(panel title, levels, within_tests result)``. A level with one value has no interval
+    (a bare point)."""
     plt = _plt()
     cols = min(4, len(panels))
     rows = (len(panels) + cols - 1) // cols
@@ -248,10 +269,11 @@ def _fig_levels(title: str, panels: list[tuple[str, list[str], dict[str, Any]]],
             d = res["levels"].get(lv, {})
             if d.get("mean") is None:
                 continue
+            ci = d.get("ci95") or [d["mean"], d["mean"]]
             ax.errorbar(
                 [k],
                 [d["mean"]],
-                yerr=[[d["sd"] or 0.0], [d["sd"] or 0.0]],
+                yerr=[[d["mean"] - ci[0]], [ci[1] - d["mean"]]],
                 fmt="o",
                 color=LEVEL_COLORS[k % len(LEVEL_COLORS)],
                 capsize=3,
@@ -262,7 +284,7 @@ def _fig_levels(title: str, panels: list[tuple[str, list[str], dict[str, Any]]],
         ax.set_title(name, fontsize=8)
         ax.tick_params(axis="y", labelsize=7)
         ax.ticklabel_format(axis="y", useOffset=False)  # values as they are, not "1e-5 + 4.95e-1"
-    fig.suptitle(f"{title} (mean ± SD)", fontsize=10)
+    fig.suptitle(f"{title}: mean and {CI_NAME}", fontsize=10)
     fig.tight_layout()
     _save(fig, path)
     plt.close(fig)
@@ -290,6 +312,13 @@ def _sample(doc: _Doc, result: dict[str, Any]) -> None:
     sess = s["sessions"]
     if sess:
         parts.append("Sessions: " + ", ".join(f"{v} {k}" for k, v in sorted(sess.items())) + ".")
+    protocols = s.get("protocols") or []
+    if len(protocols) > 1:
+        parts.append(
+            f"Participants ran under {len(protocols)} protocol files ("
+            + "; ".join(f"{p['source']}: {p['participants']}" for p in protocols)
+            + "): one database should hold one study; analyse each protocol's participants apart."
+        )
     doc.add(Para(" ".join(parts)))
     lists = []
     if s["withdrawn"]:
@@ -406,7 +435,8 @@ def _pairwise(doc: _Doc, result: dict[str, Any]) -> None:
             t = v["one_sample_t_vs_4"]
             if t:
                 lines.append(
-                    f"{_cmp_name(c)}: M = {v['mean']:.2f}, SD = {_fmt(v['sd'])}; against 4 "
+                    f"{_cmp_name(c)}: M = {v['mean']:.2f}, SD = {_fmt(v['sd'])}, 95 % CI "
+                    f"{_ci(t['ci95'])}; against 4 "
                     f"{apa_t(t)} (Bonferroni over comparisons: {apa_p(t['p_bonferroni'])}), "
                     f"d = {t['cohen_d']:.2f}."
                 )
@@ -430,7 +460,7 @@ def _tests_line(name: str, res: dict[str, Any]) -> str:
             " Post hoc (paired, Bonferroni): "
             + "; ".join(
                 f"{_name(ph['a'])} vs {_name(ph['b'])} t({ph['dof']:g}) = {_fmt(ph['t'])}, "
-                f"{apa_p(ph['p_bonferroni'])}"
+                f"{apa_p(ph['p_bonferroni'])}, Hedges' g = {_fmt(ph['hedges_g'])}"
                 for ph in sig
             )
             + "."
@@ -476,7 +506,8 @@ def _questionnaires(doc: _Doc, result: dict[str, Any]) -> None:
             "Scores by the instruments' published scoring (pedvr.study.scoring): per block, each score "
             "by condition with a one-way repeated-measures ANOVA (Greenhouse–Geisser corrected where "
             "Mauchly's "
-            "test rejects sphericity), Bonferroni post hoc tests and a Friedman test."
+            "test rejects sphericity), Bonferroni post hoc tests with Hedges' g and a Friedman test. "
+            + CI_METHOD
         ),
     )
     for qid, blocks in qs["by_block"].items():
@@ -525,7 +556,7 @@ def _measures(doc: _Doc, result: dict[str, Any]) -> None:
         Para(
             "Per trial from the recorded samples (definitions in pedvr.study.measures), over the trials that "
             "ran to their end; compared across conditions (across responsibility in a sweep) with the same "
-            "tests as the questionnaire scores."
+            "tests as the questionnaire scores. " + CI_METHOD
         ),
     )
     for block, b in m["by_block"].items():
@@ -643,14 +674,30 @@ def _corridor(doc: _Doc, result: dict[str, Any]) -> None:
 
 def _response_times(doc: _Doc, result: dict[str, Any]) -> None:
     rt = result.get("response_times")
+    simulated = (result.get("sample") or {}).get("simulated", 0)
     if not rt:
+        if simulated:
+            doc.add(
+                Heading(2, "Response times"),
+                Para(
+                    f"None to report: the answers come from {simulated} simulated participant"
+                    f"{'s' if simulated != 1 else ''} (a dry run), who answer as soon as they are asked."
+                ),
+            )
         return
     rows = tuple(
         (q, str(v["n"]), _fmt(v["median_s"]), f"{_fmt(v['q1_s'])}–{_fmt(v['q3_s'])}") for q, v in rt.items()
     )
+    whose = "participants'" if simulated != 1 else "participant's"
+    left_out = (
+        f" The {simulated} simulated {whose} answers are left out (they take no time)." if simulated else ""
+    )
     doc.add(
         Heading(2, "Response times"),
-        Para("Seconds from the item shown to the answer confirmed, over all answers to each questionnaire."),
+        Para(
+            "Seconds from the item shown to the answer confirmed, over all answers to each questionnaire."
+            + left_out
+        ),
         Table(
             ("questionnaire", "answers", "median (s)", "interquartile range (s)"),
             rows,
@@ -765,6 +812,14 @@ def write_report(result: dict[str, Any], *, out: str | Path) -> Path:
             "social-presence index is each participant's mean over the items (PedVR §6.5)."
         ),
     )
+    sample = result.get("sample") or {}
+    if sample.get("participants") and sample.get("simulated") == sample.get("participants"):
+        doc.add(
+            Para(
+                f"A dry run: all {sample['participants']} participants are simulated (scripted walks, seeded "
+                "answers, no response times). The numbers test the protocol and the pipeline, not people."
+            )
+        )
     _sample(doc, result)
     _pairwise(doc, result)
     _questionnaires(doc, result)

@@ -42,12 +42,9 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from itertools import combinations
-from typing import TYPE_CHECKING
 
 from pedvr.registry import Registry
-
-if TYPE_CHECKING:
-    from pedvr.study.questionnaire import Questionnaire
+from pedvr.study.instrument import Questionnaire
 
 Answers = Mapping[str, "float | str | None"]
 Problem = tuple[str, object, str]
@@ -227,6 +224,17 @@ def _tlx_check(q: Questionnaire) -> list[Problem]:
             it = q.items[index[dim]]
             if it.kind == "number" and (it.minimum, it.maximum) != (0, 100):
                 out.append((f"items[{index[dim]}]", f"{it.minimum}..{it.maximum}", "a TLX rating is 0..100"))
+            # The id is the key (the ratings and the weighting's choices meet by it), and the text is what
+            # the participant rates: an id moved onto another scale's text would score silently wrong.
+            if not it.text.strip().lower().startswith(TLX_DIMENSIONS[dim].lower()):
+                out.append(
+                    (
+                        f"items[{index[dim]}].text",
+                        it.text,
+                        f"the rating with id {dim!r} must begin with its scale's name, "
+                        f"{TLX_DIMENSIONS[dim]!r} (the name the paired comparisons use)",
+                    )
+                )
     pairs = [tlx_pair_id(a, b) for a, b in TLX_PAIRS]
     present = [p for p in pairs if p in index]
     if present and len(present) != len(pairs):

@@ -59,6 +59,7 @@ if TYPE_CHECKING:
     from pedvr.sim import Simulation
 
 SAMPLE_CHUNK_FRAMES = 90  # samples are committed about once per simulated second at 90 Hz
+DECLINED = "consent declined"  # the reason stored with the consent step a participant declined
 
 
 def software_version() -> str:
@@ -126,7 +127,7 @@ class Session:
         rows = self._open()
         total = len(self.plan)
         if all(r.status != "pending" for r in rows):
-            self.store.set_participant_status(self.pid, "finished")
+            self.store.settle_last_session(self.pid, "finished")  # killed after its last step: it finished
             return SessionResult(
                 "already_finished",
                 self.pid,
@@ -178,7 +179,7 @@ class Session:
                         index=step.index,
                         status="done",
                         session_id=self.session_id,
-                        reason="consent declined",
+                        reason=DECLINED,
                     )
                     break
                 st = "skipped" if outcome.kind == "skip" else "done"
@@ -218,6 +219,7 @@ class Session:
                     f"participant {self.pid} has no session in {self.store.path} to resume; "
                     "start without --resume"
                 )
+            claim_database(self.store, self.protocol)
             self.store.register(
                 participant=self.pid,
                 number=self.number,
@@ -266,6 +268,9 @@ class Session:
             )
         self.store.close_dead_sessions(self.pid)
         self.store.mark_interrupted_trials(self.pid)
+        if any(r.reason == DECLINED for r in rows):  # killed after the consent was declined
+            self.store.settle_last_session(self.pid, "withdrawn")
+            raise StudyStoreError(f"participant {self.pid} declined consent; there is nothing to resume")
         return rows
 
     def _store_questionnaires(self) -> None:
@@ -645,6 +650,42 @@ def door_row(trial_id: int, frame: int, ev: dict[str, Any], user: int | None) ->
     return (trial_id, frame, float(ev["t"]), str(ev["door"]), str(ev["event"]), int(ev["agent"]),
             None if other is None else int(other), ev.get("action"), int(with_user),
             json.dumps(rest, sort_keys=True) if rest else None)
+
+
+def claim_database(store: StudyStore, protocol: Protocol) -> None:
+    """One database holds one study: refuse a participant of another protocol, else record the protocol.
+
+    The database belongs to the protocol (its ``study.name``) that registered its first participant
+    (meta ``protocol``: name and file). A participant of a protocol with another name is refused,
+    naming both, before anything is written; an edited file of the same protocol is allowed (each
+    participant keeps the hash of the file they ran with, and ``--resume`` insists on it).
+
+    A database from before this record has none: it belongs to the protocol its participants ran
+    with, recognised by a participant with the same protocol hash, or a session whose protocol file
+    has the same name; anything else is refused, naming the files its sessions ran.
+    """
+    owner = store.meta("protocol")
+    if owner is None:
+        hashes = {r["protocol_hash"] for r in store.query("SELECT DISTINCT protocol_hash FROM participants")}
+        sources = [r["protocol_source"] for r in store.query(
+            "SELECT DISTINCT protocol_source FROM sessions ORDER BY session_id")]
+        if hashes and protocol.content_hash not in hashes and not any(
+            Path(src).name == Path(protocol.source).name for src in sources
+        ):
+            ran = ", ".join(sources) or f"protocol hash {', '.join(sorted(hashes))}"
+            raise StudyStoreError(
+                f"{store.path}: this study database holds the participants of {ran}, not of "
+                f"{protocol.source}: give protocol {protocol.name!r} a database of its own (--db; default "
+                f"./{protocol.name}.sqlite)"
+            )
+        store.set_meta("protocol", {"name": protocol.name, "source": protocol.source})
+        return
+    if owner.get("name") != protocol.name:
+        raise StudyStoreError(
+            f"{store.path}: this study database belongs to protocol {owner.get('name')!r} "
+            f"({owner.get('source')}), not to {protocol.name!r} ({protocol.source}): give protocol "
+            f"{protocol.name!r} a database of its own (--db; default ./{protocol.name}.sqlite)"
+        )
 
 
 MAX_DIFFERENCES = 12  # lines of a plan mismatch message before "... and N more"

@@ -34,11 +34,11 @@ import sqlite3
 import urllib.parse
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
-from pedvr.study.errors import ParticipantExistsError, StudyStoreError
+from pedvr.study.errors import DamagedStoreError, ParticipantExistsError, StudyStoreError, is_corruption
 
 # 2: gaze_events.target (1 is migrated on open: its gaze table was always empty);
 # 3: answers.response_time_s, samples.spheres (the red spheres reached so far);
@@ -195,11 +195,15 @@ class StudyStore:
                     f"{self.path}: cannot open the study database for writing ({exc})"
                 ) from None
             except sqlite3.DatabaseError as exc:
+                if is_corruption(exc):
+                    raise DamagedStoreError(self.path, str(exc)) from None
                 raise StudyStoreError(f"{self.path}: not a SQLite database ({exc})") from None
         try:
             have = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
         except sqlite3.DatabaseError as exc:
             self.db.close()
+            if is_corruption(exc):
+                raise DamagedStoreError(self.path, str(exc)) from None
             raise StudyStoreError(f"{self.path}: not a SQLite database ({exc})") from None
         if (have or read_only) and "meta" not in have:
             self.db.close()
@@ -252,6 +256,8 @@ class StudyStore:
                     break
         if isinstance(last, sqlite3.OperationalError):
             raise StudyStoreError(f"{self.path}: cannot open the study database to read it ({last})")
+        if last is not None and is_corruption(last):
+            raise DamagedStoreError(self.path, str(last))
         raise StudyStoreError(f"{self.path}: not a SQLite database ({last})")
 
     def _added_since(self, version: str) -> list[tuple[str, str, str, str]]:
@@ -293,6 +299,22 @@ class StudyStore:
         """Roll back a transaction left open by an interrupted write (a signal between BEGIN and COMMIT)."""
         if self.db.in_transaction:
             self.db.execute("ROLLBACK")
+
+    def check_intact(self) -> None:
+        """Raise :class:`DamagedStoreError` when SQLite's ``quick_check`` finds a damaged page.
+
+        It reads every page (seconds for hundreds of MB), so it runs once where a command starts
+        (``study run`` before anything is written, ``analyze`` and ``export`` before anything is read),
+        not on every open.
+        """
+        try:
+            rows = self.db.execute("PRAGMA quick_check(1)").fetchall()
+        except sqlite3.DatabaseError as exc:
+            if not is_corruption(exc):
+                raise
+            raise DamagedStoreError(self.path, str(exc)) from None
+        if rows != [("ok",)]:
+            raise DamagedStoreError(self.path, "; ".join(str(r[0]) for r in rows))
 
     def __enter__(self) -> StudyStore:
         return self
@@ -391,13 +413,85 @@ class StudyStore:
             )
 
     def close_dead_sessions(self, participant: str) -> int:
-        """Sessions of ``participant`` still ``running`` belong to a dead process: mark them ``crashed``."""
+        """Sessions of ``participant`` still ``running`` belong to a dead process: mark them ``crashed``.
+
+        Their ``ended_utc`` becomes the time of the last thing they committed (:meth:`last_record_utc`):
+        the process died after it, within about a second of samples or before the next answer.
+        """
         with self.transaction():
-            cur = self.db.execute(
-                "UPDATE sessions SET status = 'crashed' WHERE participant = ? AND status = 'running'",
-                (participant,),
+            dead = [
+                int(r["session_id"])
+                for r in self.query(
+                    "SELECT session_id FROM sessions WHERE participant = ? AND status = 'running'",
+                    (participant,),
+                )
+            ]
+            for sid in dead:
+                self.db.execute(
+                    "UPDATE sessions SET status = 'crashed', ended_utc = ? WHERE session_id = ?",
+                    (self.last_record_utc(sid), sid),
+                )
+            return len(dead)
+
+    def last_record_utc(self, session_id: int) -> str:
+        """When session ``session_id`` last committed something: a step, an answer, an event, a trial's
+        start or end, or a trial's last chunk of samples (its start plus the samples' monotonic span)."""
+        times = [
+            r["t"]
+            for r in self.query(
+                "SELECT started_utc AS t FROM sessions WHERE session_id = ? "
+                "UNION ALL SELECT MAX(finished_utc) FROM steps WHERE session_id = ? "
+                "UNION ALL SELECT MAX(answered_utc) FROM answers WHERE session_id = ? "
+                "UNION ALL SELECT MAX(utc) FROM events WHERE session_id = ? "
+                "UNION ALL SELECT MAX(COALESCE(ended_utc, started_utc)) FROM trials WHERE session_id = ?",
+                (session_id,) * 5,
             )
-            return cur.rowcount
+            if r["t"] is not None
+        ]
+        for r in self.query(
+            "SELECT t.started_utc, MAX(s.t_mono) - MIN(s.t_mono) AS span FROM trials t "
+            "JOIN samples s USING (trial_id) WHERE t.session_id = ? AND t.ended_utc IS NULL "
+            "GROUP BY t.trial_id",
+            (session_id,),
+        ):
+            start = datetime.fromisoformat(r["started_utc"].replace("Z", "+00:00"))
+            end = start + timedelta(seconds=float(r["span"] or 0.0))
+            times.append(end.isoformat(timespec="milliseconds").replace("+00:00", "Z"))
+        return max(times)  # ISO 8601 UTC strings of one format sort as times
+
+    def settle_last_session(self, participant: str, status: str) -> bool:
+        """Close the session that recorded ``participant``'s last step as ``status`` (``finished``, or
+        ``withdrawn`` after a declined consent) when its process died before saying so itself.
+
+        A process killed after committing the last step but before ending its session leaves that
+        session ``running`` (``crashed`` once :meth:`close_dead_sessions` has run): it did end as
+        ``status``, at the time the step was recorded. The participant takes ``status`` too, and an
+        event (kind ``closed_on_resume``) says what was repaired. True when something was.
+        """
+        rows = self.query(
+            "SELECT session_id, finished_utc FROM steps WHERE participant = ? AND status != 'pending' "
+            "AND session_id IS NOT NULL ORDER BY finished_utc DESC, step_index DESC LIMIT 1",
+            (participant,),
+        )
+        with self.transaction():
+            repaired = False
+            if rows:
+                sid, at = int(rows[0]["session_id"]), rows[0]["finished_utc"]
+                cur = self.db.execute(
+                    "UPDATE sessions SET status = ?, ended_utc = ? WHERE session_id = ? "
+                    "AND status IN ('running', 'crashed')",
+                    (status, at, sid),
+                )
+                repaired = cur.rowcount > 0
+                if repaired:
+                    self.db.execute(
+                        "INSERT INTO events (session_id, participant, step_index, utc, kind, detail) "
+                        "VALUES (?, ?, NULL, ?, 'closed_on_resume', ?)",
+                        (sid, participant, utc_now(), f"the process ended after the last step was "
+                         f"recorded; the session is {status} as of that step"),
+                    )
+            self.db.execute("UPDATE participants SET status = ? WHERE participant = ?", (status, participant))
+        return repaired
 
     def steps(self, participant: str) -> list[StepRow]:
         return [

@@ -72,6 +72,9 @@ def test_table3_quantities_by_hand(tmp_path: Path) -> None:
         assert got["one_sample_t_vs_4"]["t"] == pytest.approx(t.statistic)
         assert got["one_sample_t_vs_4"]["p"] == pytest.approx(t.pvalue)
         assert got["one_sample_t_vs_4"]["dof"] == 5
+        # the 95 % CI of the mean index, at full precision: mean ± t(.975, 5) SD / √6
+        half = stats.t.ppf(0.975, 5) * idx.std(ddof=1) / np.sqrt(6)
+        assert got["one_sample_t_vs_4"]["ci95"] == pytest.approx([idx.mean() - half, idx.mean() + half], abs=1e-12)
 
 
 def test_rm_anova_mauchly_gg_by_hand(tmp_path: Path) -> None:
@@ -132,6 +135,16 @@ def test_presence_index_and_json_cli(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert svg.count("<path") > 7 and "PedVR+G / Decoupled" in svg  # vector bars, text kept as text
     page = (tmp_path / "rep" / "report.html").read_text()
     assert page.count("<svg") == 1 and "<td class=\"num\">" in page and "Friedman test: χ²(2)" in page
+
+
+def test_the_report_gives_the_one_sample_tests_confidence_intervals(tmp_path: Path) -> None:
+    res = analyze(responses=_csv(tmp_path))
+    from pedvr.study.report import write_report
+
+    md = write_report(res, out=tmp_path / "rep").with_suffix(".md").read_text()
+    for c, v in res["scenarios"]["antipodal_circle"]["comparisons"].items():
+        lo, hi = v["one_sample_t_vs_4"]["ci95"]
+        assert f"M = {v['mean']:.2f}, SD = {v['sd']:.2f}, 95 % CI [{lo:.2f}, {hi:.2f}]; against 4 t(5) = " in md, c
 
 
 def test_incomplete_participant_is_left_out_of_the_anova(tmp_path: Path) -> None:

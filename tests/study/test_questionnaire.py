@@ -132,3 +132,48 @@ def test_check_response_messages() -> None:
     with pytest.raises(AnswerError, match=r"demographics\.gender = 'cat': expected one of female"):
         check_response(demo, demo.item("gender"), Response(text="cat"))
     assert check_response(demo, demo.item("age"), Response()) == Response()
+
+
+def _swap_items(tmp_path: Path, name: str, a: int, b: int, *, ids_only: bool = False) -> Path:
+    """A copy of a shipped questionnaire with items ``a`` and ``b`` (0-based) swapped: whole items (id,
+    text and flags move together, as when blocks are reordered) or only their ids (texts stay)."""
+    import tomllib
+
+    import tomli_w
+
+    data = tomllib.loads((QDIR / name).read_text())
+    items = data["items"]
+    if ids_only:
+        items[a]["id"], items[b]["id"] = items[b]["id"], items[a]["id"]
+    else:
+        items[a], items[b] = items[b], items[a]
+    f = tmp_path / name
+    f.write_bytes(tomli_w.dumps(data).encode())
+    return f
+
+
+def test_ssq_with_items_1_and_2_swapped_is_refused_at_load(tmp_path: Path) -> None:
+    # The SSQ is scored by position: with general discomfort (item 1, on Nausea and Oculomotor) answered
+    # "severe" and everything else "none", Kennedy's key gives Nausea 28.62 and Total 22.44; stored at
+    # position 2 (fatigue, Oculomotor only) the same answer would score Nausea 0 and Total 11.22.
+    right = score_ssq(_ssq(i1=3))
+    assert (right.nausea, right.total) == (pytest.approx(28.62), pytest.approx(22.44))
+    wrong = score_ssq(_ssq(i2=3))
+    assert (wrong.nausea, wrong.total) == (0, pytest.approx(11.22))
+    f = _swap_items(tmp_path, "ssq.toml", 0, 1)
+    with pytest.raises(ProtocolError) as exc:
+        load_questionnaire(f)
+    assert exc.value.problems == [
+        f"{f}: items[0].id = 'fatigue': expected 'general_discomfort', item 1 of Kennedy et al. (1993): the SSQ "
+        "is scored by position, so its items keep the standard order; fatigue is item 2",
+        f"{f}: items[1].id = 'general_discomfort': expected 'fatigue', item 2 of Kennedy et al. (1993): the SSQ "
+        "is scored by position, so its items keep the standard order; general_discomfort is item 1",
+    ]
+
+
+def test_ssq_with_an_unknown_symptom_id_lists_the_ids(tmp_path: Path) -> None:
+    f = tmp_path / "ssq.toml"
+    f.write_text((QDIR / "ssq.toml").read_text().replace('id = "burping"', 'id = "belching"'))
+    with pytest.raises(ProtocolError, match=r"ssq\.toml: items\[15\]\.id = 'belching': expected 'burping', item 16 "
+                                            r"of Kennedy et al\. \(1993\).*; the ids are general_discomfort, fatigue"):
+        load_questionnaire(f)

@@ -117,6 +117,88 @@ def test_sample_description(standard_result: dict) -> None:
     assert s["demographics"]["age"]["n"] == 5 and sum(s["demographics"]["gender"]["counts"].values()) == 5
 
 
+def test_levels_carry_95_ci_and_the_figures_draw_them(standard_result: dict, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 25.6: the per-condition figures show the mean and its 95 % CI (not ± SD), and say so."""
+    sp = standard_result["questionnaires"]["by_block"]["ipq"]["antipodal_circle"]["scores"]["spatial_presence"]
+    for lv, d in sp["levels"].items():
+        half = stats.t.ppf(0.975, d["n"] - 1) * d["sd"] / np.sqrt(d["n"])
+        assert d["ci95"] == pytest.approx([d["mean"] - half, d["mean"] + half]), lv
+        assert half != pytest.approx(d["sd"])  # with 4 participants the two differ: the test can tell
+    drawn: list[tuple[float, float, float]] = []
+    import matplotlib.axes
+
+    real = matplotlib.axes.Axes.errorbar
+
+    def spy(self, x, y, yerr=None, **kw):  # type: ignore[no-untyped-def]
+        drawn.append((y[0], y[0] - yerr[0][0], y[0] + yerr[1][0]))
+        return real(self, x, y, yerr=yerr, **kw)
+
+    monkeypatch.setattr(matplotlib.axes.Axes, "errorbar", spy)
+    write_report(standard_result, out=tmp_path / "rep")
+    want = [(d["mean"], *d["ci95"]) for d in sp["levels"].values()]
+    assert all(any(np.allclose(w, g) for g in drawn) for w in want)  # the spatial presence panel's three bars
+    svg = (tmp_path / "rep" / "scores_ipq_antipodal_circle.svg").read_text()
+    assert "mean and 95 % confidence interval" in svg and "± SD" not in svg
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert md.count("Figures show each condition's mean and its 95 % confidence interval (t distribution with "
+                    "n − 1 degrees of freedom over the participants with that condition; not the SD).") == 2
+
+
+def test_post_hoc_tests_of_scores_and_measures_give_effect_sizes(standard_result: dict, tmp_path: Path) -> None:
+    md = write_report(standard_result, out=tmp_path / "rep").with_suffix(".md").read_text()
+    sp = standard_result["questionnaires"]["by_block"]["ipq"]["antipodal_circle"]["scores"]["spatial_presence"]
+    for ph in sp["posthoc_bonferroni"]:
+        assert ph["hedges_g"] is not None
+        assert f"t({ph['dof']:g}) = {ph['t']:.2f}, " in md and f"Hedges' g = {ph['hedges_g']:.2f}" in md
+    scores = md.split("## Questionnaire scores", 1)[1].split("## Objective measures", 1)[0]
+    assert scores.count("Post hoc (paired, Bonferroni):") == scores.count("Hedges' g = ") // 3 > 0
+
+
+def test_a_dry_run_reports_no_response_times(standard_result: dict, tmp_path: Path) -> None:
+    """Simulated participants answer at once: their 0.00 s are left out and the report says why."""
+    assert standard_result["sample"]["simulated"] == 6 and standard_result["response_times"] == {}
+    md = write_report(standard_result, out=tmp_path / "rep").with_suffix(".md").read_text()
+    rt = md.split("## Response times", 1)[1]
+    assert rt.strip().startswith("None to report: the answers come from 6 simulated participants (a dry run)")
+    assert "0.00" not in rt and "| questionnaire |" not in rt
+    assert "A dry run: all 6 participants are simulated" in md
+
+
+def test_response_times_of_people_leave_the_simulated_out(tmp_path: Path) -> None:
+    from pedvr.study.console import ExperimenterConsole, NoKeys
+    from pedvr.study.protocol import load_protocol
+    from pedvr.study.session import Session
+
+    proto = tmp_path / "rt.toml"
+    proto.write_text(f'[study]\nname = "rt"\nseed = 3\nconditions = ["pedvr"]\nquestionnaire_dir = "{QDIR_SHIPPED}"\n'
+                     '[[steps]]\nid = "pre"\nkind = "questionnaire"\nquestionnaire = "ssq"\n')
+    db = tmp_path / "rt.sqlite"
+    now = [0.0]
+
+    class Person(SimulatedParticipant):  # a person who takes 1.5 s per answer (on the injected clock)
+        kind = "terminal"
+
+        def ask(self, question):  # type: ignore[no-untyped-def]
+            now[0] += 1.5
+            return super().ask(question)
+
+    import io
+
+    with StudyStore(db) as store:
+        run_session(proto, store, "P01")  # simulated
+        console = ExperimenterConsole(out=io.StringIO(), keys=NoKeys(), live=False, clock=lambda: now[0])
+        Session(protocol=load_protocol(proto), store=store, participant_id="P02", participant=Person(seed=3, number=2),
+                console=console, backend="headless").run()
+    res = analyze(db=db)
+    assert res["response_times"]["ssq"]["n"] == 16 and res["response_times"]["ssq"]["median_s"] == pytest.approx(1.5)
+    md = write_report(res, out=tmp_path / "rep").with_suffix(".md").read_text()
+    rt = md.split("## Response times", 1)[1]
+    assert "The 1 simulated participant' answers are left out" not in rt  # grammar: one participant
+    assert "The 1 simulated participant's answers are left out (they take no time)." in rt
+    assert "| ssq | 16 | 1.50 | 1.50–1.50 |" in rt
+
+
 def test_a_database_with_only_the_ssq_is_analysed(tmp_path: Path) -> None:
     proto = tmp_path / "ssq_only.toml"
     proto.write_text(f'[study]\nname = "s"\nseed = 3\nconditions = ["pedvr"]\nquestionnaire_dir = "{QDIR_SHIPPED}"\n'

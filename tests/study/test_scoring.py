@@ -157,3 +157,101 @@ def test_item_labels_and_steps_are_checked(tmp_path: Path) -> None:
     assert f'{f}: items[0].labels = ["x", "NA"]: 2 labels; expected 3, one per point 1..3' in lines
     assert f"{f}: items[1].step = 5.0: a step needs the item's min (answers are min + k * step)" in lines
     assert f"{f}: items[2].step = 1: only number items have a step" in lines
+
+
+def _swapped(tmp_path: Path, name: str, a: int, b: int, *, ids_only: bool) -> Path:
+    import tomllib
+
+    import tomli_w
+
+    data = tomllib.loads((QDIR / name).read_text())
+    items = data["items"]
+    if ids_only:
+        items[a]["id"], items[b]["id"] = items[b]["id"], items[a]["id"]
+    else:
+        items[a], items[b] = items[b], items[a]
+    f = tmp_path / f"{a}_{name}"
+    f.write_bytes(tomli_w.dumps(data).encode())
+    return f
+
+
+def _scores(q: object, answers: dict[str, object]) -> dict[str, float | None]:
+    """``q``'s scores as the analysis computes them: the SSQ by position (the stored item number), the
+    others by their registered scoring, by item id."""
+    from pedvr.study.questionnaire import score_ssq
+
+    if q.kind == "ssq":  # type: ignore[attr-defined]
+        return score_ssq({it.number: answers[it.id] for it in q.items}).as_dict()  # type: ignore[attr-defined]
+    return score_answers(q, answers)  # type: ignore[arg-type]
+
+
+def _answers(q: object, rng: object) -> dict[str, object]:
+    out: dict[str, object] = {}
+    for it in q.items:  # type: ignore[attr-defined]
+        if it.kind == "scale":
+            out[it.id] = int(rng.integers(q.scale.minimum, q.scale.maximum + 1))  # type: ignore[attr-defined]
+        elif it.kind == "number":
+            out[it.id] = float(rng.integers(0, 21) * 5)  # type: ignore[attr-defined]
+        else:
+            out[it.id] = str(rng.choice(list(it.choices)))  # type: ignore[attr-defined]
+    return out
+
+
+SCORED = sorted([*(f"{q}.toml" for q in INSTRUMENTS), "ssq.toml"])
+
+
+@pytest.mark.parametrize("name", SCORED)
+def test_reordered_items_are_refused_or_score_the_same(name: str, tmp_path: Path) -> None:
+    """Issue 25.1: moving an item (id, text and flags together) to another place in a scored instrument
+    never scores silently wrong: the SSQ, keyed by position, refuses the file naming the item; the
+    instruments keyed by id score the same answers the same."""
+    import numpy as np
+
+    q = load_questionnaire(QDIR / name)
+    rng = np.random.default_rng(7)
+    answers = _answers(q, rng)
+    want = _scores(q, answers)
+    refused = 0
+    for k in range(len(q.items) - 1):
+        f = _swapped(tmp_path, name, k, k + 1, ids_only=False)
+        try:
+            moved = load_questionnaire(f)
+        except ProtocolError as exc:
+            assert f"{f}: items[{k}].id = " in str(exc)
+            refused += 1
+            continue
+        assert _scores(moved, answers) == want, f"items {k} and {k + 1} swapped score differently"
+    assert refused == (len(q.items) - 1 if q.kind == "ssq" else 0)
+
+
+@pytest.mark.parametrize("name", ["ssq.toml", "sus.toml", "copresence.toml", "nasa_tlx.toml", "nasa_tlx_raw.toml",
+                                  "slater_usoh_steed.toml"])
+def test_an_id_moved_onto_another_items_text_is_refused_or_harmless(name: str, tmp_path: Path) -> None:
+    """Swapping two ids while the texts stay is refused where it would change a score: by position (SSQ),
+    by the published reversed items (SUS, co-presence), by the scale each TLX rating names. (The IPQ
+    cannot tell: an id moved between two unreversed items of different subscales is not detectable
+    without binding ids to texts, which would refuse translations.)"""
+    import numpy as np
+
+    q = load_questionnaire(QDIR / name)
+    answers_by_text = {it.text: v for it, v in zip(q.items, _answers(q, np.random.default_rng(3)).values(),
+                                                      strict=True)}
+    want = _scores(q, {it.id: answers_by_text[it.text] for it in q.items})
+    for k in range(len(q.items) - 1):
+        f = _swapped(tmp_path, name, k, k + 1, ids_only=True)
+        try:
+            moved = load_questionnaire(f)
+        except ProtocolError:
+            continue
+        # the participant answers the texts they see; the scores must not change
+        got = _scores(moved, {it.id: answers_by_text[it.text] for it in moved.items})
+        assert got == want, f"ids of items {k} and {k + 1} swapped: scored {got}, expected {want}"
+
+
+def test_tlx_rating_must_name_its_scale(tmp_path: Path) -> None:
+    f = _swapped(tmp_path, "nasa_tlx_raw.toml", 0, 1, ids_only=True)
+    with pytest.raises(ProtocolError, match=r"items\[0\]\.text = 'Mental Demand: How mentally demanding was the "
+                                            r"task\? .*': the rating with id 'physical' must begin with its scale's "
+                                            r"name, 'Physical Demand' \(the name the paired comparisons use\) "
+                                            r"\(nasa_tlx scoring\)"):
+        load_questionnaire(f)
