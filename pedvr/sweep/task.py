@@ -80,6 +80,8 @@ def _run(task: RunTask) -> tuple[dict[str, Any], bytes | None]:
         condition=task.condition,
         responsibility=task.responsibility,
         record=task.keep_recording or task.steerbench,
+        personal_space=task.personal_space,
+        user_walk=task.user_walk,
     )
     summary = sim.summary()
     summary.update(extra)
