@@ -90,10 +90,11 @@ _INDEX = re.compile(r"^(?P<name>[^\[\]]+)(?P<idx>(\[\d+\])*)$")
 
 
 def pedvr_version() -> str:
-    """The pedvr version that goes into every task's key (the study's notion of it)."""
-    from pedvr.study.session import software_version
+    """The pedvr version that goes into every task's key: ``pedvr.__version__``, the code that
+    runs (an editable install's metadata keeps the version it was installed with)."""
+    from pedvr import __version__
 
-    return software_version()
+    return __version__
 
 
 def _digest(obj: object, n: int = 16) -> str:
