@@ -273,10 +273,10 @@ def _runs_section(
                 cells.append(_fmt(m) + ("" if not math.isfinite(h) else f" ± {_fmt(h)}"))
             lines.append(f"| {s} | " + " | ".join(cells) + " |")
         lines.append("")
-    cells: list[dict[str, Any]] = []
+    summary: list[dict[str, Any]] = []
     if measures and len(ok):
         for x in factors or ["scene"]:
-            lines += _factor_section(ok, x, [f for f in factors if f != x], measures, out, cells)
+            lines += _factor_section(ok, x, [f for f in factors if f != x], measures, out, summary)
     rest = [m for m in varying if m not in measures]
     if rest:
         lines += [
@@ -285,9 +285,11 @@ def _runs_section(
             + ".",
             "",
         ]
-    if cells:
-        pd.DataFrame(cells).to_csv(out / "summary.csv", index=False)
+    if summary:
+        pd.DataFrame(summary).to_csv(out / "summary.csv", index=False)
         lines += ["Every mean and interval above: [summary.csv](summary.csv).", ""]
+    else:
+        (out / "summary.csv").unlink(missing_ok=True)  # a stale one from an earlier report
     return lines
 
 
@@ -380,7 +382,8 @@ def _plot(
     xpos = np.asarray(xs, dtype=float) if numeric else np.arange(len(xs), dtype=float)
     span = float(np.ptp(xpos)) if len(xpos) > 1 else 1.0
     rows, cols = len(stats), len(fs)
-    fig = Figure(figsize=(1.2 + 3.1 * cols, 0.9 + 1.9 * rows), dpi=100, layout="constrained")
+    panel_w = max(3.1, (0.1 if numeric else 0.4) * len(xs))  # many scenes need room for their names
+    fig = Figure(figsize=(1.2 + panel_w * cols, 0.9 + 1.9 * rows), dpi=100, layout="constrained")
     axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey="row")
     colours = [f"C{k % 10}" for k in range(len(ss))]
     for r, (measure, by) in enumerate(stats.items()):
@@ -412,7 +415,10 @@ def _plot(
             if r == rows - 1:
                 ax.set_xlabel(x, fontsize=8)
                 if not numeric or len(xs) <= 8:  # tick the swept values themselves
-                    ax.set_xticks(xpos, [_label(v) for v in xs], rotation=20 if len(xs) > 4 else 0)
+                    turn = 35 if len(xs) > 4 else 0
+                    ax.set_xticks(
+                        xpos, [_label(v) for v in xs], rotation=turn, ha="right" if turn else "center"
+                    )
                 if not numeric:
                     ax.set_xlim(-0.5, len(xs) - 0.5)
     title = f"against {x}: mean over seeds, 95 % CI"
