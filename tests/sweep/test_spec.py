@@ -347,3 +347,18 @@ seeds = [1]
         f"sweep.scenes[3] = 'sub/none-*.toml': the glob matches no .toml or .xml file (paths are relative to the "
         f"spec file: {tmp_path.resolve()}/sub/none-*.toml)",
     ]
+
+
+@pytest.mark.parametrize(
+    "seeds, message",
+    [
+        ("[-3]", "sweep.seeds = [-3]: expected a non-empty list of integers >= 0, or {from = 1, count = 200}"),
+        ("{ from = -3, count = 2 }", "sweep.seeds.from = -3: must be >= 0"),
+    ],
+)
+def test_negative_seeds_are_one_line(tmp_path: Path, seeds: str, message: str) -> None:
+    """Issue 24.2: numpy's generators take no negative seed; a spec says so in one line, as `pedvr run`."""
+    path = write_spec(tmp_path, SMALL.format(duration=1.0).replace("[1, 2, 3, 4]", seeds))
+    with pytest.raises(SweepSpecError) as err:
+        load_spec(path)
+    assert err.value.problems == [f"{path}: {message}"]
