@@ -375,13 +375,12 @@ def _doors(c: _Checker, raw: object, bounds: tuple[Vec2, Vec2] | None,
                 c.bad(f"{path}.name", name, "another door has this name")
             names.add(name)
         span = _door_span(c, d, path)
-        key = f"{path}.span" if "span" in d else f"{path}.width"
-        shown = d["span"] if "span" in d else d.get("width")
         if span is not None and kind is not None:  # the width first: a 0 m door has no side to pull from
             lo, hi = DOOR_WIDTH[kind]
             width = math.dist(span[0], span[1])
             if not lo <= width <= hi:
-                c.bad(key, shown, f"a {kind} door is {lo:g} to {hi:g} m wide; this is {width:.2f} m")
+                c.bad(f"{path}.span" if "span" in d else f"{path}.width", d["span"] if "span" in d
+                      else d.get("width"), f"a {kind} door is {lo:g} to {hi:g} m wide; this is {width:.2f} m")
                 span = None
         if kind == "revolving":
             for key in ("swing", "hinge", "pull_side", "closing_speed_deg"):
@@ -416,6 +415,8 @@ def _doors(c: _Checker, raw: object, bounds: tuple[Vec2, Vec2] | None,
                 or closing is None or sensing is None or rotation is None or name is None:
             continue
         width = math.dist(span[0], span[1])
+        key = f"{path}.span" if "span" in d else f"{path}.width"
+        shown = d["span"] if "span" in d else d.get("width")
         line = LineString(span)
         if bounds is not None and not box(*bounds[0], *bounds[1]).contains(line):
             c.bad(key, shown, "lies outside world.bounds")
@@ -549,7 +550,6 @@ def _characters(c: _Checker, v: object, path: str, base: Path | None, *, bone_ma
     must be a usable skinned humanoid (:func:`pedvr.scene.avatars.open_avatar`, no GL: issue
     25.11); ``checked`` remembers the files read so far, so a profile that inherits the list does
     not read (or report) them again."""
-
     if not isinstance(v, list) or not v or not all(isinstance(x, str) and x for x in v):
         c.bad(path, v, 'expected a list of "builtin" or glTF/VRM file patterns')
         return ()
