@@ -171,7 +171,10 @@ def _code_section(df: pd.DataFrame) -> list[str]:
         only = dict(zip(COLUMNS, counts.index[0], strict=True)) if len(counts) else None
         return [f"Code: {describe(only)}." if only else "Code: no ok rows.", ""]
     lines = [f"**Code: the ok rows were made by {len(counts)} different codes** (`--allow-mixed-code`):", ""]
-    lines += [f"- {n} rows: {describe(dict(zip(COLUMNS, k, strict=True)))}" for k, n in counts.items()]
+    lines += [
+        f"- {n} row{'s' if n != 1 else ''}: {describe(dict(zip(COLUMNS, k, strict=True)))}"
+        for k, n in counts.items()
+    ]
     return lines + [""]
 
 

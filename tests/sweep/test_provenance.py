@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numba
 import numpy as np
+import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
@@ -46,7 +47,7 @@ def test_rows_carry_the_code_that_made_them(tmp_path: Path) -> None:
         dirty = bool(
             _git("status", "--porcelain", "--untracked-files=all", "--", "pedvr", "pyproject.toml").strip()
         )
-        assert row["pedvr_git_dirty"] == dirty and (row["pedvr_git_diff"] is not None) == dirty
+        assert row["pedvr_git_dirty"] == dirty and pd.isna(row["pedvr_git_diff"]) != dirty
     assert df[list(COLUMNS)].nunique(dropna=False).max() == 1  # one code for the whole sweep
 
 
@@ -118,3 +119,20 @@ def test_resume_refuses_rows_from_other_code_unless_allowed(
     assert sorted(read_table(out).column("numpy_version").to_pylist()) == sorted(
         ["1.0.0", "1.0.0", np.__version__]
     )
+
+
+def test_the_report_says_when_rows_come_from_different_code(tmp_path: Path) -> None:
+    from pedvr.sweep.report import write_sweep_report
+
+    spec = load_spec(write_spec(tmp_path, SMALL.format(duration=0.2).replace("[1, 2, 3, 4]", "[1]")))
+    out = tmp_path / "o"
+    assert run_sweep(spec, out=out, workers=0, progress=False).ok == 3
+    assert f"Code: {describe(provenance())}." in write_sweep_report(out).read_text()
+    table = read_table(out)
+    col = table.column_names.index("numpy_version")
+    table = table.set_column(col, "numpy_version", pa.array(["1.0.0", np.__version__, np.__version__]))
+    pq.write_table(table, out / "runs.parquet")
+    text = write_sweep_report(out).read_text()
+    assert "**Code: the ok rows were made by 2 different codes** (`--allow-mixed-code`):" in text
+    assert f"- 2 rows: {describe(provenance())}" in text
+    assert f"- 1 row: {describe({**provenance(), 'numpy_version': '1.0.0'})}" in text
