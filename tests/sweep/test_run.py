@@ -305,8 +305,13 @@ def test_a_worker_killed_holding_a_finished_result_is_waited_for(
         time.sleep(0.3)  # and told this client that the result is lost
 
     try:
-        outcome = run_sweep(spec, out=tmp_path / "held", client=cluster_client, progress=False,
-                            on_result=kill_the_holder_of_an_unfetched_result)
+        outcome = run_sweep(
+            spec,
+            out=tmp_path / "held",
+            client=cluster_client,
+            progress=False,
+            on_result=kill_the_holder_of_an_unfetched_result,
+        )
     finally:
         cluster_client.wait_for_workers(2, timeout=180)
     assert killed
@@ -325,16 +330,26 @@ def test_resume_runs_error_rows_again(small: tuple[SweepSpec, pd.DataFrame], tmp
     assert run_sweep(spec, out=out, workers=0, progress=False).ok == 12
     table = read_table(out)
     victim = spec.tasks[3].key
-    status = ["error" if k == victim else s for k, s in
-              zip(table.column("run_key").to_pylist(), table.column("status").to_pylist(), strict=True)]
-    error = ["NoneType: None" if k == victim else e for k, e in
-             zip(table.column("run_key").to_pylist(), table.column("error").to_pylist(), strict=True)]
+    status = [
+        "error" if k == victim else s
+        for k, s in zip(table.column("run_key").to_pylist(), table.column("status").to_pylist(), strict=True)
+    ]
+    error = [
+        "NoneType: None" if k == victim else e
+        for k, e in zip(table.column("run_key").to_pylist(), table.column("error").to_pylist(), strict=True)
+    ]
     table = table.set_column(table.column_names.index("status"), "status", pa.array(status))
     table = table.set_column(table.column_names.index("error"), "error", pa.array(error, pa.string()))
     pq.write_table(table, out / "runs.parquet")
     ran: list[str] = []
-    again = run_sweep(spec, out=out, resume=True, workers=0, progress=False,
-                      on_result=lambda row: ran.append(row["run_key"]))
+    again = run_sweep(
+        spec,
+        out=out,
+        resume=True,
+        workers=0,
+        progress=False,
+        on_result=lambda row: ran.append(row["run_key"]),
+    )
     assert ran == [victim] and (again.skipped, again.ran, again.ok, again.retried) == (11, 1, 1, 1)
     assert "1 failed or lost before and ran again" in again.summary()
     pd.testing.assert_frame_equal(_frame(out), serial)
