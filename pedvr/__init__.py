@@ -2,6 +2,8 @@
 
 import os as _os
 
+__version__ = "0.2.0"
+
 # numba's parallel kernels run on GNU OpenMP here. By default its idle worker
 # threads spin before they sleep; when the cores are shared (a renderer, a
 # compositor, the OpenXR runtime, another process) the spinning threads and

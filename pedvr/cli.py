@@ -1,7 +1,8 @@
 """The ``pedvr`` command line.
 
 ``pedvr run [SCENE]``          run a scene (default: antipodal_circle)
-``pedvr scene check FILE...``  validate scene files; exit 2 on problems
+``pedvr scene check FILE...``  validate scene files; exit 2 on problems; warnings (bodies that
+                               start overlapping, :mod:`pedvr.scene.checks`) are printed, exit 0
 ``pedvr scene list``           the shipped scenes
 ``pedvr bench steering``       ORCA step time against RVO2
 ``pedvr bench behavior``       behavior scheduler tick time (trees, events)
@@ -40,7 +41,16 @@ class _Parser(argparse.ArgumentParser):
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """Defaults in every option's help; descriptions keep their line breaks."""
+    """Defaults in every option's help; descriptions keep their line breaks.
+
+    An option whose help already says its default ("(default: the scene's ...)"), and one whose
+    default is None or a flag's False, gets no "(default: None)" added after it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if "default" in text or action.default is None or action.default is False:
+            return text
+        return super()._get_help_string(action)
 
 
 def _positive(kind: Callable[[str], float]) -> Callable[[str], float]:
@@ -85,12 +95,22 @@ CONDITION_HELP = """conditions (PedVR §6):
 
 
 def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
+    """``pedvr.__version__``: the code that runs, not an install's metadata, which an editable
+    install keeps from the day it was installed."""
+    from pedvr import __version__
 
+    return __version__
+
+
+def _seed(text: str) -> int:
+    """A seed: an integer >= 0 (numpy's generators take no negative seeds)."""
     try:
-        return version("pedvr")
-    except PackageNotFoundError:  # a source tree that was never installed
-        return "0.1.0+src"
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be an integer >= 0")
+    return v
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -109,11 +129,12 @@ def build_parser() -> argparse.ArgumentParser:
                           "else headless")
     run.add_argument("--duration", type=_positive(float), default=None,
                      help="simulated seconds (default: the scene's duration)")
-    run.add_argument("--seed", type=int, default=None, help="overrides the scene's seed")
+    run.add_argument("--seed", type=_seed, default=None, help="an integer >= 0 (default: the scene's seed)")
     run.add_argument("--condition", default="pedvr", choices=CONDITIONS,
                      help="crowd model (see conditions below)")
     run.add_argument("--responsibility", type=_unit, default=None,
-                     help="share ρ of avoidance virtual agents take toward the user (0..1)")
+                     help="share ρ of avoidance virtual agents take toward the user, 0..1 "
+                          "(default: the scene's)")
     run.add_argument("--personal-space", type=_nonnegative, default=None, metavar="M",
                      help="metres agents keep from the user where there is room (default: the scene's, 0.3)")
     run.add_argument("--user-walk", default=None, choices=USER_WALKS,
@@ -144,7 +165,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     scene = sub.add_parser("scene", help="scene files (check, list)")
     ssub = scene.add_subparsers(dest="scene_command", required=True, parser_class=_Parser, metavar="ACTION")
-    check = ssub.add_parser("check", help="validate scene files")
+    check = ssub.add_parser("check", help="validate scene files",
+                            description="Validate scene files: every problem (exit 2) and every warning "
+                                        "(printed as FILE: warning: ...; a file with warnings only exits 0).")
     check.add_argument("files", nargs="+")
     ssub.add_parser("list", help="list shipped scenes")
 
@@ -317,6 +340,7 @@ def _check_outputs(args: argparse.Namespace) -> None:
 
 def _scene(args: argparse.Namespace) -> int:
     from pedvr.errors import SceneError
+    from pedvr.scene.checks import spawn_warnings
     from pedvr.scene.loader import load_scene
 
     if args.scene_command == "list":
@@ -332,9 +356,13 @@ def _scene(args: argparse.Namespace) -> int:
                 print(line)
             status = 2
             continue
+        warnings = spawn_warnings(s)
+        for line in warnings:
+            print(line)
         n = sum(sp.count or len(sp.positions) for sp in s.spawns)
         print(f"{f}: ok: scene {s.name!r}, {_count(n, 'agent')}, "
-              f"{_count(len(s.world.obstacles), 'obstacle')}, {_count(len(s.behavior.states), 'state')}")
+              f"{_count(len(s.world.obstacles), 'obstacle')}, {_count(len(s.behavior.states), 'state')}"
+              + (f"; {_count(len(warnings), 'warning')}" if warnings else ""))
     return status
 
 

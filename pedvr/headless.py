@@ -69,14 +69,17 @@ def write_outputs(
         f"  {summary['steps']} steps of {sim.dt * 1e3:.2f} ms = {sim.t:.1f} s simulated in {wall:.1f} s "
         f"({summary.get('realtime_factor')}x real time)"
     )
-    print(
-        f"  agents {summary['agents']}, arrivals {summary['arrivals']}, mean speed "
-        f"{summary['mean_speed_mps']} m/s, min distance to user {summary['min_user_distance_m']} m"
+    # No user (a SteerSuite case, user.enabled = false), or no agent beside one: no distance to print.
+    near = summary["min_user_distance_m"]
+    user = (
+        "no user in the scene" if sim.user is None
+        else "no agents, so no distance to the user" if near is None else f"min distance to user {near} m"
     )
-    print(
-        f"  max overlap {summary['max_overlap_m']} m, pairs overlapping > 1 cm: "
-        f"{summary['overlaps_over_1cm']}, into the user {summary['user_overlap_max_m']} m"
-    )
+    print(f"  agents {summary['agents']}, arrivals {summary['arrivals']}, mean speed "
+          f"{summary['mean_speed_mps']} m/s, {user}")
+    into = "" if sim.user is None else f", into the user {summary['user_overlap_max_m']} m"
+    print(f"  max overlap {summary['max_overlap_m']} m, pairs overlapping > 1 cm: "
+          f"{summary['overlaps_over_1cm']}{into}")
     if summary.get("user_clearance_p50_m") is not None:
         print(f"  clearance to the user p5 {summary['user_clearance_p5_m']} m, p50 "
               f"{summary['user_clearance_p50_m']} m; steps inside the personal space "

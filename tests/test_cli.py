@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -60,7 +61,10 @@ def test_auto_backend_falls_back_to_headless_and_says_why(tmp_path: Path, monkey
     (["run", "--personal-space", "3"], 2, r"argument --personal-space: '3' must be in \[0, 2\] m"),
     (["run", "--user-walk", "zigzag"], 2, r"argument --user-walk: invalid choice: 'zigzag'"),
     ([], 2, r"^pedvr: error: the following arguments are required: COMMAND; see 'pedvr --help'$"),
-    (["run", "--seed", "x"], 2, r"^pedvr: error: run: argument --seed: invalid int value: 'x'; see 'pedvr run --help'$"),
+    (["run", "--seed", "x"], 2, r"^pedvr: error: run: argument --seed: 'x' is not an integer; see 'pedvr run --help'$"),
+    # issue 24.2: numpy's generators take no negative seed; one line, not numpy's ValueError
+    (["run", "headon_corridor", "--seed", "-3"], 2,
+     r"^pedvr: error: run: argument --seed: '-3' must be an integer >= 0; see 'pedvr run --help'$"),
 ])
 def test_bad_input_is_one_clear_line(argv: list[str], code: int, message: str,
                                      capsys: pytest.CaptureFixture) -> None:
@@ -113,3 +117,60 @@ def test_python_dash_m_and_no_traceback_on_bad_scene(tmp_path: Path) -> None:
     assert all(line.startswith(f"pedvr: error: {bad}: ") for line in lines)
     assert any("world = <missing>: required table" in line for line in lines)
     assert any("user = <missing>: required table" in line for line in lines)
+
+
+def test_run_help_says_each_default_once(capsys: pytest.CaptureFixture) -> None:
+    """Issue 25.14: an option whose help names its default got argparse's "(default: None)" too."""
+    import re
+
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = " ".join(capsys.readouterr().out.split())  # argparse wraps lines; compare words
+    assert "(default: None)" not in text and "(default: False)" not in text
+    options = re.split(r" (?=--[a-z-]+ )", text)
+    duration = next(o for o in options if o.startswith("--duration DURATION"))
+    assert duration.count("(default") == 1 and "(default: the scene's duration)" in duration
+    assert "(default: pedvr)" in text and "(default: 30.0)" in text  # plain defaults are still shown
+    for o in options:
+        assert o.count("(default") <= 1, o
+
+
+def test_version_is_0_2_0_from_one_place(capsys: pytest.CaptureFixture) -> None:
+    """Issue 25.8: README says pedvr 0.2, pyproject said 0.1.0; now pyproject reads pedvr.__version__."""
+    import tomllib
+
+    import pedvr
+
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert capsys.readouterr().out.strip() == "pedvr 0.2.0" == f"pedvr {pedvr.__version__}"
+    project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
+    assert "version" not in project["project"] and "version" in project["project"]["dynamic"]
+    assert project["tool"]["setuptools"]["dynamic"]["version"] == {"attr": "pedvr.__version__"}
+
+
+STEERSUITE_NO_USER = """<SteerBenchTestCase xmlns="http://www.magix.ucla.edu/steerbench">
+  <header><version>1.0</version><name>lone</name>
+    <worldBounds><xmin>-10</xmin><xmax>10</xmax><ymin>0</ymin><ymax>0</ymax><zmin>-10</zmin><zmax>10</zmax></worldBounds>
+  </header>
+  <agent><name>A</name>
+    <initialConditions><radius>0.5</radius><position><x>-3</x><y>0</y><z>0</z></position>
+      <direction><x>1</x><y>0</y><z>0</z></direction><speed>0</speed></initialConditions>
+    <goalSequence><seekStaticTarget><targetLocation><x>3</x><y>0</y><z>0</z></targetLocation>
+      <desiredSpeed>1.3</desiredSpeed><timeDuration>1000.0</timeDuration></seekStaticTarget></goalSequence>
+  </agent>
+</SteerBenchTestCase>
+"""
+
+
+def test_a_case_without_a_user_says_so(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """Issue 25.15: a SteerSuite case has no user; the summary printed "min distance to user None m"."""
+    case = tmp_path / "lone.xml"
+    case.write_text(STEERSUITE_NO_USER)
+    assert main(["run", str(case), "--backend", "headless", "--duration", "0.2", "--quiet",
+                 "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "None" not in out and "into the user" not in out
+    assert "agents 1, arrivals 0, mean speed" in out and ", no user in the scene\n" in out
+    assert main(["run", "headon_corridor", "--duration", "0.2", "--quiet", "--out", str(tmp_path / "o2")]) == 0
+    assert re.search(r"min distance to user \d+\.\d+ m\n", capsys.readouterr().out)

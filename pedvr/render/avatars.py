@@ -28,166 +28,27 @@ turned round.
 from __future__ import annotations
 
 import io
-import re
 from pathlib import Path
 
 import numpy as np
 
 from pedvr.body import JOINTS, PARENTS, REST_OFFSETS
 from pedvr.body import skeleton as sk
-from pedvr.errors import PedvrError
 from pedvr.render.bodymesh import ALWAYS, VERTEX_DTYPE, CharacterMesh, MeshLOD, _decimate
+
+# The file is read and checked GL-free in the scene layer (scene check and scene loading use the same
+# check); these names stay importable from here.
+from pedvr.scene.avatars import REQUIRED, AvatarError, map_bones, normalise_bone_name, open_avatar
+from pedvr.scene.avatars import accessor as _accessor
+
+__all__ = ["REQUIRED", "AvatarError", "load_avatar", "map_bones", "normalise_bone_name"]
 
 TEXTURED = 12  # crowd.glsl's region for avatars' base-colour texture
 
-REQUIRED = ("Pelvis", "Head", "LShoulder", "LElbow", "LWrist", "RShoulder", "RElbow", "RWrist",
-            "LHip", "LKnee", "LAnkle", "RHip", "RKnee", "RAnkle")
-
-# Normalised bone names (lower case, no separators, side as a "left"/"right" prefix) per joint.
-_ALIASES: dict[str, tuple[str, ...]] = {
-    "Pelvis": ("hips", "pelvis", "hip"),
-    "Spine1": ("spine", "spine01", "spine0"),
-    "Spine2": ("chest", "spine1", "spine02"),
-    "Spine3": ("upperchest", "spine2", "spine03"),
-    "Neck": ("neck", "neck01", "neck1"),
-    "Head": ("head",),
-    "{s}Eye": ("{s}eye",),
-    "{s}Collar": ("{s}shoulder", "{s}clavicle", "{s}collar"),
-    "{s}Shoulder": ("{s}upperarm", "{s}arm"),
-    "{s}Elbow": ("{s}lowerarm", "{s}forearm"),
-    "{s}Wrist": ("{s}hand", "{s}wrist"),
-    "{s}Hand": ("{s}middleproximal", "{s}handmiddle1", "{s}middle01", "{s}middle1"),
-    "{s}Hip": ("{s}upperleg", "{s}upleg", "{s}thigh"),
-    "{s}Knee": ("{s}lowerleg", "{s}leg", "{s}calf", "{s}shin"),
-    "{s}Ankle": ("{s}foot", "{s}ankle"),
-    "{s}Toe": ("{s}toes", "{s}toebase", "{s}toe", "{s}ball"),
-}
-_VRM_BONES = {  # VRM humanoid bone -> joint
-    "hips": "Pelvis", "spine": "Spine1", "chest": "Spine2", "upperChest": "Spine3", "neck": "Neck",
-    "head": "Head", "leftEye": "LEye", "rightEye": "REye",
-    **{f"{side}{part}": f"{s}{joint}" for side, s in (("left", "L"), ("right", "R")) for part, joint in (
-        ("Shoulder", "Collar"), ("UpperArm", "Shoulder"), ("LowerArm", "Elbow"), ("Hand", "Wrist"),
-        ("MiddleProximal", "Hand"), ("UpperLeg", "Hip"), ("LowerLeg", "Knee"), ("Foot", "Ankle"),
-        ("Toes", "Toe"))},
-}
-_IGNORED_TOKENS = {"", "mixamorig", "mixamorig1", "mixamorig2", "j", "bip", "bip01", "c", "def", "armature",
-                   "jnt", "joint", "bone", "ctrl", "b"}
 _MAIN_CHILD = {"Pelvis": "Spine1", "Spine1": "Spine2", "Spine2": "Spine3", "Spine3": "Neck", "Neck": "Head",
                **{f"{s}{a}": f"{s}{b}" for s in "LR" for a, b in (
                    ("Collar", "Shoulder"), ("Shoulder", "Elbow"), ("Elbow", "Wrist"), ("Wrist", "Hand"),
                    ("Hip", "Knee"), ("Knee", "Ankle"), ("Ankle", "Toe"))}}
-
-
-class AvatarError(PedvrError):
-    """An avatar file cannot be used: one line naming the file and what is missing."""
-
-    exit_code = 2
-
-
-def _alias_table() -> dict[str, str]:
-    out: dict[str, str] = {}
-    for joint, names in _ALIASES.items():
-        for s, side in (("L", "left"), ("R", "right")) if "{s}" in joint else (("", ""),):
-            for n in names:
-                out.setdefault(n.format(s=side), joint.format(s=s))
-    return out
-
-
-_ALIAS = _alias_table()
-
-
-def normalise_bone_name(name: str) -> str:
-    """``mixamorig:LeftArm``, ``J_Bip_L_UpperArm``, ``upperarm_l``, ``UpperArm.L`` → ``leftarm`` /
-    ``leftupperarm``: lower case, prefixes dropped, the side as a ``left``/``right`` prefix."""
-    tokens = re.split(r"[:_.\s|\-]+", name.strip().lower())
-    side = ""
-    rest = []
-    for tok in tokens:
-        if tok in ("l", "left"):
-            side = "left"
-        elif tok in ("r", "right"):
-            side = "right"
-        elif tok not in _IGNORED_TOKENS:
-            rest.append(tok)
-    base = "".join(rest)
-    if not side:
-        for word in ("left", "right"):
-            if base.startswith(word):
-                side, base = word, base[len(word):]
-            elif base.endswith(word):
-                side, base = word, base[: -len(word)]
-    return side + base
-
-
-def map_bones(names: list[str], *, vrm: dict[str, int] | None = None,
-              overrides: dict[str, str] | None = None) -> dict[str, int]:
-    """pedvr joint → index into ``names`` for the bones that can be mapped.
-
-    Priority: ``overrides`` (bone name → joint, a scene's map), then the VRM
-    humanoid table ``vrm`` (VRM bone → index), then the naming conventions.
-    """
-    out: dict[str, int] = {}
-    for i, n in enumerate(names):
-        j = (overrides or {}).get(n)
-        if j is not None and j in JOINTS:
-            out[j] = i
-    for bone, i in (vrm or {}).items():
-        j = _VRM_BONES.get(bone)
-        if j is not None and j not in out and 0 <= i < len(names):
-            out[j] = i
-    for i, n in enumerate(names):
-        j = _ALIAS.get(normalise_bone_name(n))
-        if j is not None and j not in out and i not in out.values():
-            out[j] = i
-    return out
-
-
-# -- reading glTF ---------------------------------------------------------------------------------
-
-_COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
-              5126: np.float32}
-_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
-
-
-def _buffers(gltf: object, path: Path) -> list[bytes]:
-    import base64
-
-    out = []
-    for k, buf in enumerate(gltf.buffers):  # type: ignore[attr-defined]
-        uri = buf.uri
-        if uri is None:
-            blob = gltf.binary_blob()  # type: ignore[attr-defined]
-            if blob is None:
-                raise AvatarError(f"{path}: buffer {k} has no data")
-            out.append(bytes(blob))
-        elif uri.startswith("data:"):
-            out.append(base64.b64decode(uri.split(",", 1)[1]))
-        else:
-            try:
-                out.append((path.parent / uri).read_bytes())
-            except OSError as exc:
-                raise AvatarError(f"{path}: buffer {k} {uri!r}: {exc.strerror}") from None
-    return out
-
-
-def _accessor(gltf: object, bufs: list[bytes], index: int) -> np.ndarray:
-    acc = gltf.accessors[index]  # type: ignore[attr-defined]
-    dtype = np.dtype(_COMPONENT[acc.componentType])
-    width = _WIDTH[acc.type]
-    out = np.zeros((acc.count, width), dtype)
-    if acc.bufferView is not None:
-        view = gltf.bufferViews[acc.bufferView]  # type: ignore[attr-defined]
-        data = bufs[view.buffer]
-        start = (view.byteOffset or 0) + (acc.byteOffset or 0)
-        stride = view.byteStride or dtype.itemsize * width
-        if stride == dtype.itemsize * width:
-            out = np.frombuffer(data, dtype, acc.count * width, start).reshape(acc.count, width).copy()
-        else:
-            for i in range(acc.count):
-                out[i] = np.frombuffer(data, dtype, width, start + i * stride)
-    if acc.normalized and dtype.kind in "iu":
-        out = out.astype(np.float32) / float(np.iinfo(dtype.type).max)  # type: ignore[type-var]
-    return out
 
 
 def _node_matrix(node: object) -> np.ndarray:
@@ -224,17 +85,6 @@ def _world_matrices(gltf: object) -> tuple[list[np.ndarray], list[int]]:
         return w
 
     return [get(i) for i in range(len(nodes))], parent
-
-
-def _vrm_humanoid(gltf: object) -> dict[str, int]:
-    ext = gltf.extensions or {}  # type: ignore[attr-defined]
-    if "VRMC_vrm" in ext:  # VRM 1.0
-        bones = ext["VRMC_vrm"].get("humanoid", {}).get("humanBones", {})
-        return {k: int(v["node"]) for k, v in bones.items() if "node" in v}
-    if "VRM" in ext:  # VRM 0.x
-        bones = ext["VRM"].get("humanoid", {}).get("humanBones", [])
-        return {b["bone"]: int(b["node"]) for b in bones if "bone" in b and "node" in b}
-    return {}
 
 
 def _image(gltf: object, bufs: list[bytes], path: Path, index: int) -> np.ndarray | None:
@@ -280,61 +130,28 @@ def _align(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def load_avatar(path: str | Path, *, bone_map: dict[str, str] | None = None) -> CharacterMesh:
-    """A skinned glTF/VRM file as a character on pedvr's skeleton; :class:`AvatarError` if unusable."""
-    import pygltflib
-
-    path = Path(path)
-    try:
-        with open(path, "rb") as f:
-            binary = f.read(4) == b"glTF"  # .glb and .vrm are binary glTF whatever their suffix
-        gltf = (pygltflib.GLTF2().load_binary(str(path)) if binary
-                else pygltflib.GLTF2().load_json(str(path)))
-    except OSError as exc:
-        raise AvatarError(f"{path}: cannot read: {exc.strerror}") from None
-    except Exception as exc:  # pygltflib raises whatever its parser hit
-        raise AvatarError(f"{path}: not a readable glTF 2.0 file ({type(exc).__name__}: {exc})") from None
-    if gltf is None:
-        raise AvatarError(f"{path}: not a readable glTF 2.0 file")
-    unknown = sorted(j for j in (bone_map or {}).values() if j not in JOINTS)
-    if unknown:
-        raise AvatarError(f"{path}: bone_map names {', '.join(repr(j) for j in unknown)}: not pedvr joints; "
-                          f"known: {', '.join(JOINTS)}")
-    bufs = _buffers(gltf, path)
-    skinned = [n for n in gltf.nodes if n.skin is not None and n.mesh is not None]
-    if not skinned:
-        raise AvatarError(f"{path}: no skin (pedvr needs a mesh skinned to a humanoid skeleton)")
-    node = skinned[0]
-    skin = gltf.skins[node.skin]
+    """A skinned glTF/VRM file as a character on pedvr's skeleton; :class:`AvatarError` if unusable
+    (:func:`pedvr.scene.avatars.open_avatar` checks the file, as the scene loader does)."""
+    f = open_avatar(path, bone_map=bone_map)
+    path, gltf, bufs, node, skin, mapping = f.path, f.gltf, f.buffers, f.node, f.skin, f.mapping
+    names = f.names
     world, _ = _world_matrices(gltf)
-    names = [gltf.nodes[j].name or f"node{j}" for j in skin.joints]
     if skin.inverseBindMatrices is not None:
         ibm = _accessor(gltf, bufs, skin.inverseBindMatrices).astype(np.float64).reshape(-1, 4, 4)
         bind = np.linalg.inv(ibm.transpose(0, 2, 1))  # column-major in the file
     else:
         bind = np.stack([world[j] for j in skin.joints])
-    vrm = {b: skin.joints.index(n) for b, n in _vrm_humanoid(gltf).items() if n in skin.joints}
-    mapping = map_bones(names, vrm=vrm, overrides=bone_map)
-    missing = [j for j in REQUIRED if j not in mapping]
-    if missing:
-        raise AvatarError(f"{path}: bones not mapped to pedvr's skeleton: {', '.join(missing)} "
-                          f"(skin bones: {', '.join(names[:12])}{', ...' if len(names) > 12 else ''}); "
-                          "rename them or give a bone_map")
 
     # Gather every primitive of the skinned mesh.
     pos, nrm, uv, jnt, wgt, tri, colour = [], [], [], [], [], [], []
     texture: np.ndarray | None = None
     base = 0
     for prim in gltf.meshes[node.mesh].primitives:
-        a = prim.attributes
-        if a.POSITION is None or a.JOINTS_0 is None or a.WEIGHTS_0 is None:
-            raise AvatarError(f"{path}: a primitive of mesh {node.mesh} has no "
-                              f"{'POSITION' if a.POSITION is None else 'JOINTS_0/WEIGHTS_0'}")
+        a = prim.attributes  # open_avatar checked each attribute, the mode and the indices
         p = _accessor(gltf, bufs, a.POSITION).astype(np.float64)
         n = len(p)
         idx = (_accessor(gltf, bufs, prim.indices).ravel().astype(np.int64) if prim.indices is not None
                else np.arange(n))
-        if prim.mode not in (None, 4):
-            raise AvatarError(f"{path}: primitive mode {prim.mode}: only triangles (4) are supported")
         pos.append(p)
         nrm.append(_accessor(gltf, bufs, a.NORMAL).astype(np.float64) if a.NORMAL is not None else None)
         uv.append(_accessor(gltf, bufs, a.TEXCOORD_0).astype(np.float64) if a.TEXCOORD_0 is not None

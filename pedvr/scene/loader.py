@@ -20,6 +20,7 @@ import pedvr.demonstrator  # noqa: F401  (registers the exhibit smart object and
 from pedvr.behavior.declare import Interactions
 from pedvr.behavior.goals import selectors, validate_params
 from pedvr.errors import SceneError
+from pedvr.scene.avatars import AVATAR_SUFFIXES, AvatarError, open_avatar
 from pedvr.scene.config import (
     CARRYING,
     DOOR_KINDS,
@@ -184,7 +185,6 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
     behavior = _behavior(c, c.table(data, "behavior", "behavior", required=True) or {}, world)
     agents = c.table(data, "agents", "agents", required=True) or {}
     c.known(agents, "agents", ("profiles", "spawns"))
-    profiles = _profiles(c, c.table(agents, "profiles", "agents.profiles", required=True) or {}, base)
     chars = c.table(data, "characters", "characters", required=False) or {}
     c.known(chars, "characters", ("bone_map",))
     bone_map = chars.get("bone_map", {})
@@ -192,7 +192,10 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
                                                  for k, v in bone_map.items()):
         c.bad("characters.bone_map", bone_map, 'expected a table of "bone name" = "pedvr joint name"')
         bone_map = {}
-    spawns = _spawns(c, agents.get("spawns", MISSING), profiles, behavior, world)
+    profiles_raw = c.table(agents, "profiles", "agents.profiles", required=True) or {}
+    profiles = _profiles(c, profiles_raw, base, bone_map=bone_map)
+    declared = (set(profiles_raw), set(_table_keys(data, "behavior", "states")))
+    spawns = _spawns(c, agents.get("spawns", MISSING), profiles, behavior, world, declared=declared)
     user = _user(c, c.table(data, "user", "user", required=True) or {}, world)
     etiquette = _etiquette(c, c.table(data, "etiquette", "etiquette", required=False) or {})
 
@@ -372,6 +375,13 @@ def _doors(c: _Checker, raw: object, bounds: tuple[Vec2, Vec2] | None,
                 c.bad(f"{path}.name", name, "another door has this name")
             names.add(name)
         span = _door_span(c, d, path)
+        if span is not None and kind is not None:  # the width first: a 0 m door has no side to pull from
+            lo, hi = DOOR_WIDTH[kind]
+            width = math.dist(span[0], span[1])
+            if not lo <= width <= hi:
+                c.bad(f"{path}.span" if "span" in d else f"{path}.width", d["span"] if "span" in d
+                      else d.get("width"), f"a {kind} door is {lo:g} to {hi:g} m wide; this is {width:.2f} m")
+                span = None
         if kind == "revolving":
             for key in ("swing", "hinge", "pull_side", "closing_speed_deg"):
                 if key in d:
@@ -404,13 +414,9 @@ def _doors(c: _Checker, raw: object, bounds: tuple[Vec2, Vec2] | None,
         if span is None or kind is None or height is None or swing is None or hinge_name is None \
                 or closing is None or sensing is None or rotation is None or name is None:
             continue
-        lo, hi = DOOR_WIDTH[kind]
         width = math.dist(span[0], span[1])
         key = f"{path}.span" if "span" in d else f"{path}.width"
         shown = d["span"] if "span" in d else d.get("width")
-        if not lo <= width <= hi:
-            c.bad(key, shown, f"a {kind} door is {lo:g} to {hi:g} m wide; this is {width:.2f} m")
-            continue
         line = LineString(span)
         if bounds is not None and not box(*bounds[0], *bounds[1]).contains(line):
             c.bad(key, shown, "lies outside world.bounds")
@@ -533,15 +539,17 @@ def _or(v: float | None, d: float) -> float:
 
 _PROFILE_KEYS = ("inherit", "radius", "pref_speed", "max_speed", "limits", "characters", "kindness", "rush",
                  "sex", "carrying")
-AVATAR_SUFFIXES = (".glb", ".gltf", ".vrm")
 _LIMIT_KEYS = ("max_accel", "max_decel", "turn_rate_standing", "turn_rate_walking",
                "max_backward_speed", "max_sideways_speed")
 
 
-def _characters(c: _Checker, v: object, path: str, base: Path | None) -> tuple[str, ...]:
+def _characters(c: _Checker, v: object, path: str, base: Path | None, *, bone_map: dict[str, str],
+                checked: dict[Path, bool]) -> tuple[str, ...]:
     """``characters = ["builtin", "avatars/*.glb"]``: each entry ``builtin`` or a glob of glTF/VRM
-    files relative to the scene file's folder, matching at least one file (issue 16). Whether a
-    file is a usable skinned humanoid is checked when a renderer loads it (pedvr.render.avatars)."""
+    files relative to the scene file's folder, matching at least one file (issue 16). Each file
+    must be a usable skinned humanoid (:func:`pedvr.scene.avatars.open_avatar`, no GL: issue
+    25.11); ``checked`` remembers the files read so far, so a profile that inherits the list does
+    not read (or report) them again."""
     if not isinstance(v, list) or not v or not all(isinstance(x, str) and x for x in v):
         c.bad(path, v, 'expected a list of "builtin" or glTF/VRM file patterns')
         return ()
@@ -560,13 +568,27 @@ def _characters(c: _Checker, v: object, path: str, base: Path | None) -> tuple[s
         elif bad := [f.name for f in files if f.suffix.lower() not in AVATAR_SUFFIXES]:
             c.bad(f"{path}[{i}]", pattern, f"{bad[0]}: expected a {', '.join(AVATAR_SUFFIXES)} file")
         else:
-            out.extend(str(f.resolve()) for f in files)
+            usable = True
+            for f in files:
+                key = f.resolve()
+                if key not in checked:
+                    try:
+                        open_avatar(f, bone_map=bone_map)
+                        checked[key] = True
+                    except AvatarError as exc:
+                        checked[key] = False
+                        c.bad(f"{path}[{i}]", pattern, str(exc))
+                usable &= checked[key]
+            if usable:
+                out.extend(str(f.resolve()) for f in files)
     return tuple(out)
 
 
-def _profiles(c: _Checker, raw: dict[str, Any], base: Path | None = None) -> dict[str, AgentProfile]:
+def _profiles(c: _Checker, raw: dict[str, Any], base: Path | None = None, *,
+              bone_map: dict[str, str] | None = None) -> dict[str, AgentProfile]:
     """Resolve ``inherit`` chains (a child overrides its parent key by key)."""
     resolved: dict[str, dict[str, Any]] = {}
+    checked: dict[Path, bool] = {}
 
     def resolve(name: str, chain: tuple[str, ...]) -> dict[str, Any] | None:
         if name in resolved:
@@ -623,7 +645,8 @@ def _profiles(c: _Checker, raw: dict[str, Any], base: Path | None = None) -> dic
             vals = {k: c.number(lim_raw, k, f"{path}.limits.{k}", required=False,
                                 default=getattr(d, k), check=pos, expect="> 0") for k in _LIMIT_KEYS}
             lim = MotionLimits(**{k: (v if v is not None else getattr(d, k)) for k, v in vals.items()})
-        chars = _characters(c, m["characters"], f"{path}.characters", base) if "characters" in m else ()
+        chars = (_characters(c, m["characters"], f"{path}.characters", base, bone_map=bone_map or {},
+                             checked=checked) if "characters" in m else ())
         d_prof = AgentProfile(name=name)
         kindness = _trait(c, m, "kindness", path, d_prof.kindness)
         rush = _trait(c, m, "rush", path, d_prof.rush)
@@ -838,8 +861,19 @@ def _transition(c: _Checker, t: object, path: str, states_raw: dict[str, Any]) -
     return Transition(on=on, to=to, weights=weights, after=after, rate=rate)
 
 
+def _table_keys(data: dict[str, Any], *keys: str) -> list[str]:
+    """The keys of the table at ``data[keys[0]][keys[1]]...`` as written, or [] (not a table)."""
+    node: object = data
+    for k in keys:
+        node = node.get(k) if isinstance(node, dict) else None
+    return list(node) if isinstance(node, dict) else []
+
+
 def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
-            behavior: BehaviorConfig | None, world: WorldConfig | None) -> tuple[Spawn, ...]:
+            behavior: BehaviorConfig | None, world: WorldConfig | None, *,
+            declared: tuple[set[str], set[str]] = (set(), set())) -> tuple[Spawn, ...]:
+    """``declared``: the profile and state names the file declares; a spawn naming one that has
+    problems of its own is not reported again as "unknown" (those problems say what is wrong)."""
     if raw is MISSING:
         return ()
     if not isinstance(raw, list):
@@ -855,11 +889,14 @@ def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
         c.known(s, path, ("profile", "state", "positions", "count", "region", "facing_deg", "friends"))
         friends = c.boolean(s, "friends", f"{path}.friends", default=False)
         profile = c.string(s, "profile", f"{path}.profile")
-        if profile is not None and profile not in profiles:
-            c.bad(f"{path}.profile", profile, f"unknown profile; known: {', '.join(sorted(profiles))}")
+        if profile is not None and profile not in profiles and profile not in declared[0]:
+            known = sorted(set(profiles) | declared[0])
+            c.bad(f"{path}.profile", profile, f"unknown profile; known: {', '.join(known) or 'none'}")
         state = c.string(s, "state", f"{path}.state")
-        if state is not None and behavior is not None and state not in behavior.states:
-            c.bad(f"{path}.state", state, f"unknown state; known: {', '.join(sorted(behavior.states))}")
+        if state is not None and behavior is not None and state not in behavior.states \
+                and state not in declared[1]:
+            known = sorted(set(behavior.states) | declared[1])
+            c.bad(f"{path}.state", state, f"unknown state; known: {', '.join(known) or 'none'}")
         facing = c.number(s, "facing_deg", f"{path}.facing_deg", required=False, default=None)
         positions: tuple[Vec2, ...] = ()
         count = 0

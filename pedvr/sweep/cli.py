@@ -1,5 +1,5 @@
-"""``pedvr sweep SPEC.toml [--scheduler ADDRESS] [--workers N] [--out DIR] [--resume]``,
-``pedvr sweep report DIR`` and ``pedvr bench sweep``.
+"""``pedvr sweep SPEC.toml [--scheduler ADDRESS] [--workers N] [--out DIR] [--resume
+[--allow-mixed-code]]``, ``pedvr sweep report DIR [--metric NAME ...]`` and ``pedvr bench sweep``.
 
 ``pedvr/cli.py`` wires these in with :func:`add_sweep_parser`,
 :func:`add_bench_parser`, :func:`run_sweep_command` and :func:`run_bench_command`.
@@ -68,8 +68,25 @@ def add_sweep_parser(subparsers: Any) -> argparse.ArgumentParser:
     sw.add_argument(
         "--out", type=Path, default=None, metavar="DIR", help="output folder (default: pedvr-out/sweep-NAME)"
     )
-    sw.add_argument("--resume", action="store_true", help="run only what DIR does not hold yet")
+    sw.add_argument(
+        "--resume",
+        action="store_true",
+        help="run only what DIR does not hold yet, and its failed or lost runs again",
+    )
+    sw.add_argument(
+        "--allow-mixed-code",
+        action="store_true",
+        help="with --resume: add rows even though DIR's rows were made by other code (pedvr commit, "
+        "uncommitted changes, numpy, numba or dask version); each row records its code",
+    )
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    sw.add_argument(
+        "--metric",
+        action="append",
+        default=None,
+        metavar="NAME",
+        help="with 'report': plot this column (repeatable; default: the outcome measures that vary)",
+    )
     return sw
 
 
@@ -108,6 +125,7 @@ def run_sweep_command(args: argparse.Namespace, *, stdout: TextIO | None = None)
                 ("--workers", args.workers),
                 ("--out", args.out),
                 ("--resume", args.resume or None),
+                ("--allow-mixed-code", args.allow_mixed_code or None),
             )
             if v is not None
         ]
@@ -115,11 +133,15 @@ def run_sweep_command(args: argparse.Namespace, *, stdout: TextIO | None = None)
             raise UsageError(f"pedvr sweep report: {given[0]} applies to running a sweep, not to its report")
         from pedvr.sweep.report import write_sweep_report
 
-        md = write_sweep_report(Path(args.dir))
+        md = write_sweep_report(Path(args.dir), metrics=args.metric)
         print(f"report: {md}", file=out)
         return 0
     if args.dir is not None:
         raise UsageError(f"pedvr sweep: unexpected argument {args.dir!r} (the output folder is --out DIR)")
+    if args.metric:
+        raise UsageError("pedvr sweep: --metric applies to the report: pedvr sweep report DIR --metric NAME")
+    if args.allow_mixed_code and not args.resume:
+        raise UsageError("pedvr sweep: --allow-mixed-code applies to --resume")
     from pedvr.sweep.runner import run_sweep
     from pedvr.sweep.spec import load_spec
 
@@ -130,6 +152,7 @@ def run_sweep_command(args: argparse.Namespace, *, stdout: TextIO | None = None)
         spec,
         out=folder,
         resume=args.resume,
+        allow_mixed_code=args.allow_mixed_code,
         workers=args.workers,
         scheduler=args.scheduler,
         progress=not args.quiet,

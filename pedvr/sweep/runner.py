@@ -6,8 +6,13 @@ results in the order they finish, writes recordings, merges simulated
 participants' stores, and adds one row per task to ``DIR/runs.parquet``
 (:mod:`pedvr.sweep.table`). A worker that dies has its task rescheduled by Dask
 (up to ``distributed.scheduler.allowed-failures`` times, then the row says
-``lost`` and ``--resume`` tries it again); a run that raises is a row with
-``status = "error"`` and the sweep goes on.
+``lost``); a worker that dies holding a finished result the client has not
+fetched yet loses that result, and Dask computes it again: the client waits
+for it (issue 25.7: it used to write an ``error`` row, ``NoneType: None``). A
+run that raises is a row with ``status = "error"`` and the sweep goes on.
+``--resume`` runs what the table lacks and every ``error`` or ``lost`` row
+again; it refuses to add rows to a table made by other code
+(:mod:`pedvr.sweep.provenance`) unless told ``allow_mixed_code``.
 
 Where the tasks run: a ``LocalCluster`` of ``workers`` processes with one
 thread each (default: one per core) started and closed here; an existing
@@ -37,6 +42,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from pedvr.sweep.errors import SweepError
+from pedvr.sweep.provenance import describe, differences, provenance
 from pedvr.sweep.spec import ParticipantTask, RunTask, SweepSpec, Task
 from pedvr.sweep.table import TABLE_NAME, ResultTable
 from pedvr.sweep.task import execute, row_of
@@ -59,6 +65,9 @@ class SweepOutcome:
     interrupted: bool = False
     where: str = ""
     errors: list[str] = field(default_factory=list)
+    retried: int = 0  # of ``ran``: tasks whose earlier row was an error or lost
+    code: str = ""  # the code that ran them (provenance.describe)
+    mixed: list[str] = field(default_factory=list)  # how the table's earlier rows' code differs
 
     def summary(self) -> str:
         rate = f", {60.0 * self.ran / self.wall_s:.1f} runs/min" if self.wall_s > 0 and self.ran else ""
@@ -69,12 +78,21 @@ class SweepOutcome:
         )
         if self.skipped:
             head += f"; {self.skipped} were done before (resumed)"
+        if self.retried:
+            head += f"; {self.retried} failed or lost before and ran again"
         lines = [head, f"results: {self.folder / TABLE_NAME}"]
+        if self.code:
+            lines.append(f"code: {self.code}")
+        if self.mixed:
+            lines.append(
+                "note: the table now holds rows from different code (--allow-mixed-code): "
+                + "; ".join(self.mixed)
+            )
         lines += [f"  failed: {e}" for e in self.errors[:5]]
         if len(self.errors) > 5:
             lines.append(f"  ... and {len(self.errors) - 5} more (the table's error column has them all)")
-        if self.interrupted or self.lost:
-            lines.append("continue with --resume: it runs only what is missing")
+        if self.interrupted or self.lost or self.failed:
+            lines.append("continue with --resume: it runs what is missing, failed or lost")
         return "\n".join(lines)
 
 
@@ -105,6 +123,7 @@ def prepare_folder(spec: SweepSpec, out: Path, *, resume: bool) -> dict[str, Any
         "study": spec.study,
         "tasks": len(spec.tasks),
         "pedvr_version": spec.tasks[0].version if spec.tasks else None,
+        "code": provenance(),  # the client's, when the sweep last started (each row has its worker's)
     }
     (out / "sweep.toml").write_text(spec.text)
     tmp = manifest_path.with_suffix(".json.tmp")
@@ -118,6 +137,7 @@ def run_sweep(
     *,
     out: Path,
     resume: bool = False,
+    allow_mixed_code: bool = False,
     workers: int | None = None,
     scheduler: str | None = None,
     client: Any = None,
@@ -132,6 +152,8 @@ def run_sweep(
     kill a worker or interrupt the sweep part way). Ctrl-C (or a
     KeyboardInterrupt from ``on_result``) stops the sweep cleanly: rows so far
     are written, the cluster is closed, and the outcome says ``interrupted``.
+    With ``resume``, the table's ``ok`` rows must come from this code (see
+    :func:`pedvr.sweep.provenance.differences`), or ``allow_mixed_code``.
     """
     if scheduler is not None and workers is not None:
         raise SweepError(
@@ -147,9 +169,19 @@ def run_sweep(
             f"{out}: {len(stray)} of its rows are runs this spec does not plan (another spec or pedvr "
             "version); resume with the spec that started it, or choose another --out"
         )
+    mixed = _code_differences(table)
+    if mixed and not allow_mixed_code:
+        raise SweepError(
+            f"{out}: its rows were made by other code than this ({'; '.join(mixed)}); resume with "
+            "--allow-mixed-code to add rows anyway (each row records its code), or choose another --out"
+        )
     done = table.finished_keys()
+    failed_before = set(table.status_of(("error", "lost")))
     todo = [t for t in spec.tasks if t.key not in done]
     outcome = SweepOutcome(folder=out, planned=len(spec.tasks), skipped=len(spec.tasks) - len(todo))
+    outcome.retried = sum(t.key in failed_before for t in todo)
+    outcome.code = describe(provenance())
+    outcome.mixed = mixed
     store = out / f"{spec.study}.sqlite" if spec.study else None
     stream = stream or sys.stderr
 
@@ -218,6 +250,18 @@ def run_sweep(
     return outcome
 
 
+def _code_differences(table: ResultTable) -> list[str]:
+    """How the code of the table's ``ok`` rows differs from this process's (one entry per
+    distinct code that differs: ``N rows: field old → new, ...``)."""
+    mine = provenance()
+    out = []
+    for code, n in table.provenances():
+        diff = differences(code, mine)
+        if diff:
+            out.append(f"{n} row{'s' if n != 1 else ''}: {', '.join(diff)}")
+    return out
+
+
 def _write_atomic(path: Path, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp")
@@ -283,28 +327,36 @@ def _describe(client: Any, scheduler: str | None) -> str:
     return f"{n} Dask workers at {scheduler}" if scheduler else f"{n} local Dask workers"
 
 
-def _worker_version() -> str:
-    from pedvr.sweep.spec import pedvr_version
+def _worker_code() -> dict[str, Any]:
+    from pedvr.sweep.provenance import provenance
 
-    return pedvr_version()
+    return provenance()
 
 
 def _check_workers(client: Any) -> None:
-    """Every worker runs the same pedvr version as this client (the task keys include it)."""
-    mine = _worker_version()
+    """Every worker runs the same pedvr version as this client (the task keys include it), and no
+    other code where both know it (:func:`pedvr.sweep.provenance.differences`)."""
+    mine = _worker_code()
     try:
-        versions = client.run(_worker_version)
+        codes = client.run(_worker_code)
     except ImportError as exc:
         raise SweepError(
             f"a Dask worker cannot import pedvr ({exc}); install pedvr with the sweep extra on every "
             "worker: pip install 'pedvr[sweep]'"
         ) from None
-    odd = {w: v for w, v in versions.items() if v != mine}
+    odd = {w: c for w, c in codes.items() if c.get("pedvr_version") != mine["pedvr_version"]}
     if odd:
-        w, v = next(iter(odd.items()))
+        w, c = next(iter(odd.items()))
         raise SweepError(
-            f"Dask worker {w} runs pedvr {v}, this client {mine}; install the same version on "
-            f"every worker ({len(odd)} differ)"
+            f"Dask worker {w} runs pedvr {c.get('pedvr_version')}, this client {mine['pedvr_version']}; "
+            f"install the same version on every worker ({len(odd)} differ)"
+        )
+    other = {w: differences(c, mine) for w, c in codes.items() if differences(c, mine)}
+    if other:
+        w, diff = next(iter(other.items()))
+        raise SweepError(
+            f"Dask worker {w} runs other code than this client ({', '.join(diff)}); install the same "
+            f"code on every worker ({len(other)} differ)"
         )
 
 
@@ -317,10 +369,16 @@ def _run_on_dask(
     every_s: float,
 ) -> None:
     """Submit every task under its stable key; hand each result to ``take`` as it arrives, and call
-    ``idle`` (write buffered rows) when none has arrived for ``every_s`` seconds."""
+    ``idle`` (write buffered rows) when none has arrived for ``every_s`` seconds.
+
+    A future's done-callback fires once. When the worker holding its result dies before the
+    result is fetched, the future turns ``lost`` (or ``pending`` again) and Dask computes the task
+    anew; such a future is not done: it waits in ``recomputing`` and is polled every
+    :data:`_POLL_S` until it settles (finished, failed or cancelled)."""
     done: queue.Queue[Any] = queue.Queue()
     futures = {}
     tasks = {}
+    recomputing: dict[str, Any] = {}
     submitted = client.map(execute, todo, key=[f"pedvr-{t.key}" for t in todo], pure=False)
     for task, fut in zip(todo, submitted, strict=True):
         futures[fut.key] = fut
@@ -329,24 +387,43 @@ def _run_on_dask(
     try:
         while futures:
             try:
-                fut = done.get(timeout=every_s)
+                arrived = [done.get(timeout=_POLL_S if recomputing else every_s)]
             except queue.Empty:
+                arrived = []
                 idle()
-                continue
-            key = fut.key
-            if key not in futures:
-                continue
-            task = tasks.pop(key)
-            futures.pop(key)
-            if fut.status == "finished":
-                result = fut.result()
-            else:
-                result = {"key": task.key, "metrics": {}, "blob": None, **_failure(fut)}
-            fut.release()
-            take(task, result)
+            arrived += [f for f in recomputing.values() if f.status in _SETTLED]
+            for fut in arrived:
+                key = fut.key
+                if key not in futures:
+                    continue
+                if fut.status not in _SETTLED:  # its result was lost with a worker: computed again
+                    recomputing[key] = fut
+                    continue
+                recomputing.pop(key, None)
+                task = tasks.pop(key)
+                futures.pop(key)
+                result = _result(fut, task)
+                fut.release()
+                take(task, result)
     finally:
         for fut in futures.values():
             fut.cancel()
+
+
+_SETTLED = ("finished", "error", "cancelled")
+_POLL_S = 0.2  # s between looks at futures whose result is being computed again
+
+
+def _result(fut: Any, task: Task) -> dict[str, Any]:
+    """A settled future's result; a failure's row when Dask could not deliver one."""
+    if fut.status == "finished":
+        try:
+            # Dask fetches it from the worker holding it; if that worker dies meanwhile, Dask
+            # computes it again and this waits (distributed's gather resets lost keys).
+            return dict(fut.result())
+        except Exception:  # noqa: BLE001 - it failed after all: classified below
+            pass
+    return {"key": task.key, "metrics": {}, "blob": None, **_failure(fut)}
 
 
 def _failure(fut: Any) -> dict[str, str]:
@@ -356,7 +433,9 @@ def _failure(fut: Any) -> dict[str, str]:
 
     if fut.status == "cancelled":  # not by us: a scheduler restart, or a key dropped while resubmitted
         return {"status": "lost", "error": "the Dask scheduler cancelled it"}
-    exc = fut.exception()
+    exc = fut.exception() if fut.status == "error" else None
     if isinstance(exc, KilledWorker):
         return {"status": "lost", "error": "its worker died each time it ran it (Dask's allowed-failures)"}
+    if exc is None:  # no exception to report: Dask did not deliver the result
+        return {"status": "lost", "error": f"Dask did not deliver its result (future {fut.status})"}
     return {"status": "error", "error": f"{type(exc).__name__}: {exc}"}

@@ -24,20 +24,26 @@ and off for pedvr scenes.
 
 Parameters are the run options ``condition`` (``decoupled``, ``pedvr``,
 ``pedvr+g``; default ``pedvr`` as in ``pedvr run``), ``responsibility`` (ρ in
-[0, 1]; default the scene's), ``duration``, and any dotted scene key
+[0, 1]; default the scene's), ``personal_space`` (m in [0, 2]; default the
+scene's ``steering.personal_space``), ``user_walk`` (``straight`` or
+``reactive``; default the scene's ``user.walk``), ``duration`` — the options of
+``pedvr run`` by the same names, which apply to SteerSuite cases too — and any
+dotted scene key
 (``steering.time_horizon``, ``agents.spawns[0].count``, ``gaze.distance``),
 which is written into the scene's TOML data *before* the scene loader
 validates it, so a bad value gets the loader's own message, prefixed with the
 spec key that set it. They are given three ways, which combine:
 ``[sweep.set]`` one value each, for every run; ``[sweep.grid]`` a list each,
 crossed (the cartesian product); ``[[sweep.cases]]`` explicit combinations,
-each crossed with the grid. A key may be given only one way. The tasks are
-scenes × cases × grid × seeds.
+each crossed with the grid. A key may be given only one way; an empty
+``[sweep.grid]`` is an error (it would run the scenes once each, silently).
+The tasks are scenes × cases × grid × seeds.
 
 Choices where the issue is open: dotted overrides apply to TOML scenes only
 (a SteerSuite case is XML and has no TOML keys; a spec that sets one on a case
-is an error naming both); the personal-space margin is a scene key once the
-scene format has one, not a run option of its own.
+is an error naming both). ``personal_space`` and ``steering.personal_space``
+set the same margin (the run option wins, as ``pedvr run --personal-space``
+does over the scene).
 
 ``[sweep.participants]`` instead of ``scenes``: ``protocol`` (a study protocol
 file), ``count`` simulated participants numbered from ``first`` (default 1;
@@ -62,11 +68,11 @@ from pathlib import Path
 from typing import Any, Literal
 
 from pedvr.errors import PedvrError, SceneError
-from pedvr.scene.config import CONDITIONS, SceneConfig
+from pedvr.scene.config import CONDITIONS, USER_WALKS, SceneConfig
 from pedvr.sweep.errors import SweepSpecError
 from pedvr.validation import MISSING, Checker, fmt, is_num
 
-RUN_OPTIONS = ("condition", "duration", "responsibility")
+RUN_OPTIONS = ("condition", "duration", "responsibility", "personal_space", "user_walk")
 KEEP = ("metrics", "recordings")
 _SWEEP_KEYS = (
     "name",
@@ -84,10 +90,11 @@ _INDEX = re.compile(r"^(?P<name>[^\[\]]+)(?P<idx>(\[\d+\])*)$")
 
 
 def pedvr_version() -> str:
-    """The pedvr version that goes into every task's key (the study's notion of it)."""
-    from pedvr.study.session import software_version
+    """The pedvr version that goes into every task's key: ``pedvr.__version__``, the code that
+    runs (an editable install's metadata keeps the version it was installed with)."""
+    from pedvr import __version__
 
-    return software_version()
+    return __version__
 
 
 def _digest(obj: object, n: int = 16) -> str:
@@ -151,6 +158,8 @@ class RunTask:
     keep_recording: bool
     steerbench: bool
     version: str
+    personal_space: float | None = None
+    user_walk: str | None = None
 
     def columns(self) -> dict[str, Any]:
         """The row's leading columns: identity, scene, seed and one column per parameter."""
@@ -260,11 +269,29 @@ def _leaves(c: Checker, d: dict[str, Any], path: str, *, lists: bool) -> dict[st
     return out
 
 
-def _check_option(c: Checker, key: str, value: Any, where: str) -> bool:
-    """Run options and keys that are not scene keys; True when ``value`` is usable for ``key``."""
+def _has_leaves(d: dict[str, Any]) -> bool:
+    """Whether a table holds any value that is not a (possibly nested) empty table."""
+    return any(not isinstance(v, dict) or _has_leaves(v) for v in d.values())
+
+
+def _check_key(c: Checker, key: str, value: Any, where: str) -> bool:
+    """A parameter's name: a run option or a dotted scene key; reported once per key (not per value)."""
     if key == "seed" or key == "seeds":
         c.bad(where, value, "seeds are given by sweep.seeds")
         return False
+    if key not in RUN_OPTIONS and "." not in key:
+        c.bad(
+            where,
+            value,
+            f"unknown parameter; run options are {', '.join(RUN_OPTIONS)}, and scene keys "
+            "are dotted (steering.time_horizon, agents.spawns[0].count)",
+        )
+        return False
+    return True
+
+
+def _check_option(c: Checker, key: str, value: Any, where: str) -> bool:
+    """One value of a parameter whose name :func:`_check_key` accepted; True when usable."""
     if key == "condition":
         if value not in CONDITIONS:
             c.bad(where, value, f"expected one of {', '.join(repr(x) for x in CONDITIONS)}")
@@ -277,14 +304,14 @@ def _check_option(c: Checker, key: str, value: Any, where: str) -> bool:
         if not is_num(value) or float(value) <= 0:
             c.bad(where, value, "expected a number > 0 (simulated seconds)")
             return False
-    elif "." not in key:
-        c.bad(
-            where,
-            value,
-            f"unknown parameter; run options are {', '.join(RUN_OPTIONS)}, and scene keys "
-            "are dotted (steering.time_horizon, agents.spawns[0].count)",
-        )
-        return False
+    elif key == "personal_space":
+        if not is_num(value) or not 0.0 <= float(value) <= 2.0:
+            c.bad(where, value, "expected a number in [0, 2] (metres agents keep from the user)")
+            return False
+    elif key == "user_walk":
+        if value not in USER_WALKS:
+            c.bad(where, value, f"expected one of {', '.join(repr(x) for x in USER_WALKS)}")
+            return False
     return True
 
 
@@ -319,7 +346,14 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
         steerbench = MISSING
 
     fixed = _leaves(c, c.table(sw, "set", "sweep.set", required=False) or {}, "sweep.set", lists=False)
-    grid = _leaves(c, c.table(sw, "grid", "sweep.grid", required=False) or {}, "sweep.grid", lists=True)
+    grid_table = c.table(sw, "grid", "sweep.grid", required=False)
+    grid = _leaves(c, grid_table or {}, "sweep.grid", lists=True)
+    if grid_table is not None and not _has_leaves(grid_table):
+        c.bad(
+            "sweep.grid",
+            grid_table,
+            "empty: give each parameter to sweep a list of values, or leave [sweep.grid] out",
+        )
     cases_raw = c.tables(sw, "cases", "sweep.cases", required=False)
     cases = [_leaves(c, case, f"sweep.cases[{i}]", lists=False) for i, case in enumerate(cases_raw)]
     case_keys = sorted({k for case in cases for k in case})
@@ -332,17 +366,19 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
         if k in fixed:
             c.bad(fixed[k][1], fixed[k][0], "also given in sweep.cases; give a key one way")
 
-    # Every value of every parameter, checked once where it was written.
+    # Every parameter's name once where it was written, then each of its values.
     ok = True
     for k, (v, where) in fixed.items():
-        ok &= _check_option(c, k, v, where)
+        ok &= _check_key(c, k, v, where) and _check_option(c, k, v, where)
     for k, (vs, where) in grid.items():
-        if isinstance(vs, list):
+        if not _check_key(c, k, vs, where):
+            ok = False
+        elif isinstance(vs, list):
             for i, v in enumerate(vs):
                 ok &= _check_option(c, k, v, f"{where}[{i}]")
     for case in cases:
         for k, (v, where) in case.items():
-            ok &= _check_option(c, k, v, where)
+            ok &= _check_key(c, k, v, where) and _check_option(c, k, v, where)
 
     swept_duration = "duration" in grid or "duration" in case_keys
     duration = None
@@ -413,6 +449,8 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
             dur = float(opts["duration"])
             cond = str(opts.get("condition", "pedvr"))
             rho = None if "responsibility" not in opts else float(opts["responsibility"])
+            margin = None if "personal_space" not in opts else float(opts["personal_space"])
+            walk = None if "user_walk" not in opts else str(opts["user_walk"])
             bench = kind == "xml" if steerbench is MISSING else bool(steerbench)
             for seed in seeds:
                 key = _digest(
@@ -423,6 +461,8 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
                         "duration": dur,
                         "condition": cond,
                         "responsibility": rho,
+                        **({"personal_space": margin} if margin is not None else {}),
+                        **({"user_walk": walk} if walk is not None else {}),
                         "keep": keep,
                         "steerbench": bench,
                         "version": version,
@@ -438,6 +478,8 @@ def parse_spec(data: dict[str, Any], *, source: str, base_dir: Path, text: str =
                         duration=dur,
                         condition=cond,
                         responsibility=rho,
+                        personal_space=margin,
+                        user_walk=walk,
                         params=params,
                         keep_recording=keep == "recordings",
                         steerbench=bench,
@@ -472,16 +514,18 @@ def _scenes(c: Checker, sw: dict[str, Any], base_dir: Path) -> list[tuple[str, P
     for i, v in enumerate(names):
         where = f"sweep.scenes[{i}]"
         found: list[Path]
+        # A relative path is read from the spec's folder: a message about one says where it looked.
+        relative = "" if Path(v).is_absolute() else f" (paths are relative to the spec file: {base_dir / v})"
         if any(ch in v for ch in "*?["):
             pattern = v if Path(v).is_absolute() else str(base_dir / v)
             found = sorted(Path(x) for x in glob.glob(pattern) if x.lower().endswith((".toml", ".xml")))
             if not found:
-                c.bad(where, v, "the glob matches no .toml or .xml file (relative to the spec file)")
+                c.bad(where, v, f"the glob matches no .toml or .xml file{relative}")
                 continue
         elif v.lower().endswith((".toml", ".xml")):
             found = [Path(v) if Path(v).is_absolute() else base_dir / v]
             if not found[0].is_file():
-                c.bad(where, v, "no such scene file (relative to the spec file)")
+                c.bad(where, v, f"no such scene file{relative}")
                 continue
         else:
             p = resolve_scene(v)

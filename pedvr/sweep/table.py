@@ -5,7 +5,8 @@ buffered and the file is rewritten to a temporary name and renamed over the
 old one (atomic on POSIX) at most every ``flush_s`` seconds, and at the end.
 A sweep killed at any moment therefore keeps every row flushed before it (a
 ``SIGKILL`` loses at most the last ``flush_s`` seconds of results; Ctrl-C
-loses nothing), and ``--resume`` runs only the keys the table lacks.
+loses nothing), and ``--resume`` runs only the keys the table lacks or holds as
+failed (``error``) or ``lost``.
 
 Columns are whatever the rows hold: the task's columns (``run_key``, scene,
 seed, one per parameter, ``pedvr_version``), ``status`` (``ok``, ``error``: the
@@ -27,8 +28,17 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 TABLE_NAME = "runs.parquet"
-# Text columns that are often all null in a batch: typed, so every file has one schema for them.
-TEXT = {"error": pa.string(), "recording": pa.string()}
+# Columns that are often all null in a batch: typed, so every file has one schema for them.
+TEXT = {
+    "error": pa.string(),
+    "recording": pa.string(),
+    "pedvr_git_commit": pa.string(),
+    "pedvr_git_dirty": pa.bool_(),
+    "pedvr_git_diff": pa.string(),
+    "numpy_version": pa.string(),
+    "numba_version": pa.string(),
+    "dask_version": pa.string(),
+}
 
 
 class ResultTable:
@@ -46,12 +56,36 @@ class ResultTable:
         return (0 if self._table is None else self._table.num_rows) + len(self._pending)
 
     def finished_keys(self) -> set[str]:
-        """Keys of tasks that need not run again: those with an ``ok`` or ``error`` row."""
+        """Keys of tasks that need not run again: those with an ``ok`` row. A row that failed
+        (``error``) or was lost runs again on resume: a failure may have been the machine's (a
+        worker that died holding the result), or code fixed since (issue 25.7)."""
+        return set(self.status_of(("ok",)))
+
+    def status_of(self, statuses: tuple[str, ...] = ("ok",)) -> dict[str, str]:
+        """run_key -> status for the rows whose status is one of ``statuses``."""
         if self._table is None:
-            return set()
+            return {}
         keys = self._table.column("run_key").to_pylist()
         status = self._table.column("status").to_pylist()
-        return {k for k, s in zip(keys, status, strict=True) if s in ("ok", "error")}
+        return {k: s for k, s in zip(keys, status, strict=True) if s in statuses}
+
+    def provenances(self) -> list[tuple[dict[str, Any], int]]:
+        """The distinct codes of the ``ok`` rows (:mod:`pedvr.sweep.provenance`) and their counts."""
+        from collections import Counter
+
+        from pedvr.sweep.provenance import COLUMNS
+
+        if self._table is None:
+            return []
+        names = self._table.column_names
+        cols = {c: self._table.column(c).to_pylist() for c in COLUMNS if c in names}
+        status = self._table.column("status").to_pylist()
+        count = Counter(
+            tuple(cols[c][i] if c in cols else None for c in COLUMNS)
+            for i in range(self._table.num_rows)
+            if status[i] == "ok"
+        )
+        return [(dict(zip(COLUMNS, k, strict=True)), n) for k, n in count.most_common()]
 
     def keys(self) -> set[str]:
         return set() if self._table is None else set(self._table.column("run_key").to_pylist())

@@ -8,9 +8,10 @@ worker that dies is retried, by Dask.
 
 A result is a plain dict: ``key``, ``status``, ``error``, ``metrics`` (the
 run's metrics JSON, as ``pedvr run --metrics-json`` writes it, plus SteerBench
-scores when asked), and ``blob``: the run's ``.npz`` recording when recordings
-are kept, a simulated participant's SQLite store; the client writes or merges
-it, so workers need no shared filesystem.
+scores when asked), ``provenance`` (the worker's code:
+:mod:`pedvr.sweep.provenance`), and ``blob``: the run's ``.npz`` recording when
+recordings are kept, a simulated participant's SQLite store; the client writes
+or merges it, so workers need no shared filesystem.
 """
 
 from __future__ import annotations
@@ -24,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from pedvr.sweep.provenance import COLUMNS as PROVENANCE
+from pedvr.sweep.provenance import provenance
 from pedvr.sweep.spec import ParticipantTask, RunTask, Task
 
 # Columns that measure the machine rather than the simulation: they differ
@@ -54,7 +57,14 @@ def execute(task: Task) -> dict[str, Any]:
         metrics, blob = {}, None
         status, error = "error", _one_line(exc)
     metrics["worker_wall_s"] = round(time.perf_counter() - t0, 3)
-    return {"key": task.key, "status": status, "error": error, "metrics": metrics, "blob": blob}
+    return {
+        "key": task.key,
+        "status": status,
+        "error": error,
+        "metrics": metrics,
+        "blob": blob,
+        "provenance": provenance(),
+    }
 
 
 def _one_line(exc: BaseException) -> str:
@@ -80,6 +90,8 @@ def _run(task: RunTask) -> tuple[dict[str, Any], bytes | None]:
         condition=task.condition,
         responsibility=task.responsibility,
         record=task.keep_recording or task.steerbench,
+        personal_space=task.personal_space,
+        user_walk=task.user_walk,
     )
     summary = sim.summary()
     summary.update(extra)
@@ -159,7 +171,8 @@ def flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def row_of(task: Task, result: dict[str, Any], *, recording: str | None = None) -> dict[str, Any]:
-    """The table row of a finished task: its columns, status, error, then every metric (flattened).
+    """The table row of a finished task: its columns, status, error, the code that ran it (null
+    where no worker ran it: a lost task), then every metric (flattened).
 
     Metric keys that repeat a run column (``scene``, ``seed``, ``condition``,
     ``responsibility``) are the same quantity; the run's column is kept.
@@ -167,6 +180,9 @@ def row_of(task: Task, result: dict[str, Any], *, recording: str | None = None) 
     row = task.columns()
     row["status"] = result["status"]
     row["error"] = result["error"]
+    code = result.get("provenance") or {}
+    for k in PROVENANCE:
+        row[k] = code.get(k, row.get(k))
     if recording is not None:
         row["recording"] = recording
     for k, v in flatten(result["metrics"]).items():

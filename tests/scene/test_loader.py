@@ -318,3 +318,44 @@ def test_bad_look_keys_are_all_reported(tmp_path: Path) -> None:
     assert "world.floor = 'lava': expected one of grid, tiles, wood, carpet, asphalt, paving" in msg
     assert "world.markings[0].kind = 'zebra': expected one of crosswalk" in msg
     assert "world.markings[0].to = [0.3, 0.0]: must be at least 1 m from world.markings.from" in msg
+
+
+@pytest.mark.parametrize("door, message", [
+    ({"span": [[0.0, 0.0], [0.0, 0.0]], **PULL},
+     r"^\S+: world\.doors\[0\]\.span = \[\[0\.0, 0\.0\], \[0\.0, 0\.0\]\]: a single door is 0\.7 to 1\.6 m wide; "
+     r"this is 0\.00 m$"),
+    ({"span": [[0.0, 0.0], [0.0, 0.0]], "kind": "double", "swing": "both_ways"},
+     r"^\S+: world\.doors\[0\]\.span = .*: a double door is 1\.2 to 3\.2 m wide; this is 0\.00 m$"),
+    ({"at": [0.0, 0.0], "width": 0, "along_deg": 90, **PULL},
+     r"^\S+: world\.doors\[0\]\.width = 0: must be > 0 m$"),
+])
+def test_a_zero_width_door_is_refused_for_its_width(tmp_path: Path, door: dict, message: str) -> None:
+    """Issue 25.12: a 0 m door was refused with "pull_side lies on the door's line", never its width."""
+    import re
+
+    with pytest.raises(SceneError) as info:
+        load_scene(write(tmp_path, patched(world__obstacles=DOORWAY, world__doors=[door])))
+    assert len(info.value.problems) == 1, info.value.problems
+    assert re.search(message, info.value.problems[0]), info.value.problems[0]
+
+
+def test_a_bad_profile_is_not_also_unknown(tmp_path: Path) -> None:
+    """Issue 25.12: a negative radius added "unknown profile; known: " (an empty list) on the spawn."""
+    bad = patched(agents__profiles__adult__radius=-0.3, agents__profiles__child__radius=-0.2)
+    with pytest.raises(SceneError) as info:
+        load_scene(write(tmp_path, bad))
+    assert [ln.split(": ", 1)[1] for ln in info.value.problems] == [
+        "agents.profiles.adult.radius = -0.3: must be > 0",
+        "agents.profiles.child.radius = -0.2: must be > 0",
+    ]
+    typo = patched(agents__profiles__child__radius=-0.2, agents__spawns__0__profile="chlid")
+    with pytest.raises(SceneError) as info:
+        load_scene(write(tmp_path, typo))
+    assert [ln.split(": ", 1)[1] for ln in info.value.problems] == [
+        "agents.profiles.child.radius = -0.2: must be > 0",
+        "agents.spawns[0].profile = 'chlid': unknown profile; known: adult, child",
+    ]
+    no_goal = patched(behavior__states__walk__goal=None)  # the state's own problem; the spawn names it
+    with pytest.raises(SceneError) as info:
+        load_scene(write(tmp_path, no_goal))
+    assert not [ln for ln in info.value.problems if "unknown state" in ln], info.value.problems

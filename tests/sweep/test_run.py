@@ -270,3 +270,86 @@ def test_a_task_the_scheduler_cancels_is_lost_not_a_crash(
     second = run_sweep(spec, out=tmp_path / "c", resume=True, client=cluster_client, progress=False)
     assert (second.ran, second.ok) == (1, 1)
     pd.testing.assert_frame_equal(_frame(tmp_path / "c"), serial)
+
+
+def test_a_worker_killed_holding_a_finished_result_is_waited_for(
+    small: tuple[SweepSpec, pd.DataFrame], cluster_client: Any, tmp_path: Path
+) -> None:
+    """Issue 25.7: a worker that dies holding a result the client has not fetched yet loses it;
+    Dask computes it again, and the sweep must wait for it, not write an error row ("NoneType: None")."""
+    import time
+
+    spec, serial = small
+    scheduler = cluster_client.cluster.scheduler
+    ours = {f"pedvr-{t.key}" for t in spec.tasks}
+    killed: list[str] = []
+
+    def kill_the_holder_of_an_unfetched_result(row: dict[str, Any]) -> None:
+        if killed:
+            return
+        # While this callback runs, the sweep fetches nothing: results finished now wait in memory.
+        deadline = time.monotonic() + 120
+        held, address = None, None
+        while address is None and time.monotonic() < deadline:
+            for k, ts in list(scheduler.tasks.items()):
+                holders = list(ts.who_has or ()) if k in ours and ts.state == "memory" else []
+                if holders:
+                    held, address = ts, holders[0].address
+                    break
+            time.sleep(0.05)
+        assert held is not None and address is not None, "no finished result waited to be fetched"
+        os.kill(cluster_client.run(os.getpid)[address], signal.SIGKILL)
+        killed.append(held.key)
+        while time.monotonic() < deadline and held.state == "memory":  # the scheduler noticed
+            time.sleep(0.05)
+        time.sleep(0.3)  # and told this client that the result is lost
+
+    try:
+        outcome = run_sweep(
+            spec,
+            out=tmp_path / "held",
+            client=cluster_client,
+            progress=False,
+            on_result=kill_the_holder_of_an_unfetched_result,
+        )
+    finally:
+        cluster_client.wait_for_workers(2, timeout=180)
+    assert killed
+    assert (outcome.ok, outcome.failed, outcome.lost) == (12, 0, 0), outcome.errors
+    pd.testing.assert_frame_equal(_frame(tmp_path / "held"), serial)
+
+
+def test_resume_runs_error_rows_again(small: tuple[SweepSpec, pd.DataFrame], tmp_path: Path) -> None:
+    """Issue 25.7: --resume counted error rows as done, so a table left with the error row of a lost
+    result (``NoneType: None``) could never be completed."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    spec, serial = small
+    out = tmp_path / "err"
+    assert run_sweep(spec, out=out, workers=0, progress=False).ok == 12
+    table = read_table(out)
+    victim = spec.tasks[3].key
+    status = [
+        "error" if k == victim else s
+        for k, s in zip(table.column("run_key").to_pylist(), table.column("status").to_pylist(), strict=True)
+    ]
+    error = [
+        "NoneType: None" if k == victim else e
+        for k, e in zip(table.column("run_key").to_pylist(), table.column("error").to_pylist(), strict=True)
+    ]
+    table = table.set_column(table.column_names.index("status"), "status", pa.array(status))
+    table = table.set_column(table.column_names.index("error"), "error", pa.array(error, pa.string()))
+    pq.write_table(table, out / "runs.parquet")
+    ran: list[str] = []
+    again = run_sweep(
+        spec,
+        out=out,
+        resume=True,
+        workers=0,
+        progress=False,
+        on_result=lambda row: ran.append(row["run_key"]),
+    )
+    assert ran == [victim] and (again.skipped, again.ran, again.ok, again.retried) == (11, 1, 1, 1)
+    assert "1 failed or lost before and ran again" in again.summary()
+    pd.testing.assert_frame_equal(_frame(out), serial)

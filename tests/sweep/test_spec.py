@@ -101,10 +101,11 @@ condition = "pedvr"
         "sweep.seeds = [1, 1]: seed 1 is listed twice",
         "sweep.grid.condition = 'pedvr': expected a non-empty array of values to sweep",
         "sweep.grid.responsibility[1] = 1.5: expected a number in [0, 1]",
-        "sweep.grid.speed[0] = 1: unknown parameter; run options are condition, duration, responsibility",
+        "sweep.grid.speed = [1, 2]: unknown parameter; run options are condition, duration, responsibility, "
+        "personal_space, user_walk",
         "sweep.duration = -1: must be > 0",
     ]
-    assert len(lines) == len(expected) + 1  # speed[1] too
+    assert len(lines) == len(expected)  # an unknown parameter once, not once per value (issue 25.9)
     for e in expected:
         assert any(e in ln for ln in lines), (e, lines)
     assert all(ln.startswith(f"{path}: ") for ln in lines)
@@ -267,3 +268,97 @@ def test_flatten_metrics() -> None:
     )
     assert got == {"a": 1, "b.c": 2.5, "b.d.e": None, "f": '[1, {"g": 2}]', "h": None, "i": 3, "j": None}
     assert type(got["i"]) is int
+
+
+def test_personal_space_and_user_walk_are_run_options(tmp_path: Path) -> None:
+    """Issue 25.9: `pedvr run --personal-space` exists, the spec refused `personal_space` as unknown."""
+    from pedvr.sweep.task import execute
+
+    spec = load_spec(
+        write_spec(
+            tmp_path,
+            """
+[sweep]
+name = "margin"
+scenes = ["headon_corridor"]
+duration = 0.3
+seeds = [1]
+[sweep.set]
+user_walk = "reactive"
+[sweep.grid]
+personal_space = [0.0, 0.6]
+""",
+        )
+    )
+    assert spec.swept == ("personal_space",)
+    assert [(t.personal_space, t.user_walk) for t in spec.tasks] == [(0.0, "reactive"), (0.6, "reactive")]  # type: ignore[union-attr]
+    assert len({t.key for t in spec.tasks}) == 2
+    assert spec.tasks[1].columns()["personal_space"] == 0.6
+    result = execute(spec.tasks[1])
+    assert result["status"] == "ok", result["error"]
+    assert result["metrics"]["personal_space_m"] == 0.6 and result["metrics"]["user_walk"] == "reactive"
+    bad = write_spec(
+        tmp_path,
+        SMALL.format(duration=1.0).replace("responsibility = [0.0, 0.5, 1.0]",
+                                           'personal_space = [0.3, 2.5]\nuser_walk = ["zigzag"]'),
+    )
+    with pytest.raises(SweepSpecError) as err:
+        load_spec(bad)
+    assert [ln.split(": ", 1)[1] for ln in err.value.problems] == [
+        "sweep.grid.personal_space[1] = 2.5: expected a number in [0, 2] (metres agents keep from the user)",
+        "sweep.grid.user_walk[0] = 'zigzag': expected one of 'straight', 'reactive'",
+    ]
+
+
+@pytest.mark.parametrize("grid", ["[sweep.grid]\n", "[sweep.grid]\n[sweep.grid.steering]\n"])
+def test_an_empty_grid_is_an_error_not_one_silent_run(tmp_path: Path, grid: str) -> None:
+    """Issue 25.9: an empty [sweep.grid] ran each scene once, silently."""
+    path = write_spec(
+        tmp_path, '[sweep]\nname = "e"\nscenes = ["headon_corridor"]\nduration = 1.0\nseeds = [1]\n' + grid
+    )
+    with pytest.raises(SweepSpecError) as err:
+        load_spec(path)
+    assert len(err.value.problems) == 1
+    assert err.value.problems[0].startswith(f"{path}: sweep.grid = ")
+    assert err.value.problems[0].endswith(
+        ": empty: give each parameter to sweep a list of values, or leave [sweep.grid] out"
+    )
+
+
+def test_a_missing_scene_path_says_where_it_looked(tmp_path: Path) -> None:
+    """Issue 25.9: a missing absolute path said "(relative to the spec file)"."""
+    path = write_spec(
+        tmp_path,
+        f"""
+[sweep]
+name = "paths"
+scenes = ["{tmp_path}/absent.toml", "absent.xml", "{tmp_path}/none-*.xml", "sub/none-*.toml"]
+duration = 1.0
+seeds = [1]
+""",
+    )
+    with pytest.raises(SweepSpecError) as err:
+        load_spec(path)
+    assert [ln.split(": ", 1)[1] for ln in err.value.problems] == [
+        f"sweep.scenes[0] = '{tmp_path}/absent.toml': no such scene file",
+        f"sweep.scenes[1] = 'absent.xml': no such scene file (paths are relative to the spec file: "
+        f"{tmp_path.resolve()}/absent.xml)",
+        f"sweep.scenes[2] = '{tmp_path}/none-*.xml': the glob matches no .toml or .xml file",
+        f"sweep.scenes[3] = 'sub/none-*.toml': the glob matches no .toml or .xml file (paths are relative to the "
+        f"spec file: {tmp_path.resolve()}/sub/none-*.toml)",
+    ]
+
+
+@pytest.mark.parametrize(
+    "seeds, message",
+    [
+        ("[-3]", "sweep.seeds = [-3]: expected a non-empty list of integers >= 0, or {from = 1, count = 200}"),
+        ("{ from = -3, count = 2 }", "sweep.seeds.from = -3: must be >= 0"),
+    ],
+)
+def test_negative_seeds_are_one_line(tmp_path: Path, seeds: str, message: str) -> None:
+    """Issue 24.2: numpy's generators take no negative seed; a spec says so in one line, as `pedvr run`."""
+    path = write_spec(tmp_path, SMALL.format(duration=1.0).replace("[1, 2, 3, 4]", seeds))
+    with pytest.raises(SweepSpecError) as err:
+        load_spec(path)
+    assert err.value.problems == [f"{path}: {message}"]
