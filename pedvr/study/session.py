@@ -29,10 +29,8 @@ runs it again from its start.
 from __future__ import annotations
 
 import json
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from importlib import metadata
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -63,14 +61,16 @@ DECLINED = "consent declined"  # the reason stored with the consent step a parti
 
 
 def software_version() -> str:
-    """The installed pedvr version, or the source tree's version marked ``+src``."""
-    try:
-        return metadata.version("pedvr")
-    except metadata.PackageNotFoundError:
-        pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
-        if pyproject.is_file():
-            return str(tomllib.loads(pyproject.read_text())["project"]["version"]) + "+src"
-        return "unknown"
+    """pedvr's version and, from a git checkout, its commit: ``0.2.0+g1a2b3c4d5e`` (``.dirty`` with
+    uncommitted changes to the code), so a methods section can name the exact code that ran."""
+    from pedvr.provenance import provenance
+
+    p = provenance()
+    version = str(p["pedvr_version"])
+    commit = p.get("pedvr_git_commit")
+    if commit:
+        version += f"+g{str(commit)[:10]}" + (".dirty" if p.get("pedvr_git_dirty") else "")
+    return version
 
 
 @dataclass(frozen=True)

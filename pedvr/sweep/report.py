@@ -17,7 +17,7 @@ and arrivals, motion limits, doors) and SteerBench scores, those that vary
 across the ``ok`` rows, in that order; ``pedvr sweep report DIR --metric NAME``
 (repeatable) picks others. Timing columns (machine, not simulation) and the
 parameters themselves are never measures by default. ``DIR/report/report.md``
-has the counts, the code that made the rows (:mod:`pedvr.sweep.provenance`),
+has the counts, the code that made the rows (:mod:`pedvr.provenance`),
 the failed runs, per factor the figure and a table of the same means and
 intervals, SteerBench scores per scene when the rows have them, and lists the
 metrics not plotted; ``DIR/report/summary.csv`` has every mean and interval
@@ -160,7 +160,7 @@ MEASURES = (
 
 def _code_section(df: pd.DataFrame) -> list[str]:
     """The code that made the rows (issue 25.8): one line per distinct code, with its row count."""
-    from pedvr.sweep.provenance import COLUMNS, describe
+    from pedvr.provenance import COLUMNS, describe
 
     if not set(COLUMNS) <= set(df.columns):
         return ["Code: the rows do not record it (made before pedvr 0.2.0).", ""]
@@ -184,7 +184,7 @@ def _numeric(ok: pd.DataFrame, c: str) -> bool:
 
 def _metrics(ok: pd.DataFrame, parameters: list[str]) -> tuple[list[str], dict[str, Any]]:
     """Numeric, non-bool metric columns that vary; and those that are the same in every row."""
-    from pedvr.sweep.provenance import COLUMNS
+    from pedvr.provenance import COLUMNS
 
     varying, constant = [], {}
     for c in ok.columns:

@@ -12,7 +12,7 @@ for it (issue 25.7: it used to write an ``error`` row, ``NoneType: None``). A
 run that raises is a row with ``status = "error"`` and the sweep goes on.
 ``--resume`` runs what the table lacks and every ``error`` or ``lost`` row
 again; it refuses to add rows to a table made by other code
-(:mod:`pedvr.sweep.provenance`) unless told ``allow_mixed_code``.
+(:mod:`pedvr.provenance`) unless told ``allow_mixed_code``.
 
 Where the tasks run: a ``LocalCluster`` of ``workers`` processes with one
 thread each (default: one per core) started and closed here; an existing
@@ -41,8 +41,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+from pedvr.provenance import describe, differences, provenance
 from pedvr.sweep.errors import SweepError
-from pedvr.sweep.provenance import describe, differences, provenance
 from pedvr.sweep.spec import ParticipantTask, RunTask, SweepSpec, Task
 from pedvr.sweep.table import TABLE_NAME, ResultTable
 from pedvr.sweep.task import execute, row_of
@@ -153,7 +153,7 @@ def run_sweep(
     KeyboardInterrupt from ``on_result``) stops the sweep cleanly: rows so far
     are written, the cluster is closed, and the outcome says ``interrupted``.
     With ``resume``, the table's ``ok`` rows must come from this code (see
-    :func:`pedvr.sweep.provenance.differences`), or ``allow_mixed_code``.
+    :func:`pedvr.provenance.differences`), or ``allow_mixed_code``.
     """
     if scheduler is not None and workers is not None:
         raise SweepError(
@@ -328,14 +328,14 @@ def _describe(client: Any, scheduler: str | None) -> str:
 
 
 def _worker_code() -> dict[str, Any]:
-    from pedvr.sweep.provenance import provenance
+    from pedvr.provenance import provenance
 
     return provenance()
 
 
 def _check_workers(client: Any) -> None:
     """Every worker runs the same pedvr version as this client (the task keys include it), and no
-    other code where both know it (:func:`pedvr.sweep.provenance.differences`)."""
+    other code where both know it (:func:`pedvr.provenance.differences`)."""
     mine = _worker_code()
     try:
         codes = client.run(_worker_code)

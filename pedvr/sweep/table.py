@@ -70,10 +70,10 @@ class ResultTable:
         return {k: s for k, s in zip(keys, status, strict=True) if s in statuses}
 
     def provenances(self) -> list[tuple[dict[str, Any], int]]:
-        """The distinct codes of the ``ok`` rows (:mod:`pedvr.sweep.provenance`) and their counts."""
+        """The distinct codes of the ``ok`` rows (:mod:`pedvr.provenance`) and their counts."""
         from collections import Counter
 
-        from pedvr.sweep.provenance import COLUMNS
+        from pedvr.provenance import COLUMNS
 
         if self._table is None:
             return []

@@ -9,7 +9,7 @@ worker that dies is retried, by Dask.
 A result is a plain dict: ``key``, ``status``, ``error``, ``metrics`` (the
 run's metrics JSON, as ``pedvr run --metrics-json`` writes it, plus SteerBench
 scores when asked), ``provenance`` (the worker's code:
-:mod:`pedvr.sweep.provenance`), and ``blob``: the run's ``.npz`` recording when
+:mod:`pedvr.provenance`), and ``blob``: the run's ``.npz`` recording when
 recordings are kept, a simulated participant's SQLite store; the client writes
 or merges it, so workers need no shared filesystem.
 """
@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from pedvr.sweep.provenance import COLUMNS as PROVENANCE
-from pedvr.sweep.provenance import provenance
+from pedvr.provenance import COLUMNS as PROVENANCE
+from pedvr.provenance import provenance
 from pedvr.sweep.spec import ParticipantTask, RunTask, Task
 
 # Columns that measure the machine rather than the simulation: they differ

@@ -345,3 +345,17 @@ def test_not_a_study_database(tmp_path: Path) -> None:
         StudyStore(f, read_only=True)
     with pytest.raises(StudyStoreError, match=r"missing\.sqlite: no such study database"):
         StudyStore(tmp_path / "missing.sqlite", read_only=True)
+
+
+def test_sessions_record_the_version_and_commit_of_the_code() -> None:
+    import subprocess
+
+    import pedvr
+    from pedvr.study.session import software_version
+
+    v = software_version()
+    assert v.startswith(pedvr.__version__)
+    head = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                          cwd=Path(pedvr.__file__).parent).stdout.strip()
+    if head:  # a git checkout: the commit is named, so a methods section can cite the exact code
+        assert f"+g{head[:10]}" in v

@@ -14,8 +14,8 @@ import pytest
 
 import pedvr
 from pedvr.cli import main
+from pedvr.provenance import COLUMNS, describe, differences, provenance
 from pedvr.sweep.errors import SweepError
-from pedvr.sweep.provenance import COLUMNS, describe, differences, provenance
 from pedvr.sweep.runner import run_sweep
 from pedvr.sweep.spec import load_spec
 from pedvr.sweep.table import read_table

@@ -1,4 +1,4 @@
-"""Which code made a row (issue 25.8): pedvr's version and source tree, numpy, numba and dask.
+"""Which code made a result (issue 25.8): pedvr's version and source tree, numpy, numba and dask.
 
 Every row of a sweep's table carries :data:`COLUMNS`, measured on the worker
 that ran it (:func:`provenance`, once per process: the code a process runs is
@@ -54,7 +54,7 @@ def provenance() -> dict[str, Any]:
     from pedvr import __version__
 
     out: dict[str, Any] = {"pedvr_version": __version__}
-    out.update(_git(Path(__file__).resolve().parents[2]))
+    out.update(_git(Path(__file__).resolve().parents[1]))
     for name in ("numpy", "numba", "dask"):
         try:
             out[f"{name}_version"] = metadata.version(name)
