@@ -142,7 +142,7 @@ const vec2 UPPER_LIP_R = vec2(0.0052, 0.0022), LOWER_LIP_R = vec2(0.0064, 0.0024
 const vec3 MOUTH_A = vec3(0.0, 1.5772, 0.1098), MOUTH_B = vec3(0.0205, 1.5778, 0.1032);
 
 // Lips: the skin darker and redder (more so on light skin, whose lips show their blood more).
-vec3 lips(vec3 skin) { return skin * vec3(0.78, 0.52, 0.52) + vec3(0.03, 0.006, 0.007); }
+vec3 lips(vec3 skin) { return skin * vec3(0.78, 0.55, 0.53) + vec3(0.03, 0.005, 0.006); }
 
 float segment_distance(vec3 p, vec3 a, vec3 b) {
     vec3 ab = b - a;
