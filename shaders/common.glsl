@@ -59,24 +59,69 @@ float key_light(vec3 world, vec3 n) {
     return sum / 9.0;
 }
 
+// The sky and ground as seen along direction `r`: the hemisphere ambient's radiance.
+vec3 environment_radiance(vec3 r) {
+    return mix(GROUND_BOUNCE, SKY, 0.5 + 0.5 * r.y) * 0.62;
+}
+
+// Distance fog: distant things fade to the sky (a depth cue).
+vec3 fogged(vec3 c, vec3 world, vec3 eye) {
+    float fog = 1.0 - exp(-FOG_DENSITY * length(world - eye));
+    return mix(c, SKY, clamp(fog, 0.0, 1.0));
+}
+
+// Hemisphere ambient and a soft fill (times the ambient occlusion `ao`) and the key light with its
+// shadow (`lit`, 0..1) on a Lambertian surface of `albedo` with normal `n` facing the viewer.
+vec3 diffuse_lit(vec3 albedo, vec3 n, float ao, float ndl, float lit) {
+    vec3 ambient = (environment_radiance(n) + FILL * max(dot(n, FILL_DIR), 0.0)) * ao;
+    return albedo * (ambient + SUN * max(ndl, 0.0) * 0.95 * lit);
+}
+
 // Hemisphere ambient and a soft fill (times the ambient occlusion `ao`), the key light with its shadow,
 // a touch of specular, distance fog; linear light.
 vec3 shade_lit(vec3 albedo, vec3 n, vec3 world, vec3 eye, float ao, float spec) {
     n = normalize(n);
     vec3 v = normalize(eye - world);
     if (dot(n, v) < -0.2) n = -n;  // seen from inside (thin shells): light the side we see
-    float hemi = 0.5 + 0.5 * n.y;
-    vec3 ambient = (mix(GROUND_BOUNCE, SKY, hemi) * 0.62 + FILL * max(dot(n, FILL_DIR), 0.0)) * ao;
     float ndl = dot(n, SUN_DIR);
     float lit = ndl > 0.0 ? key_light(world, n) : 0.0;
-    vec3 c = albedo * (ambient + SUN * max(ndl, 0.0) * 0.95 * lit);
+    vec3 c = diffuse_lit(albedo, n, ao, ndl, lit);
     if (spec > 0.0) {
         vec3 h = normalize(SUN_DIR + v);
         c += SUN * spec * 0.25 * pow(max(dot(n, h), 0.0), 48.0) * lit;
     }
-    float d = length(world - eye);
-    float fog = 1.0 - exp(-FOG_DENSITY * d);
-    return mix(c, SKY, clamp(fog, 0.0, 1.0));
+    return fogged(c, world, eye);
+}
+
+// Skin (and lips): the diffuse light of shade_lit plus the reflection off the skin's surface, which
+// every skin has whatever its melanin: a dielectric of F0 = 0.028 (refractive index 1.4) with a
+// Beckmann roughness `m` (0.3-0.45 over a face: Weyrich et al. 2006, "Analysis of human faces using
+// a measurement-based skin reflectance model"), the key light through the Kelemen/Szirmay-Kalos
+// specular that d'Eon & Luebke use for real-time skin (GPU Gems 3, ch. 14), and the sky's and
+// ground's sheen (the hemisphere's radiance in the mirror direction, Schlick's Fresnel damped by
+// the roughness, times `ao`). On dark skin this reflection is most of what shows a face's form.
+const float SKIN_F0 = 0.028;
+vec3 shade_skin(vec3 albedo, vec3 n, vec3 world, vec3 eye, float ao, float m) {
+    n = normalize(n);
+    vec3 v = normalize(eye - world);
+    if (dot(n, v) < -0.2) n = -n;
+    float ndl = dot(n, SUN_DIR);
+    float lit = ndl > 0.0 ? key_light(world, n) : 0.0;
+    vec3 c = diffuse_lit(albedo, n, ao, ndl, lit);
+    vec3 h = SUN_DIR + v;  // unnormalised: |h|² = 4 (v·ĥ)²
+    float hh = max(dot(h, h), 1e-4);
+    float ndh = max(dot(n, h), 0.0) * inversesqrt(hh);
+    float vdh = 0.5 * sqrt(hh);
+    if (ndl > 0.0 && ndh > 0.0) {
+        float t2 = (1.0 - ndh * ndh) / (ndh * ndh);  // tan² of the half vector's angle
+        float beckmann = exp(-t2 / (m * m)) / (3.14159265 * m * m * ndh * ndh * ndh * ndh);
+        float fresnel = SKIN_F0 + (1.0 - SKIN_F0) * pow(1.0 - vdh, 5.0);
+        c += SUN * 0.95 * lit * ndl * fresnel * beckmann / hh;
+    }
+    float ndv = clamp(dot(n, v), 0.0, 1.0);
+    float f_env = SKIN_F0 + (max(1.0 - m, SKIN_F0) - SKIN_F0) * pow(1.0 - ndv, 5.0);
+    c += f_env * environment_radiance(reflect(-v, n)) * ao;
+    return fogged(c, world, eye);
 }
 
 vec3 shade(vec3 albedo, vec3 n, vec3 world, vec3 eye) {

@@ -141,10 +141,13 @@ void main() {
     } else if (v_material == FABRIC) {
         albedo *= 0.9 + 0.1 * noise2(v_uv * 50.0);
     } else if (v_material == MARKING) {
-        // Zebra bars 0.5 m deep every metre along the crossing, worn a little.
-        float stripe = step(0.5, fract(v_uv.y));  // bars across the way, stepped over one by one
-        if (stripe < 0.5 || noise2(v_world.xz * 6.0) < 0.12) discard;
-        albedo *= 0.85 + 0.15 * noise2(v_world.xz * 20.0);
+        // Zebra bars 0.5 m deep every metre along the crossing (bars across the way, stepped over
+        // one by one); the road shows between them. The paint is worn a little: thinner in
+        // patches and scuffed finely, but never through to the road (holes punched where a noise
+        // fell below a threshold read as black blotches: issue 25 item 17).
+        if (fract(v_uv.y) < 0.5) discard;
+        float worn = smoothstep(0.6, 0.95, noise2(v_world.xz * 2.5)) * (0.4 + 0.6 * noise2(v_world.xz * 35.0));
+        albedo *= (0.9 + 0.1 * noise2(v_world.xz * 20.0)) * (1.0 - 0.22 * worn);
     } else if (v_material == CONCRETE) {
         albedo *= 0.88 + 0.12 * noise2(v_uv * 5.0);
     } else if (v_material == METAL) {

@@ -23,11 +23,18 @@ eye's horizontal axis for blinks and to follow the eye's pitch.
 Skin weights come from distances to the flesh of each bone (each primitive
 belongs to a bone): ``w_b ∝ exp(−(d_b − d_min)/σ)``, smoothed twice over the
 mesh, at most four bones per vertex, summing to one. Clothing is decided per
-fragment, not per vertex, so its edges are sharp at every level of detail:
-each body vertex carries its armness and legness (the skin weights of the
-arm and leg bones), its fraction along the limb and its bind-pose height,
-and the fragment shader compares them with the agent's sleeve, trouser,
-neckline and shirt-hem lengths; lips and brows are regions of their own.
+fragment, not per vertex, so its edges are sharp at every level of detail,
+and every edge is a smooth curve (issue 25 item 18: the hems were jagged,
+following the triangles where thresholded skin weights crossed ½). The body
+is cut along two seams, the zero sets of smooth fields (:class:`_Seams`: the
+surface equidistant from the arms' flesh and the rest, through the armpits
+and over the shoulders; likewise for the legs, below the lowest shirt hem),
+so each triangle is wholly ARM, LEG or TRUNK (:func:`cut_along`). Each body
+vertex carries its fraction along its limb (linear in the bind pose) and its
+bind-pose position, and the fragment shader compares them with the agent's
+sleeve and trouser lengths (a plane across the limb), its shirt hem (a plane
+round the trunk) and the neckline (a smooth curve of the bind-pose position);
+lips and brows are drawn from the bind-pose position too.
 
 Generation takes about a second and is cached in the user's cache directory
 (``$XDG_CACHE_HOME/pedvr`` or ``~/.cache/pedvr``), keyed by this module's and
@@ -40,7 +47,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -54,6 +61,7 @@ from pedvr.render.implicit import ELLIPSOID, HALF_SPACE, INTERSECT, ROUND_BOX, R
 
 # Regions: what a vertex is made of, for the fragment shader's materials.
 SKIN, TRUNK, ARM, LEG, FOOT, EYE, LID_UPPER, LID_LOWER, HAIR, SKIRT, LIPS, BROW = range(12)
+BODY_REGIONS = (TRUNK, ARM, LEG)  # the body's one surface, cut along its seams
 ALWAYS = -1  # variant of the pieces every agent wears
 SKIRT_VARIANT = 10
 HAIR_STYLES = ("short", "long", "bun", "buzz", "bob")
@@ -72,11 +80,16 @@ LID_INNER, LID_OUTER = 0.0127, 0.0139  # m: the lids' shell, just off the eyebal
 LID_OPEN_UPPER = math.radians(24.0)  # rad above the eye's axis: the open upper lid's margin
 LID_OPEN_LOWER = math.radians(-21.0)  # rad: the lower lid's margin
 SIGMA = 0.012  # m: how far skin weights blend across the flesh of neighbouring bones
-LOD_TRIANGLES = {  # per piece and level of detail
-    "body": (11000, 2800, 700), "hair": (1000, 320, 100), "skirt": (600, 200, 60),
+LOD_TRIANGLES = {  # per piece and level of detail (the body's before its seams are cut, which adds
+    # about 500, 300 and 120 triangles: as many as the uncut 11000, 2800 and 700 had)
+    "body": (10500, 2500, 575), "hair": (1000, 320, 100), "skirt": (600, 200, 60),
     "eye": (200, 80, 32), "lid": (140, 50, 20),
 }
-MESH_VERSION = 1
+MESH_VERSION = 2
+LEG_SEAM_Y = 0.9  # m, bind pose: the legs begin below this height (under the lowest shirt hem, 0.95 m)
+SEAM_SNAP = 0.08  # a seam crossing an edge this close to a vertex goes through the vertex (no slivers)
+ARM_BONES = tuple(f"{s}{j}" for s in "LR" for j in ("Shoulder", "Elbow", "Wrist", "Hand"))
+LEG_BONES = tuple(f"{s}{j}" for s in "LR" for j in ("Hip", "Knee", "Ankle", "Toe"))
 
 _J = {n: i for i, n in enumerate(JOINTS)}
 
@@ -211,10 +224,14 @@ def body_prims(sex: float, build: float) -> list[Prim]:
     for s in (1.0, -1.0):
         add(ELLIPSOID, (0.0125 * s, y0 + 0.008, 0.108), (0.0095, 0.008, 0.009), bone="Head", region=SKIN,
             k=0.008)
-    add(ROUND_CONE, (-0.021, y0 - 0.017, 0.094), (0.021, y0 - 0.017, 0.094), bone="Head", region=LIPS,
-        ra=0.0058, rb=0.0058, k=0.006)
-    add(ROUND_CONE, (-0.018, y0 - 0.029, 0.092), (0.018, y0 - 0.029, 0.092), bone="Head", region=LIPS,
-        ra=0.0068, rb=0.0068, k=0.006)
+    # Lips standing 4 mm proud of the face's surface (10.6 cm in front of the head joint there), so
+    # that they show: each half of each lip a cone tapering from the middle to the corner, set back
+    # there with the face's curve. crowd.glsl colours the surface near these cones (UPPER_LIP_A ...).
+    for s in (1.0, -1.0):
+        add(ROUND_CONE, (0.0, y0 - 0.0165, 0.1045), (0.022 * s, y0 - 0.018, 0.1015), bone="Head",
+            region=LIPS, ra=0.0052, rb=0.0022, k=0.006)
+        add(ROUND_CONE, (0.0, y0 - 0.0285, 0.102), (0.019 * s, y0 - 0.0265, 0.0995), bone="Head",
+            region=LIPS, ra=0.0064, rb=0.0024, k=0.006)
     # Eye sockets, carved: the eyeballs and lids sit in them.
     for side in "LR":
         add(ELLIPSOID, r[_J[f"{side}Eye"]] + (0, 0, 0.001), (0.0152, 0.0146, 0.0146), bone="Head",
@@ -415,12 +432,139 @@ def _skin_weights(piece: _Piece, verts: np.ndarray, tris: np.ndarray) -> tuple[n
     return _top4(w)
 
 
-def _regions(piece: _Piece, verts: np.ndarray, rest: np.ndarray, bones: np.ndarray,
-             weights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+class _Seams:
+    """The body's arm and leg seams as smooth fields of the bind-pose position (metres).
+
+    ``arm`` is positive on the arms: half the difference between the distance to the nearest
+    flesh of any other bone and to the arms' flesh (the arm side of the surface equidistant
+    from both, through the armpits and over the shoulders); ``leg`` likewise for the legs, and
+    below :data:`LEG_SEAM_Y`, so that every shirt hem (0.95-1.01 m) runs round the trunk
+    alone. Distances are the primitives' own (:func:`pedvr.render.implicit.prim_distances`):
+    smooth, so are their differences, and their zero sets are smooth curves on the surface.
+    """
+
+    def __init__(self, prims: list[Prim]) -> None:
+        flesh = [i for i, p in enumerate(prims) if p.kind != HALF_SPACE and p.op == 0]
+        self.table = im.prim_table([prims[i] for i in flesh])
+        arm = {_J[b] for b in ARM_BONES}
+        leg = {_J[b] for b in LEG_BONES}
+        bones = np.array([prims[i].bone for i in flesh])
+        self.is_arm = np.isin(bones, list(arm))
+        self.is_leg = np.isin(bones, list(leg))
+
+    def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        pts = np.ascontiguousarray(points, np.float64).reshape(-1, 3)
+        d = np.empty((len(pts), self.table.shape[0]))
+        im.prim_distances(pts, self.table, d)
+        d_arm = d[:, self.is_arm].min(axis=1)
+        d_leg = d[:, self.is_leg].min(axis=1)
+        d_core = d[:, ~(self.is_arm | self.is_leg)].min(axis=1)
+        arm = 0.5 * (np.minimum(d_core, d_leg) - d_arm)
+        leg = np.minimum(0.5 * (np.minimum(d_core, d_arm) - d_leg), LEG_SEAM_Y - pts[:, 1])
+        return arm, leg
+
+
+def cut_along(verts: np.ndarray, tris: np.ndarray, field: Callable[[np.ndarray], np.ndarray], *,
+              snap: float = SEAM_SNAP) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Split the triangles that ``field``'s zero set crosses, so that it runs along mesh edges.
+
+    ``field(points (M, 3)) -> (M,)`` is evaluated at the vertices; where an edge's ends
+    differ in sign the crossing is found by bisection on the field itself (so the new vertices
+    lie on the zero set, not on a linear guess), unless it falls within ``snap`` of the edge's
+    length from an end, which then counts as on the zero set. A triangle with one vertex on
+    each side and one on the set becomes two, one with a vertex alone on its side three; new
+    vertices are shared by the triangles on both sides of their edge and winding is kept, so a
+    closed oriented surface stays one. Returns the vertices (old first), the triangles, and
+    which vertices lie on the zero set.
+    """
+    verts = np.asarray(verts, np.float64)
+    tris = np.asarray(tris, np.int64)
+    f = np.asarray(field(verts), np.float64)
+    on = f == 0.0
+    # Edges that cross; crossings near an end snap to that end.
+    e = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    e = np.unique(e, axis=0)
+    fa, fb = f[e[:, 0]], f[e[:, 1]]
+    cross = (fa * fb < 0) & ~on[e[:, 0]] & ~on[e[:, 1]]
+    t = np.where(cross, fa / np.where(cross, fa - fb, 1.0), 0.5)
+    on[e[cross & (t < snap), 0]] = True
+    on[e[cross & (t > 1.0 - snap), 1]] = True
+    sign = np.where(on, 0, np.sign(f)).astype(np.int64)
+    cross = (sign[e[:, 0]] * sign[e[:, 1]]) < 0
+    ce = e[cross]
+    # Bisection along each crossing edge on the true field.
+    a, b = verts[ce[:, 0]], verts[ce[:, 1]]
+    lo, hi = np.zeros(len(ce)), np.ones(len(ce))
+    s0 = sign[ce[:, 0]]
+    for _ in range(24):
+        mid = 0.5 * (lo + hi)
+        fm = np.asarray(field(a + (b - a) * mid[:, None]))
+        same = np.sign(fm) == s0
+        lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+    t = 0.5 * (lo + hi)
+    new = a + (b - a) * t[:, None]
+    n0 = len(verts)
+    key = ce[:, 0] * n0 + ce[:, 1]
+    order = np.argsort(key)
+    key, ids = key[order], (n0 + np.arange(len(ce)))[order]
+
+    def point(i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        k = np.minimum(i, j) * n0 + np.maximum(i, j)
+        return ids[np.searchsorted(key, k)]
+
+    sg = sign[tris]
+    out = [tris[~((sg == 1).any(axis=1) & (sg == -1).any(axis=1))]]
+    split = tris[(sg == 1).any(axis=1) & (sg == -1).any(axis=1)]
+    ss = sign[split]
+    # Rotate each split triangle so that its first vertex is the one alone (on the set or on its side).
+    lone = np.where((ss == 0).any(axis=1), np.argmax(ss == 0, axis=1),
+                    np.argmax(ss == -np.sign(ss.sum(axis=1, keepdims=True)), axis=1))
+    r = np.stack([split[np.arange(len(split)), (lone + k) % 3] for k in range(3)], axis=1)
+    zero = sign[r[:, 0]] == 0
+    v0, v1, v2 = r[zero, 0], r[zero, 1], r[zero, 2]
+    p12 = point(v1, v2)
+    out += [np.stack([v0, v1, p12], 1), np.stack([v0, p12, v2], 1)]
+    v0, v1, v2 = r[~zero, 0], r[~zero, 1], r[~zero, 2]
+    p01, p02 = point(v0, v1), point(v0, v2)
+    out += [np.stack([v0, p01, p02], 1), np.stack([p01, v1, v2], 1), np.stack([p01, v2, p02], 1)]
+    on = np.concatenate([on, np.ones(len(ce), np.bool_)])
+    return np.concatenate([verts, new]), np.concatenate(out), on
+
+
+def _cut_seams(piece: _Piece, verts: np.ndarray,
+               tris: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The body cut along its arm and leg seams (:class:`_Seams`): vertices (new ones pulled onto
+    the surface), triangles (each wholly on one side of each seam, its last vertex off both
+    seams where it has one: the vertex the shader's flat region comes from), the arm and leg
+    seam fields (exactly 0 on the seams) and each vertex's region (ARM, LEG or TRUNK, by the
+    fields' signs where the vertex is: for the rare sliver with all three vertices on seams)."""
+    seams = _Seams(piece.prims)
+    verts, tris, on_arm = cut_along(verts, tris, lambda p: seams(p)[0])
+    verts, tris, on_leg = cut_along(verts, tris, lambda p: seams(p)[1])
+    on_arm = np.concatenate([on_arm, np.zeros(len(verts) - len(on_arm), np.bool_)])
+    moved = np.flatnonzero(on_arm | on_leg)
+    p = verts[moved]
+    for _ in range(3):  # onto the surface: the new vertices lie on chords
+        p = p - im.field(p, piece.table)[:, None] * im.gradient(p, piece.table)
+    verts = verts.copy()
+    verts[moved] = p
+    arm, leg = seams(verts)
+    region = np.where(arm > 0, ARM, np.where(leg > 0, LEG, TRUNK)).astype(np.int32)
+    arm[on_arm], leg[on_leg] = 0.0, 0.0
+    off = np.minimum(np.abs(arm), np.abs(leg))
+    last = np.argmax(off[tris], axis=1)
+    tris = np.stack([tris[np.arange(len(tris)), (last + k) % 3] for k in (1, 2, 3)], axis=1)
+    return verts, tris, arm, leg, region
+
+
+def _regions(piece: _Piece, verts: np.ndarray, rest: np.ndarray,
+             seams: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Region, the scalar ``t`` and the ``local`` vector of each vertex of a piece.
 
-    Body: ``t`` is the bind-pose height, ``local`` (armness, legness, fraction along the
-    limb from shoulder to wrist or hip to ankle); eyes: the direction from the eye's centre;
+    Body (with its ``seams``: arm and leg fields, regions): ``t`` is the bind-pose height,
+    ``local`` (arm seam field, leg seam field, fraction along the limb); eyes: the direction
+    from the eye's centre;
     lids: the eye's centre, ``t`` the angle from the lid's margin; hair: the position
     relative to the head joint.
     """
@@ -440,24 +584,24 @@ def _regions(piece: _Piece, verts: np.ndarray, rest: np.ndarray, bones: np.ndarr
         alpha = np.arctan2(q[:, 1], q[:, 2])  # angle above the eye's axis
         t = np.abs(alpha - (LID_OPEN_UPPER if region[0] == LID_UPPER else LID_OPEN_LOWER))
     elif piece.name == "body":
-        # One clothable surface whose materials the fragment shader picks from (armness, legness,
-        # t along the limb) and the bind-pose position (height in t, z and x in uv): clothes,
-        # skin, and the lips and brows of the face (crowd.glsl).
-        region = np.full(n, TRUNK, np.int32)
+        # One clothable surface, cut along the arm and leg seams (_cut_seams): region ARM, LEG or
+        # TRUNK (flat in the shader: every triangle is wholly on one side and its last vertex
+        # says which); local (arm seam field, leg seam field, fraction along the limb from
+        # shoulder to wrist or hip to ankle on the vertex's side: linear, so that a sleeve or
+        # trouser hem cuts the limb along a plane), the bind-pose height in t, z and x in uv
+        # (the neckline, lips and brows, crowd.glsl).
+        assert seams is not None
+        arm, leg, region = seams
         t = verts[:, 1].copy()
-        w = np.zeros((n, len(JOINTS)))
-        np.put_along_axis(w, bones.astype(np.int64), weights.astype(np.float64), axis=1)
-        arm = w[:, [_J[f"{s}{j}"] for s in "LR" for j in ("Shoulder", "Elbow", "Wrist", "Hand")]].sum(1)
-        leg = w[:, [_J[f"{s}{j}"] for s in "LR" for j in ("Hip", "Knee", "Ankle", "Toe")]].sum(1)
         local[:, 0], local[:, 1] = arm, leg
+        near_arm = arm >= leg  # seam vertices take the fraction of the limb they border
         for side, sgn in (("L", 1.0), ("R", -1.0)):
-            on_side = verts[:, 0] * sgn > 0
-            for limb, a, b in ((arm, "Shoulder", "Wrist"), (leg, "Hip", "Ankle")):
+            on_side = verts[:, 0] * sgn >= 0
+            for sel, a, b in ((near_arm, "Shoulder", "Wrist"), (~near_arm, "Hip", "Ankle")):
                 pa, pb = rest[_J[f"{side}{a}"]], rest[_J[f"{side}{b}"]]
                 e = pb - pa
-                tt = (verts - pa) @ e / (e @ e)
-                sel = on_side & (limb >= np.maximum(arm, leg))
-                local[sel, 2] = tt[sel]
+                pick = on_side & sel
+                local[pick, 2] = (verts[pick] - pa) @ e / (e @ e)
     return region, t, local
 
 
@@ -519,6 +663,10 @@ def _pieces() -> list[_Piece]:
 
 def _finish(piece: _Piece, verts: np.ndarray, tris: np.ndarray, rest: np.ndarray,
             variants: dict[str, np.ndarray]) -> MeshLOD:
+    seams = None
+    if piece.name == "body":
+        verts, tris, arm, leg, body_region = _cut_seams(piece, verts, tris)
+        seams = (arm, leg, body_region)
     normals = im.gradient(verts, piece.table)
     out = np.zeros(len(verts), VERTEX_DTYPE)
     out["pos"], out["normal"] = verts, normals
@@ -527,7 +675,7 @@ def _finish(piece: _Piece, verts: np.ndarray, tris: np.ndarray, rest: np.ndarray
         out["dsex"] = _project(verts, variants["female"], adj)
         out["dbuild"] = _project(verts, variants["heavy"], adj) - _project(verts, variants["slender"], adj)
     out["bones"], out["weights"] = _skin_weights(piece, verts, tris)
-    out["region"], out["t"], out["local"] = _regions(piece, verts, rest, out["bones"], out["weights"])
+    out["region"], out["t"], out["local"] = _regions(piece, verts, rest, seams)
     out["ao"] = _ambient_occlusion(verts, normals, piece.table) if piece.name == "body" else 1.0
     if piece.name == "body":
         out["uv"] = verts[:, [2, 0]]  # bind-pose z, x: the neckline, lips and brows (crowd.glsl)

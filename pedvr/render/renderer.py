@@ -183,6 +183,9 @@ class Renderer:
         exhibits: Sequence[ExhibitShape] = (),
     ) -> None:
         self.ctx = ctx
+        # Flat attributes come from a triangle's last vertex (GL's default, said here because the
+        # body's regions depend on it: bodymesh._cut_seams puts a vertex off the seams last).
+        ctx.provoking_vertex = moderngl.LAST_VERTEX_CONVENTION
         self.world = world
         self.hide_user = hide_user
         self.shadows = shadows

@@ -74,7 +74,7 @@ def test_outward_normals_and_levels_get_cheaper(character: bm.CharacterMesh) -> 
     counts = character.vertex_counts
     assert counts[0] > 2.5 * counts[1] > 2.5 * 1.2 * counts[2]
     v = character.lods[0].vertices
-    body = v[(v["variant"] == bm.ALWAYS) & (v["region"] == bm.TRUNK)]
+    body = v[(v["variant"] == bm.ALWAYS) & np.isin(v["region"], bm.BODY_REGIONS)]
     centre = np.array([0.0, 0.95, 0.0])
     # Torso vertices' normals point away from the body's axis (no inside-out faces).
     torso = body[(body["pos"][:, 1] > 1.0) & (body["pos"][:, 1] < 1.35) & (np.abs(body["pos"][:, 0]) < 0.12)]
@@ -103,7 +103,7 @@ def test_limbs_are_round_not_boxes(character: bm.CharacterMesh) -> None:
 
 def test_hands_have_a_thumb_and_the_face_has_a_nose_and_eyes(character: bm.CharacterMesh) -> None:
     v = character.lods[0].vertices
-    body = v[(v["variant"] == bm.ALWAYS) & (v["region"] == bm.TRUNK)]
+    body = v[(v["variant"] == bm.ALWAYS) & np.isin(v["region"], bm.BODY_REGIONS)]
     p = body["pos"]
     wrist = bind_joints(np.array([[1.75, 0.0, 0.5, 1.0]]))[0, JOINTS.index("LWrist")]
     hand = p[(np.linalg.norm(p - wrist, axis=1) < 0.2) & (p[:, 1] < wrist[1]) & (p[:, 0] > 0.15)]
@@ -118,7 +118,7 @@ def test_hands_have_a_thumb_and_the_face_has_a_nose_and_eyes(character: bm.Chara
 
 def test_shape_offsets_follow_sex_and_build(character: bm.CharacterMesh) -> None:
     v = character.lods[0].vertices
-    body = v[(v["variant"] == bm.ALWAYS) & (v["region"] == bm.TRUNK)]
+    body = v[(v["variant"] == bm.ALWAYS) & np.isin(v["region"], bm.BODY_REGIONS)]
     p = body["pos"]
     chest = (p[:, 1] > 1.25) & (p[:, 1] < 1.35) & (p[:, 2] > 0.05) & (np.abs(p[:, 0]) < 0.08)
     assert body["dsex"][chest, 2].max() > 0.015  # breasts

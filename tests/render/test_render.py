@@ -373,10 +373,12 @@ def test_skin_tones_read_from_light_to_dark_on_rendered_faces(renderer: Renderer
         patch = img[int(r) - 1 : int(r) + 2, int(c) - 1 : int(c) + 2].reshape(-1, 3)
         lightness.append(_lightness(np.median(patch, axis=0)))
     # In the shade of the key light (faces toward the camera, away from the light): lightest and
-    # darkest as a person would read them, the order kept, lightness tracking the tones' own.
+    # darkest as a person would read them, the order kept, lightness tracking the tones' own. (The
+    # skin's sheen, which shows the darkest faces' shape, lifts their shaded cheeks by about 4 L*:
+    # issue 25 item 16, test_looks.py.)
     albedo = [_lightness(255 * np.where(t <= 0.0031308, 12.92 * t, 1.055 * t ** (1 / 2.4) - 0.055))
               for t in SKIN_TONES]
-    assert lightness[0] > 55 and lightness[-1] < 26, lightness
+    assert lightness[0] > 55 and lightness[-1] < 28, lightness
     assert np.corrcoef(albedo, lightness)[0, 1] > 0.97, (albedo, lightness)
     assert np.ptp(lightness) > 30
     assert sum(b > a + 1 for a, b in zip(lightness, lightness[1:], strict=False)) <= 1, lightness
