@@ -99,21 +99,21 @@ class Inflow:
         a = 2.0 * np.pi * u[:, 1]
         return np.column_stack([v[0] + r * np.cos(a), v[1] + r * np.sin(a)])
 
-    def place(self, k: int, count: int, *, crowd: CrowdState, radius: float, rng: np.random.Generator,
-              on_mesh: Callable[[tuple[float, float]], bool]) -> list[tuple[float, float]]:
+    def place(self, k: int, count: int, *, centres: np.ndarray, reach: np.ndarray, radius: float,
+              rng: np.random.Generator, on_mesh: Callable[[tuple[float, float]], bool]
+              ) -> list[tuple[float, float]]:
         """Up to ``count`` free spots for new agents of ``radius`` from source ``k``: each one
-        clear of every footprint in ``crowd`` (and of the spots already chosen) by
-        ``CLEARANCE`` and on the mesh (``on_mesh``). Fewer when the area is full."""
-        fp = footprints(crowd.pos, crowd.radius, crowd.turn, crowd.torso, crowd.heading, crowd.ahead,
-                        crowd.length)
-        centres, reach = fp.centre, fp.radius
+        clear by ``CLEARANCE`` of every body (discs ``centres (N, 2)``, ``reach (N,)``: each
+        footprint's centre and bounding radius, :func:`bounding_discs`) and of the spots already
+        chosen, and on the mesh (``on_mesh``). Fewer when the area is full."""
         out: list[tuple[float, float]] = []
         for _ in range(count):
             spot = None
             for p in self.candidates(k, TRIES, rng):
-                gap = np.hypot(centres[:, 0] - p[0], centres[:, 1] - p[1]) - reach - radius
-                if centres.shape[0] and gap.min() < CLEARANCE:
-                    continue
+                if centres.shape[0]:
+                    gap = np.hypot(centres[:, 0] - p[0], centres[:, 1] - p[1]) - reach - radius
+                    if gap.min() < CLEARANCE:
+                        continue
                 if any(math.dist(p, q) < 2.0 * radius + CLEARANCE for q in out):
                     continue
                 if not on_mesh((float(p[0]), float(p[1]))):
@@ -147,3 +147,11 @@ class Inflow:
             "source_agents_waiting": self.waiting(),
             "source_max_wait_s": round(max(waits), 6),
         }
+
+
+def bounding_discs(crowd: CrowdState) -> tuple[np.ndarray, np.ndarray]:
+    """Every row's footprint (:func:`pedvr.crowd.footprint.footprints`) as its bounding disc:
+    centres ``(N, 2)`` m and radii ``(N,)`` m (a turned body's or a pram's footprint counts whole)."""
+    fp = footprints(crowd.pos, crowd.radius, crowd.turn, crowd.torso, crowd.heading, crowd.ahead,
+                    crowd.length)
+    return fp.centre, fp.radius

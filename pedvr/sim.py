@@ -35,7 +35,7 @@ from pedvr.etiquette.doors import CLOSED_EPS, DoorLeaves
 from pedvr.etiquette.objects import DOOR_HOLD_EVENT, DOOR_HOLD_TREE
 from pedvr.etiquette.system import DoorEtiquette
 from pedvr.etiquette.user import DoorUser
-from pedvr.inflow import Inflow
+from pedvr.inflow import Inflow, bounding_discs
 from pedvr.record import Metrics, Recording
 from pedvr.scene.config import (
     CONDITIONS,
@@ -646,7 +646,8 @@ class Simulation:
                 continue
             prof = self.scene.profiles[src.profile]
             mesh = self.navmesh_for(prof.radius)
-            spots = inflow.place(k, owed, crowd=self.crowd, radius=prof.radius, rng=self.rng,
+            centres, reach = bounding_discs(self.crowd)
+            spots = inflow.place(k, owed, centres=centres, reach=reach, radius=prof.radius, rng=self.rng,
                                  on_mesh=mesh.contains)
             index = list(self.scene.profiles).index(src.profile)
             for p in spots:
