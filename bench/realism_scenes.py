@@ -150,7 +150,7 @@ positions = [{positions}]
 region = {{ box = [-3.5, -2.0, 3.5, -1.5] }}
 
 [behavior.states.walk]
-goal = {{ selector = "region", box = [-1.0, -1.95, 1.0, -1.75] }}
+goal = {{ selector = "region", box = [-1.0, -1.74, 1.0, -1.6] }}
 
 {USER_OFF}"""
 

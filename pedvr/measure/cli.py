@@ -249,8 +249,10 @@ def run_measure_command(args: argparse.Namespace, *, stdout: TextIO | None = Non
         inputs = [real]
     runs: dict[str, tuple[Run, Measures]] = {}
     setups: dict[str, Setup] = {}
+    named = case
     for path in inputs:
         run, c, walk = _load(path, args, case)
+        named = named or c
         setup = _setup(args, c, walk, str(path))
         m = measure(run, setup, steady=None if args.steady is None else (args.steady[0], args.steady[1]))
         label = run.label
@@ -262,7 +264,7 @@ def run_measure_command(args: argparse.Namespace, *, stdout: TextIO | None = Non
     if args.plot is not None:
         from pedvr.measure.plots import plot_runs
 
-        name = case.name if case is not None else inputs[0].stem
+        name = named.name if named is not None else inputs[0].stem
         files = plot_runs(runs, setups, folder=args.plot, name=name)
         for r in results:
             r["plots"] = [str(f) for f in files]

@@ -28,6 +28,7 @@ This is a benchmark, not a test: a whole run takes minutes (``--cases`` and
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import time
@@ -221,7 +222,7 @@ def run_jupedsim(
                 reach=reach,
                 radius=prof.radius,
                 rng=rng,
-                on_mesh=lambda p, r=prof.radius: inside(p, r),
+                on_mesh=functools.partial(inside, r=prof.radius),
             )
             for p in spots:
                 ids[sim.add_agent(params(p, src.state, prof))] = len(ids)
