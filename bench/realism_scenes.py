@@ -205,11 +205,13 @@ def counterflow() -> str:
     notebook): a 4.1 m wide, 10 m long corridor (walls at y = 0 and y = 4.1, x -5..5); 231 people walk
     east and 249 west. In the recording people enter from both ends over two minutes: the sources
     reproduce that metered inflow (east 1.94/s from 3.76 s, west 2.16/s from 5.92 s: the recording's
-    first appearances), 3 m before the corridor's ends."""
+    first appearances), 1.2 m before the corridor's ends; the sinks lie 1.3 m behind the other way's
+    sources, so that nobody who just entered is pushed into a sink before crossing."""
     return f"""# BaSiGo bi-directional corridor (bi_corr_400_b_03, PedPy's demo data; Holl et al.): 480 people, 231
 # walking east and 249 west through a 4.1 m wide, 10 m long corridor (x -5..5, y 0..4.1). The inflow of
 # the recording is metered at both ends (sources: east 1.94/s from t = 3.76 s, west 2.16/s from 5.92 s,
-# the recording's first appearances); people leave 2.2 m past the far end (sinks).
+# the recording's first appearances) 1.2 m before the corridor's ends; people leave 2.5 m past the far
+# end (sinks), 1.3 m behind where the people walking the other way enter: none of those is pushed into one.
 # Measured: area x -1..1 across the corridor; line x = 0. Written by bench/realism_scenes.py.
 [scene]
 name = "counterflow_400"
@@ -231,7 +233,7 @@ state = "east"
 rate = 1.94
 start = 3.76
 max_count = 231
-line = [[-6.8, 0.4], [-6.8, 3.7]]
+line = [[-6.2, 0.4], [-6.2, 3.7]]
 
 [[agents.sources]]
 profile = "person"
@@ -239,19 +241,19 @@ state = "west"
 rate = 2.16
 start = 5.92
 max_count = 249
-line = [[6.8, 0.4], [6.8, 3.7]]
+line = [[6.2, 0.4], [6.2, 3.7]]
 
 [[agents.sinks]]
-region = {{ box = [7.2, -1.5, 8.0, 5.6] }}
+region = {{ box = [7.5, -1.5, 8.0, 5.6] }}
 
 [[agents.sinks]]
-region = {{ box = [-8.0, -1.5, -7.2, 5.6] }}
+region = {{ box = [-8.0, -1.5, -7.5, 5.6] }}
 
 [behavior.states.east]
-goal = {{ selector = "region", box = [7.4, 0.5, 7.9, 3.6] }}
+goal = {{ selector = "region", box = [7.6, 0.5, 7.74, 3.6] }}
 
 [behavior.states.west]
-goal = {{ selector = "region", box = [-7.9, 0.5, -7.4, 3.6] }}
+goal = {{ selector = "region", box = [-7.74, 0.5, -7.6, 3.6] }}
 
 {USER_OFF}"""
 
