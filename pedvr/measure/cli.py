@@ -158,6 +158,13 @@ def add_realism_parser(bench_subparsers: Any) -> argparse.ArgumentParser:
         "--fps", type=_positive, default=DEFAULT_FPS, help="frames/s measured (default: %(default)s)"
     )
     b.add_argument("--plot", type=Path, default=None, metavar="DIR", help="write each case's plots here")
+    b.add_argument(
+        "--jupedsim-radius",
+        type=_positive,
+        default=None,
+        metavar="R",
+        help="radius (m) of JuPedSim's agents (default: the scene profile's, as pedvr's; JuPedSim's: 0.2)",
+    )
     b.add_argument("--out", type=Path, default=None, metavar="FILE", help="also write the JSON here")
     b.add_argument("--json", action="store_true", help="print JSON (default: a Markdown table)")
     return b
@@ -307,6 +314,7 @@ def run_realism_command(args: argparse.Namespace, *, stdout: TextIO | None = Non
         data=args.data,
         fps=args.fps,
         plots=args.plot,
+        jupedsim_radius=args.jupedsim_radius,
         progress=lambda msg: print(msg, file=sys.stderr),
     )
     text = json.dumps(result, indent=2)

@@ -120,7 +120,14 @@ def run_pedvr(
 
 
 def run_jupedsim(
-    case: Case, *, model: str, duration: float, seed: int | None, fps: float = DEFAULT_FPS, dt: float = 0.01
+    case: Case,
+    *,
+    model: str,
+    duration: float,
+    seed: int | None,
+    fps: float = DEFAULT_FPS,
+    dt: float = 0.01,
+    radius: float | None = None,
 ) -> tuple[Run, dict[str, Any]]:
     """Run the case with a JuPedSim model in the scene's walkable area: the same start positions
     (pedvr's, drawn with the seed), the same sources (arrivals wait for a free spot), the same
@@ -170,7 +177,7 @@ def run_jupedsim(
             "position": pos,
             "journey_id": journey,
             "stage_id": stage,
-            "radius": profile.radius,
+            "radius": profile.radius if radius is None else radius,
             "desired_speed": profile.pref_speed,
         }
         if model == "jupedsim-gcfm":  # GCFM's agents are ellipses; it names its speed v0
@@ -215,7 +222,7 @@ def run_jupedsim(
                 continue
             prof = scene.profiles[src.profile]
             # GCFM's agents are ellipses: its contact distance reaches 0.39 m each at walking speed
-            size = 0.4 if model == "jupedsim-gcfm" else prof.radius
+            size = 0.4 if model == "jupedsim-gcfm" else prof.radius if radius is None else radius
             centres, reach = _jps_discs(sim, size)
             spots = inflow.place(
                 k,
@@ -298,6 +305,7 @@ def run_case(
     fps: float = DEFAULT_FPS,
     cutoff: float | None = None,
     plots: Path | None = None,
+    jupedsim_radius: float | None = None,
 ) -> dict[str, Any]:
     """One case: the real recording (when at hand) and every model, measured and compared."""
     dur = case.duration if duration is None else duration
@@ -328,7 +336,9 @@ def run_case(
             if model in PEDVR_MODELS:
                 run, info = run_pedvr(case, condition=model, duration=dur, seed=seed, fps=fps)
             else:
-                run, info = run_jupedsim(case, model=model, duration=dur, seed=seed, fps=fps)
+                run, info = run_jupedsim(
+                    case, model=model, duration=dur, seed=seed, fps=fps, radius=jupedsim_radius
+                )
             mm = measure(run, _setup(case, walk, cutoff))
         except Exception as exc:  # one broken run is reported in the result; the others go on
             traceback.print_exc()
@@ -355,6 +365,7 @@ def run_realism(
     fps: float = DEFAULT_FPS,
     cutoff: float | None = None,
     plots: Path | None = None,
+    jupedsim_radius: float | None = None,
     progress: Any = None,
 ) -> dict[str, Any]:
     """The whole benchmark (see the module docstring); a JSON-ready dict."""
@@ -384,6 +395,7 @@ def run_realism(
                 fps=fps,
                 cutoff=cutoff,
                 plots=plots,
+                jupedsim_radius=jupedsim_radius,
             )
         )
     pooled: dict[str, Any] = {}
@@ -413,6 +425,7 @@ def run_realism(
         "data": None if folder is None else str(folder),
         "seed": seed,
         "fps": fps,
+        "jupedsim_radius": jupedsim_radius,
         "cases": results,
         "corridor_pooled": pooled,
         "wall_s": round(time.perf_counter() - t0, 1),

@@ -92,3 +92,18 @@ def test_every_case_has_its_scene_and_a_reference() -> None:
     for c in CASES.values():
         assert c.scene_path().is_file()
         assert c.real is not None or c.published, c.name  # something to compare with
+
+
+def test_jupedsim_runs_the_same_case() -> None:
+    """JuPedSim (the bench extra) in the same walkable area, start positions and sources."""
+    pytest.importorskip("jupedsim", reason="jupedsim comes with the bench extra: pip install -e '.[bench]'")
+    from pedvr.measure.cases import get_case
+    from pedvr.measure.realism import run_jupedsim
+
+    run, info = run_jupedsim(get_case("bottleneck_120"), model="jupedsim-cfsm", duration=10.0, seed=None)
+    assert run.agents == 60 and info["agents_added"] == 60  # the scene's 60 start positions
+    first = run.traj.data[run.traj.data.frame == run.traj.data.frame.min()]
+    assert first.y.min() >= 2.9  # they start where pedvr's do: 3 m and more in front of the mouth
+    run2, info2 = run_jupedsim(get_case("counterflow_400"), model="jupedsim-cfsm", duration=6.0, seed=None,
+                               radius=0.2)
+    assert info2["agents_added"] >= 4  # both sources have begun (east from 3.76 s, west from 5.92 s)
