@@ -218,6 +218,9 @@ def build_parser() -> argparse.ArgumentParser:
     from pedvr.study.cli import add_study_parser
 
     add_study_parser(sub)
+    from pedvr.measure.cli import add_measure_parser
+
+    add_measure_parser(sub)
     from pedvr.sweep.cli import add_bench_parser, add_sweep_parser
 
     add_sweep_parser(sub)
@@ -240,6 +243,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             from pedvr.sweep.cli import run_sweep_command
 
             return run_sweep_command(args)
+        if args.command == "measure":
+            from pedvr.measure.cli import run_measure_command
+
+            return run_measure_command(args)
         return _bench(args)
     except PedvrError as exc:
         for line in str(exc).splitlines() or [type(exc).__name__]:
@@ -379,6 +386,10 @@ def _print_results(results: list[dict[str, object]], as_json: bool) -> None:
 
 
 def _bench(args: argparse.Namespace) -> int:
+    if args.bench_command == "realism":
+        from pedvr.measure.cli import run_realism_command
+
+        return run_realism_command(args)
     if args.bench_command == "sweep":
         from pedvr.sweep.cli import run_bench_command
 

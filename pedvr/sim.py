@@ -5,7 +5,8 @@ Each phase computes into new buffers and commits at its end, so no agent
 reads a half-updated world. One ``numpy.random.Generator``, seeded from the
 scene or the caller, is the only source of randomness: the same seed gives
 the same run, bit for bit. Agents are added (spawn) and removed (on reaching a
-final BFSM state) only between steps.
+final BFSM state, or inside a sink region) only between steps; sources add agents at a
+rate (:mod:`pedvr.inflow`).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from pedvr.etiquette.doors import CLOSED_EPS, DoorLeaves
 from pedvr.etiquette.objects import DOOR_HOLD_EVENT, DOOR_HOLD_TREE
 from pedvr.etiquette.system import DoorEtiquette
 from pedvr.etiquette.user import DoorUser
+from pedvr.inflow import Inflow, bounding_discs
 from pedvr.record import Metrics, Recording
 from pedvr.scene.config import (
     CONDITIONS,
@@ -168,6 +170,9 @@ class Simulation:
                                personal_space=self.personal_space)
         self.scheduler.ctx.gaze_events = self.metrics.gaze_events  # behaviors' gaze events (demonstrations)
         self.recording = Recording() if record else None
+        # [[agents.sources]] / [[agents.sinks]]: agents due at t = 0 enter before the first frame
+        self.inflow = Inflow(scene.sources, scene.sinks)
+        self._sources_and_sinks()
         self._face_unset()
         if self.recording is not None:
             self.recording.add(self.t, self.crowd, self.doors.angle)
@@ -319,6 +324,7 @@ class Simulation:
             t0 = t1
         self.metrics.step_ms.append((t0 - start) * 1e3)
         self._remove_leaving()
+        self._sources_and_sinks()
 
     def advance_to(self, t: float) -> None:
         """Step until simulation time reaches ``t`` (the frame loop's entry point)."""
@@ -624,6 +630,36 @@ class Simulation:
     def _remove_leaving(self) -> None:
         self._drop_rows(self._leaving)
 
+    def _sources_and_sinks(self) -> None:
+        """Between steps: agents inside a sink leave; each source's due agents enter where a spot
+        is free of every body and of the user (else they wait; :mod:`pedvr.inflow`)."""
+        inflow = self.inflow
+        if inflow.sinks:
+            sunk = inflow.sunk(self.crowd)
+            if sunk.any():
+                inflow.removed += int(np.count_nonzero(sunk))
+                self._drop_rows(sunk)
+        added = False
+        for k, src in enumerate(inflow.sources):
+            owed = inflow.owed(k, self.t, self.rng)
+            if not owed:
+                continue
+            prof = self.scene.profiles[src.profile]
+            mesh = self.navmesh_for(prof.radius)
+            centres, reach = bounding_discs(self.crowd)
+            spots = inflow.place(k, owed, centres=centres, reach=reach, radius=prof.radius, rng=self.rng,
+                                 on_mesh=mesh.contains)
+            index = list(self.scene.profiles).index(src.profile)
+            for p in spots:
+                heading = np.nan if src.facing is None else src.facing
+                self._add_rows(1, pos=np.asarray([p]), radius=prof.radius, pref_speed=prof.pref_speed,
+                               max_speed=prof.max_speed, limits=_limits_row(prof), is_user=False,
+                               heading=np.asarray([heading]), state=src.state, profile=index)
+            inflow.entered(k, len(spots), self.t)
+            added |= bool(spots)
+        if added and self.step_index > 0:
+            self._face_unset()
+
     def _drop_rows(self, drop: np.ndarray) -> None:
         if not drop.any():
             return
@@ -660,6 +696,8 @@ class Simulation:
             "user_spheres_reached": None if self.user is None else self.user.sphere,
             "user_spheres_total": None if self.user is None else int(self.user.route.shape[0]),
         })
+        if self.inflow.sources or self.inflow.sinks:
+            out.update(self.inflow.summary(self.t))
         out.update(self.metrics.body_summary(slides=self.body.skate.slides(), steps=self.body.step_log))
         out.update(self.scheduler.summary())
         if self.etiquette is not None:

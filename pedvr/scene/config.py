@@ -309,6 +309,46 @@ class Spawn:
     friends: bool = False  # consecutive pairs of this spawn walk together (Huang & Terzopoulos §4.6)
 
 
+SOURCE_TIMINGS = ("regular", "poisson")
+
+
+@dataclass(frozen=True)
+class Source:
+    """Agents that keep arriving: ``rate`` per second into an area or along a line (a metered inflow).
+
+    ``region`` is a :class:`Spawn` region (``box`` or ``disc``; points drawn inside it) or
+    ``line`` ``((x0, y0), (x1, y1))`` (points drawn along it). ``timing``: ``regular`` (one
+    agent every ``1 / rate`` s from ``start``) or ``poisson`` (exponential gaps of mean
+    ``1 / rate``, drawn with the run's generator). ``max_count`` caps the agents it ever adds
+    (0: no cap); ``stop`` (s) ends it (``inf``: never). An agent whose time has come waits
+    until a spot in the area is free of every body and of the user (never spawned overlapping),
+    then enters; the waiting agents enter first come first served, so a blocked source delays
+    its inflow instead of dropping it. ``facing`` is a heading in radians, or None to face the
+    first goal.
+    """
+
+    profile: str
+    state: str
+    rate: float
+    region: tuple[str, tuple[float, ...]] | None = None
+    line: tuple[Vec2, Vec2] | None = None
+    max_count: int = 0
+    start: float = 0.0
+    stop: float = math.inf
+    timing: str = "regular"
+    facing: float | None = None
+
+
+@dataclass(frozen=True)
+class Sink:
+    """An exit region: a virtual agent whose position enters it is removed (it has left the scene).
+
+    ``region`` is ``("box", (xmin, ymin, xmax, ymax))`` or ``("disc", (cx, cy, r))``. The user
+    is never removed."""
+
+    region: tuple[str, tuple[float, ...]]
+
+
 USER_WALKS = ("straight", "reactive")
 
 
@@ -360,6 +400,9 @@ class SceneConfig:
     content_hash: str = ""
     bone_map: dict[str, str] = field(default_factory=dict)  # avatars' bone name -> pedvr joint
     etiquette: EtiquetteConfig = field(default_factory=EtiquetteConfig)  # door etiquette ([etiquette])
+    sources: tuple[Source, ...] = ()  # agents arriving at a rate ([[agents.sources]])
+    sinks: tuple[Sink, ...] = ()  # exit regions that remove agents ([[agents.sinks]])
+
     @property
     def decision_every(self) -> int:
         """Steps between behavior decisions (30 Hz at the default 90 Hz step)."""

@@ -14,7 +14,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from shapely.geometry import Point, Polygon, box
+from shapely.geometry import LineString, Point, Polygon, box
 
 import pedvr.demonstrator  # noqa: F401  (registers the exhibit smart object and the demonstrate node)
 from pedvr.behavior.declare import Interactions
@@ -33,6 +33,7 @@ from pedvr.scene.config import (
     MARKING_KINDS,
     PRAM_MIN_RADIUS,
     SEXES,
+    SOURCE_TIMINGS,
     USER_WALKS,
     AgentProfile,
     BehaviorConfig,
@@ -44,6 +45,8 @@ from pedvr.scene.config import (
     MotionLimits,
     Obstacle,
     SceneConfig,
+    Sink,
+    Source,
     Spawn,
     StateConfig,
     SteeringParams,
@@ -184,7 +187,7 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
 
     behavior = _behavior(c, c.table(data, "behavior", "behavior", required=True) or {}, world)
     agents = c.table(data, "agents", "agents", required=True) or {}
-    c.known(agents, "agents", ("profiles", "spawns"))
+    c.known(agents, "agents", ("profiles", "spawns", "sources", "sinks"))
     chars = c.table(data, "characters", "characters", required=False) or {}
     c.known(chars, "characters", ("bone_map",))
     bone_map = chars.get("bone_map", {})
@@ -196,6 +199,8 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
     profiles = _profiles(c, profiles_raw, base, bone_map=bone_map)
     declared = (set(profiles_raw), set(_table_keys(data, "behavior", "states")))
     spawns = _spawns(c, agents.get("spawns", MISSING), profiles, behavior, world, declared=declared)
+    sources = _sources(c, agents.get("sources", MISSING), profiles, behavior, world, declared=declared)
+    sinks = _sinks(c, agents.get("sinks", MISSING), world)
     user = _user(c, c.table(data, "user", "user", required=True) or {}, world)
     etiquette = _etiquette(c, c.table(data, "etiquette", "etiquette", required=False) or {})
 
@@ -208,7 +213,7 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
                        profiles=profiles, spawns=spawns, behavior=behavior, user=user,
                        steering=steering, gaze_distance=gaze_distance, gaze_speed=gaze_speed,
                        description=description, content_hash=content_hash, bone_map=dict(bone_map),
-                       etiquette=etiquette)
+                       etiquette=etiquette, sources=sources, sinks=sinks)
 
 
 def _world(c: _Checker, w: dict[str, Any]) -> WorldConfig | None:
@@ -918,6 +923,111 @@ def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
                              region=region, facing=None if facing is None else math.radians(facing),
                              friends=bool(friends)))
     return tuple(out)
+
+
+def _sources(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
+             behavior: BehaviorConfig | None, world: WorldConfig | None, *,
+             declared: tuple[set[str], set[str]] = (set(), set())) -> tuple[Source, ...]:
+    """``[[agents.sources]]``: agents arriving at a rate into an area or along a line. ``declared``
+    as for :func:`_spawns`: a profile or state with problems of its own is not also unknown."""
+    if raw is MISSING:
+        return ()
+    if not isinstance(raw, list) or not all(isinstance(x, dict) for x in raw):
+        c.bad("agents.sources", raw, "expected an array of tables [[agents.sources]]")
+        return ()
+    out = []
+    blocked = _blocked(world)
+    for i, s in enumerate(raw):
+        path = f"agents.sources[{i}]"
+        c.known(s, path, ("profile", "state", "rate", "region", "line", "max_count", "start", "stop",
+                          "timing", "facing_deg"))
+        profile = c.string(s, "profile", f"{path}.profile")
+        if profile is not None and profile not in profiles and profile not in declared[0]:
+            known = sorted(set(profiles) | declared[0])
+            c.bad(f"{path}.profile", profile, f"unknown profile; known: {', '.join(known)}")
+        state = c.string(s, "state", f"{path}.state")
+        if state is not None and behavior is not None and state not in behavior.states \
+                and state not in declared[1]:
+            known = sorted(set(behavior.states) | declared[1])
+            c.bad(f"{path}.state", state, f"unknown state; known: {', '.join(known)}")
+        rate = c.number(s, "rate", f"{path}.rate", check=lambda x: 0 < x <= 100,
+                        expect="in (0, 100] agents/s")
+        max_count = c.whole(s, "max_count", f"{path}.max_count", required=False, default=0)
+        start = c.number(s, "start", f"{path}.start", required=False, default=0.0,
+                         check=lambda x: x >= 0, expect=">= 0 s")
+        stop = c.number(s, "stop", f"{path}.stop", required=False, default=math.inf,
+                        check=lambda x: x > 0, expect="> 0 s")
+        if start is not None and stop is not None and stop <= start:
+            c.bad(f"{path}.stop", stop, f"must be after start ({start} s)")
+        timing = c.string(s, "timing", f"{path}.timing", required=False, default="regular",
+                          choices=SOURCE_TIMINGS)
+        facing = c.number(s, "facing_deg", f"{path}.facing_deg", required=False, default=None)
+        region: tuple[str, tuple[float, ...]] | None = None
+        line: tuple[Vec2, Vec2] | None = None
+        if ("region" in s) == ("line" in s):
+            given = "both region and line" if "region" in s else "neither region nor line"
+            c.bad(path, given,
+                  "expected exactly one of 'region' (a spawn area) or 'line' [[x0, y0], [x1, y1]]")
+        elif "region" in s:
+            region = _region(c, s["region"], f"{path}.region")
+            if region is not None and region[0] == "circle":
+                c.bad(f"{path}.region", s["region"],
+                      "expected {box = [...]} or {disc = [cx, cy, r]}: an area")
+                region = None
+            if region is not None and blocked is not None and blocked.contains(_region_shape(region)):
+                c.bad(f"{path}.region", s["region"], "lies outside the walkable area")
+        else:
+            pts = c.points(s, "line", f"{path}.line", minimum=2)
+            if pts is not None and len(pts) != 2:
+                c.bad(f"{path}.line", s["line"], "expected exactly two points [[x0, y0], [x1, y1]]")
+            elif pts is not None and math.dist(pts[0], pts[1]) < 0.05:
+                c.bad(f"{path}.line", s["line"], "expected two points at least 0.05 m apart")
+            elif pts is not None:
+                line = (pts[0], pts[1])
+                if blocked is not None and blocked.contains(LineString(line)):
+                    c.bad(f"{path}.line", s["line"], "lies outside the walkable area")
+        if (profile in profiles and state is not None and rate is not None and max_count is not None
+                and start is not None and stop is not None and timing is not None
+                and (region is not None or line is not None)):
+            out.append(Source(profile=profile, state=state, rate=rate, region=region, line=line,
+                              max_count=max_count, start=start, stop=stop, timing=timing,
+                              facing=None if facing is None else math.radians(facing)))
+    return tuple(out)
+
+
+def _sinks(c: _Checker, raw: object, world: WorldConfig | None) -> tuple[Sink, ...]:
+    """``[[agents.sinks]]``: exit regions that remove the agents that reach them."""
+    if raw is MISSING:
+        return ()
+    if not isinstance(raw, list) or not all(isinstance(x, dict) for x in raw):
+        c.bad("agents.sinks", raw, "expected an array of tables [[agents.sinks]]")
+        return ()
+    out = []
+    blocked = _blocked(world)
+    for i, s in enumerate(raw):
+        path = f"agents.sinks[{i}]"
+        c.known(s, path, ("region",))
+        if "region" not in s:
+            c.bad(f"{path}.region", MISSING,
+                  "required {box = [xmin, ymin, xmax, ymax]} or {disc = [cx, cy, r]}")
+            continue
+        region = _region(c, s["region"], f"{path}.region")
+        if region is not None and region[0] == "circle":
+            c.bad(f"{path}.region", s["region"],
+                  "expected {box = [...]} or {disc = [cx, cy, r]}: an area")
+            continue
+        if region is not None and blocked is not None and blocked.contains(_region_shape(region)):
+            c.bad(f"{path}.region", s["region"], "lies outside the walkable area: no agent could reach it")
+            continue
+        if region is not None:
+            out.append(Sink(region=region))
+    return tuple(out)
+
+
+def _region_shape(region: tuple[str, tuple[float, ...]]) -> Any:
+    """A box or disc region as a shapely polygon."""
+    kind, v = region
+    return box(*v) if kind == "box" else Point(v[0], v[1]).buffer(v[2])
 
 
 def _region(c: _Checker, r: object, path: str) -> tuple[str, tuple[float, ...]] | None:

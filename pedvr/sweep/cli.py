@@ -98,6 +98,9 @@ def add_bench_parser(bench_subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--scene", default="headon_corridor")
     b.add_argument("--duration", type=_positive, default=2.0, help="simulated seconds per run")
     b.add_argument("--json", action="store_true")
+    from pedvr.measure.cli import add_realism_parser  # `bench realism` (issue 26; run by pedvr.cli)
+
+    add_realism_parser(bench_subparsers)
     return b
 
 

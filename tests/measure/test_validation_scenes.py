@@ -1,0 +1,72 @@
+"""The contract for the validation scenes (scenes/validation/): each loads, runs a few seconds,
+stays finite, keeps every body apart (no overlap > 1 cm) and brings its people in; one is
+deterministic. Short on purpose: the long runs are `pedvr bench realism`, not tests."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pedvr.scene.loader import load_any
+from pedvr.scenes import scene_dirs
+from pedvr.sim import Simulation
+
+SECONDS = 3.0
+
+
+def _scenes() -> list[Path]:
+    for d in scene_dirs():
+        found = sorted((d / "validation").glob("*.toml"))
+        if found:
+            return found
+    return []
+
+
+def test_there_are_validation_scenes() -> None:
+    names = {p.stem for p in _scenes()}
+    assert {"uo_070", "uo_100", "uo_145", "bottleneck_050", "bottleneck_080", "bottleneck_120", "counterflow_400",
+            "door_single_flow", "door_double_flow"} <= names
+
+
+# Known defects of today's crowd model that these scenes expose (issue 26, item 3): strict, so the
+# fix turns them into failures to remove from this list.
+KNOWN = {
+    "bottleneck_050": "the navigation mesh, shrunk by the 0.25 m radius, closes the 0.5 m bottleneck: "
+                      "no agent has a path (real people pass it turning their shoulders)",
+}
+
+
+def _params() -> list[object]:
+    return [pytest.param(p, marks=pytest.mark.xfail(reason=KNOWN[p.stem], strict=True)) if p.stem in KNOWN
+            else p for p in _scenes()]
+
+
+@pytest.mark.parametrize("path", _params(), ids=lambda p: p.stem)
+def test_validation_scene_contract(path: Path) -> None:
+    scene = load_any(path, seed=None)
+    sim = Simulation(scene, record=True)
+    sim.advance_to(max([SECONDS] + [src.start + 1.0 for src in scene.sources]))  # every source has begun
+    s = sim.summary()
+    arr = sim.recording.arrays()  # type: ignore[union-attr]
+    present = ~np.isnan(arr["pos"][..., 0])
+    assert present.any() and np.isfinite(arr["pos"][present]).all()
+    assert s["overlaps_over_1cm"] == 0, s
+    assert s["unreachable_goals"] == 0
+    expected = sum(len(sp.positions) or sp.count for sp in scene.spawns)
+    assert int(s["agents"]) >= max(expected, 1)  # type: ignore[call-overload]
+    if scene.sources:  # the metered inflow has started, nobody waits for room yet
+        assert int(s["source_agents_added"]) >= 1 and s["source_agents_waiting"] == 0  # type: ignore[call-overload]
+    assert float(s["mean_speed_mps"]) > 0.3  # type: ignore[arg-type]  # people set off
+
+
+def test_validation_scene_is_deterministic() -> None:
+    path = next(p for p in _scenes() if p.stem == "counterflow_400")
+    runs = []
+    for _ in range(2):
+        sim = Simulation(load_any(path, seed=None), record=True)
+        sim.advance_to(8.0)
+        runs.append(sim.recording.arrays())  # type: ignore[union-attr]
+    assert runs[0]["ids"].size >= 4  # both sources have added people
+    assert runs[0]["pos"].tobytes() == runs[1]["pos"].tobytes()
