@@ -251,6 +251,11 @@ class Scheduler:
                 fails[f"{o.kind}.{why}"] = fails.get(f"{o.kind}.{why}", 0) + n
         out["affordance_uses"] = uses
         out["affordance_failures"] = fails
+        figures: dict[str, float] = {}
+        for o in self.objects.values():
+            for name, x in o.figures().items():
+                figures[name] = figures.get(name, 0) + x
+        out.update(figures)  # each kind's own (an exhibit's: demonstrations_unseen, ...)
         out["event_log"] = list(self.log)  # every ended event: name, agents, times, outcome, why
         out["object_log"] = [e for o in self.objects.values() for e in o.log]  # demonstrations, ...
         return out
