@@ -730,7 +730,7 @@ class Demonstrate(Behaviour):
             self._gaze(ctx, "floor", self._floor_point(ctx))
             ctx.body.gaze_limit(self.agent, None)
             self.phase = RETREAT
-            self.search = self.pending  # kept for the placement's fallbacks; pending is consumed below
+            self.search = self.pending  # kept for the placement's alternatives; pending is consumed below
             return
         self.search, self.pending = self.pending, None  # kept: the observer's new place is the reference
 
@@ -801,6 +801,9 @@ class Demonstrate(Behaviour):
         self.gazing = ""
         ctx.engaged.discard(a)
         self.exhibit.active.pop(a, None)
+        if self.entry and self.was_hidden and math.isfinite(self.t_watch):  # stopped mid-talk, hidden
+            self.entry["hidden_s"] = round(self.entry["hidden_s"] + ctx.t - self.t_watch, 6)
+        self.t_watch = math.nan
         outcome = ("left" if self.why == "observer left" else
                    {SUCCESS: "success", FAILURE: "failure", INVALID: "stopped"}[new_status])
         if self.entry and self.demo_id >= 0:

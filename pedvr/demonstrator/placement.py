@@ -306,10 +306,20 @@ class PlacementSearch:
         turn ``limit (n,)`` deg: ``(reason, e_vis, stroke, need)``; ``reason`` -1 where valid,
         else the index into :data:`REASONS` of the first check failed (they run in that order);
         ``need`` the signed rotation (deg, + toward pedvr's CCW) from the body to the observer."""
-        act, obs = self.action, self.observer
         n = len(pos)
-        reason = np.full(n, -1, np.int64)
-        # collision (static: the mesh of the demonstrator's clearance; dynamic: observer, others)
+        reason = self._placeable(pos)
+        stroke = np.full((n, 3), np.nan)
+        self._act(pos, heading, reason, stroke)
+        e_vis = np.full(n, np.nan)
+        self._visible(pos, reason, e_vis)
+        need = self._eye_contact(pos, heading, limit, reason)
+        return reason, e_vis, stroke, need
+
+    def _placeable(self, pos: np.ndarray) -> np.ndarray:
+        """``reason (n,)``: -1, or collision (static: off the mesh of the demonstrator's clearance;
+        dynamic: the observer's personal space, other demonstrators), or unreachable."""
+        obs = self.observer
+        reason = np.full(len(pos), -1, np.int64)
         tri = self.stage.mesh.locate(pos)
         hit = tri < 0
         gap = np.hypot(pos[:, 0] - obs.pos[0], pos[:, 1] - obs.pos[1]) - self.figure.radius - obs.radius
@@ -317,37 +327,44 @@ class PlacementSearch:
         for cx, cy, cr in self.keep_clear:
             hit |= np.hypot(pos[:, 0] - cx, pos[:, 1] - cy) < self.figure.radius + cr + KEEP_CLEAR_GAP
         reason[hit] = 0
-        ok = reason < 0
         comp = np.where(tri >= 0, self.stage.mesh.components[np.maximum(tri, 0)], -2)
-        reason[ok & (comp != self._component)] = 1
-        ok = reason < 0
-        # the action from there (arm IK reach / pointing, hand clear of obstacles)
-        stroke = np.full((n, 3), np.nan)
-        if ok.any():
-            idx = np.flatnonzero(ok)
-            feasible, pts = stroke_points(self.stage, self.figure, act, pos[idx], heading[idx])
+        reason[(reason < 0) & (comp != self._component)] = 1
+        return reason
+
+    def _act(self, pos: np.ndarray, heading: np.ndarray, reason: np.ndarray, stroke: np.ndarray) -> None:
+        """The action from the candidates still valid (arm IK reach / pointing, hand clear of
+        obstacles): fills ``stroke``, marks failures in ``reason``."""
+        idx = np.flatnonzero(reason < 0)
+        if idx.size:
+            feasible, pts = stroke_points(self.stage, self.figure, self.action, pos[idx], heading[idx])
             stroke[idx] = pts
             reason[idx[~feasible]] = 2
-            ok = reason < 0
-        # visibility: head to head, and the body out of the observer's view of the target
-        e_vis = np.full(n, np.nan)
-        if ok.any():
-            idx = np.flatnonzero(ok)
-            e = self.stage.occluded(pos[idx], self.figure.eye_height, np.repeat([obs.pos], len(idx), 0),
-                                    obs.eye_height)
-            e_vis[idx] = e
-            seg_d = np.empty(len(idx))
-            n_i = len(idx)
-            kn.segment_distance_kernel(np.repeat([obs.pos], n_i, 0), np.repeat([act.target], n_i, 0),
-                                       np.ascontiguousarray(pos[idx]), seg_d)
-            bad = (e > VIS_DISCARD) | (seg_d < self.figure.radius + VIEW_GAP)
-            reason[idx[bad]] = 3
-            ok = reason < 0
-        # eye contact within the head's allowance plus the eyes
+
+    def _visible(self, pos: np.ndarray, reason: np.ndarray, e_vis: np.ndarray) -> None:
+        """Head to head visibility, and the body out of the observer's view of the target, for the
+        candidates still valid: fills ``e_vis``, marks failures in ``reason``."""
+        idx = np.flatnonzero(reason < 0)
+        if idx.size == 0:
+            return
+        obs = self.observer
+        e = self.stage.occluded(pos[idx], self.figure.eye_height, np.repeat([obs.pos], len(idx), 0),
+                                obs.eye_height)
+        e_vis[idx] = e
+        m = len(idx)
+        seg_d = np.empty(m)
+        kn.segment_distance_kernel(np.repeat([obs.pos], m, 0), np.repeat([self.action.target], m, 0),
+                                   np.ascontiguousarray(pos[idx]), seg_d)
+        reason[idx[(e > VIS_DISCARD) | (seg_d < self.figure.radius + VIEW_GAP)]] = 3
+
+    def _eye_contact(self, pos: np.ndarray, heading: np.ndarray, limit: np.ndarray,
+                     reason: np.ndarray) -> np.ndarray:
+        """Eye contact within the head's allowance plus the eyes: marks failures in ``reason``;
+        returns ``need``, the signed rotation (deg, + toward pedvr's CCW) to the observer."""
+        obs = self.observer
         to_obs = np.arctan2(obs.pos[1] - pos[:, 1], obs.pos[0] - pos[:, 0])
         need = np.degrees((to_obs - heading + np.pi) % (2 * np.pi) - np.pi)
-        reason[ok & (np.abs(need) > limit + EYE_LIMIT)] = 4
-        return reason, e_vis, stroke, need
+        reason[(reason < 0) & (np.abs(need) > limit + EYE_LIMIT)] = 4
+        return need
 
     def _placement(self, c: int, *, pos: np.ndarray, heading: np.ndarray, zeta: float, alpha: float,
                    beta: float, theta: float, phi: float, e_vis: np.ndarray, stroke: np.ndarray,
@@ -429,7 +446,13 @@ class PlacementSearch:
             turns = np.asarray(WIDE_TURNS)
         nd, nt = len(dists), len(turns)
         v = nd * nt
-        pos = np.repeat(self._ring(zetas, beta, dists), nt, axis=1).reshape(-1, 2)  # (k, nd, nt) order
+        # where the body stands decides collision, reachability and visibility (the cheap checks,
+        # here first: the valid set is the same); how it faces, the action and eye contact
+        ring = np.ascontiguousarray(self._ring(zetas, beta, dists).reshape(-1, 2))  # (k, nd) order
+        where = self._placeable(ring)
+        e_ring = np.full(len(ring), np.nan)
+        self._visible(ring, where, e_ring)
+        pos = np.repeat(ring, nt, axis=0)  # (k, nd, nt) order
         zz = np.repeat(zetas, v)
         if fallback:
             obs = self.observer.pos
@@ -442,7 +465,11 @@ class PlacementSearch:
             heading = global_heading(zz, th)
             ph = np.repeat(phi, v)
             limit = np.clip(np.abs((ph - th + 180.0) % 360.0 - 180.0), HEAD_MIN, HEAD_MAX)
-        reason, e_vis, stroke, need = self._validity(pos, heading, limit)
+        reason = np.repeat(where, nt)
+        e_vis = np.repeat(e_ring, nt)
+        stroke = np.full((k * v, 3), np.nan)
+        self._act(pos, heading, reason, stroke)
+        need = self._eye_contact(pos, heading, limit, reason)
         w = self.weights
         tx, ty = self.action.target
         cost = (w.vis * e_vis + w.neck * np.abs(need)
