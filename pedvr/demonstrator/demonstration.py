@@ -34,14 +34,15 @@ demonstrator through PLACE:
    for and has settled (walks slower than :data:`SETTLED`, unless the
    current placement no longer works for it), or :data:`REPLAN_STILL` m
    while the current placement no longer works for it (hidden, too close,
-   beyond eye contact: a small step behind a pillar is enough), and not within
-   :data:`DWELL` s of arriving, a new search runs (across ticks; it widens
-   and falls back as :class:`~pedvr.demonstrator.placement.PlacementSearch`
-   says when the model gives no valid placement). The demonstrator moves only
-   if the new best placement is clearly better (:data:`HYSTERESIS` cost units
-   below the current placement re-scored for the observer's new place, and
-   :data:`MIN_MOVE` m away), or if the current one became invalid: the
-   demonstrator never dances. A placement off the model (a fallback) never
+   beyond eye contact: a small step behind a pillar is enough; then not within
+   :data:`DWELL` s of arriving, but as soon as that is over), a new search runs
+   (across ticks; it widens and falls back as
+   :class:`~pedvr.demonstrator.placement.PlacementSearch` says when the model
+   gives no valid placement). The demonstrator moves only if the new best
+   placement is clearly better (:data:`HYSTERESIS` cost units below the current
+   placement re-scored for the observer's new place, and :data:`MIN_MOVE` m
+   away) and it has stood :data:`DWELL` s, or if the current one became
+   invalid: the demonstrator never dances. A placement off the model (a fallback) never
    replaces one that still works, and a valid one always replaces a
    fallback. A search that finds nothing is not repeated until the observer
    moves again. A reposition
@@ -686,7 +687,9 @@ class Demonstrate(Behaviour):
         again when it has moved :data:`REPLAN_MOVE` m from where the plan was made (and settled), or
         :data:`REPLAN_STILL` m while the placement no longer works for it (hidden, too close, beyond
         eye contact): a search that finds nothing is not repeated for an observer standing still.
-        No search within :data:`DWELL` s of arriving (the check waits, the reference is kept)."""
+        Within :data:`DWELL` s of arriving a placement that still works is kept even if a better one
+        is found (that search's observer place becomes the reference), and one that no longer works
+        is searched for once the dwell is over (the reference is kept, so the check comes back)."""
         if self.retracting or math.isnan(self.t_hold_end):
             return
         t = ctx.t
@@ -702,8 +705,8 @@ class Demonstrate(Behaviour):
                 return
             if ctx.speed(self.observer) > SETTLED and works:
                 return  # the observer is still on the move and can still be shown to: wait
-            if t - self.t_feet_stop < DWELL:
-                return  # too soon after arriving: the demonstrator does not dance
+            if not works and t - self.t_feet_stop < DWELL:
+                return  # it must move, but not yet: the reference is kept, so the check comes back
             self.pending = self._search(ctx)
             self.entry["replans"] += 1
         self.wake = 0.0
@@ -720,6 +723,9 @@ class Demonstrate(Behaviour):
             not math.isfinite(now) or (p.fallback and not best.fallback)
             or (best.cost < now - HYSTERESIS and (p.fallback or not best.fallback)))
         if best is not None and better and math.dist(best.pos, ctx.pos(self.agent)) >= MIN_MOVE:
+            if t - self.t_feet_stop < DWELL:  # only better, the current one still works: not worth a dance
+                self.pending = None
+                return
             self._watch(ctx)
             self.t_watch = math.nan  # walking, not holding: hidden time counts again once back
             self.entry["repositions"] += 1
