@@ -366,21 +366,29 @@ class PlacementSearch:
         reason[(reason < 0) & (np.abs(need) > limit + EYE_LIMIT)] = 4
         return need
 
-    def _placement(self, c: int, *, pos: np.ndarray, heading: np.ndarray, zeta: float, alpha: float,
-                   beta: float, theta: float, phi: float, e_vis: np.ndarray, stroke: np.ndarray,
-                   need: np.ndarray, limit: np.ndarray, origin: str = "model") -> Placement:
+    def _emit(self, cs: list[int], rows: list[int], *, pos: np.ndarray, heading: np.ndarray, zz: np.ndarray,
+              alpha: np.ndarray, beta: np.ndarray, th: np.ndarray, ph: np.ndarray, e_vis: np.ndarray,
+              stroke: np.ndarray, need: np.ndarray, limit: np.ndarray, origin: str) -> None:
+        """Keep candidates ``cs`` (of frame orientations ``rows``) as placements, with their costs."""
+        if not cs:
+            return
+        c = np.asarray(cs)
         tx, ty = self.action.target
-        d = float(np.hypot(pos[c, 0] - tx, pos[c, 1] - ty))
-        e_action = abs(self.action.d_pref - d)
-        e_neck = abs(float(need[c]))
-        head = math.copysign(min(e_neck, float(limit[c])), float(need[c]))
+        d = np.hypot(pos[c, 0] - tx, pos[c, 1] - ty)
+        e_action = np.abs(self.action.d_pref - d)
+        e_neck = np.abs(need[c])
+        head = np.copysign(np.minimum(e_neck, limit[c]), need[c])
         w = self.weights
-        return Placement(
-            pos=(float(pos[c, 0]), float(pos[c, 1])), heading=float(heading[c]), zeta=zeta, alpha=alpha,
-            beta=beta, theta=theta, phi=phi, distance=d, e_vis=float(e_vis[c]), e_neck=e_neck,
-            e_action=e_action, cost=w.vis * float(e_vis[c]) + w.neck * e_neck + w.action * e_action,
-            head=head, eyes=float(need[c]) - head, head_limit=float(limit[c]),
-            stroke=(float(stroke[c, 0]), float(stroke[c, 1]), float(stroke[c, 2])), origin=origin)
+        cost = w.vis * e_vis[c] + w.neck * e_neck + w.action * e_action
+        r = np.asarray(rows)
+        columns = (pos[c, 0], pos[c, 1], heading[c], zz[c], alpha[r], beta[r], th[c], ph[c], d, e_vis[c],
+                   e_neck, e_action, cost, head, need[c] - head, limit[c], *stroke[c].T)
+        for px, py, hd, z, a, b, t, f, dd, ev, en, ea, co, he, ey, li, sx, sy, sz in zip(
+                *(x.tolist() for x in columns), strict=True):
+            self._found.append(Placement(
+                pos=(px, py), heading=hd, zeta=z, alpha=a, beta=b, theta=t, phi=f, distance=dd, e_vis=ev,
+                e_neck=en, e_action=ea, cost=co, head=he, eyes=ey, head_limit=li, stroke=(sx, sy, sz),
+                origin=origin))
 
     def _model_angles(self, zetas: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         tx, ty = self.action.target
@@ -412,6 +420,8 @@ class PlacementSearch:
         limit = np.clip(np.abs((ph - th + 180.0) % 360.0 - 180.0), HEAD_MIN, HEAD_MAX)
         reason, e_vis, stroke, need = self._validity(pos, heading, limit)
         r = reason.reshape(k, v)
+        cs: list[int] = []
+        rows: list[int] = []
         for i in range(k):
             row = r[i]
             choice = 0 if row[0] < 0 else -1
@@ -424,10 +434,10 @@ class PlacementSearch:
                 # the furthest check any variant got to (checks run in the order of REASONS)
                 self.plan.rejected[REASONS[int(row.max()) if row[0] == 0 else int(row[0])]] += 1
                 continue
-            c = i * v + choice
-            self._found.append(self._placement(
-                c, pos=pos, heading=heading, zeta=float(zz[c]), alpha=float(alpha[i]), beta=float(beta[i]),
-                theta=float(th[c]), phi=float(ph[c]), e_vis=e_vis, stroke=stroke, need=need, limit=limit))
+            cs.append(i * v + choice)
+            rows.append(i)
+        self._emit(cs, rows, pos=pos, heading=heading, zz=zz, alpha=alpha, beta=beta, th=th, ph=ph,
+                   e_vis=e_vis, stroke=stroke, need=need, limit=limit, origin=PASSES[0])
 
     def _evaluate_relaxed(self, zetas: np.ndarray, *, fallback: bool) -> None:
         """The wide pass (model orientations, every failing candidate perturbed) or the fallback
@@ -475,15 +485,17 @@ class PlacementSearch:
         cost = (w.vis * e_vis + w.neck * np.abs(need)
                 + w.action * np.abs(d_pref - np.hypot(pos[:, 0] - tx, pos[:, 1] - ty)))
         cost = np.where(reason < 0, cost, np.inf).reshape(k, v)
+        cs: list[int] = []
+        rows: list[int] = []
         for i in range(k):
             j = int(np.argmin(cost[i]))  # the first of equal costs: nearest d_pref, then the model's θ
             if not math.isfinite(cost[i, j]):
                 continue
-            c = i * v + j
-            self._found.append(self._placement(
-                c, pos=pos, heading=heading, zeta=float(zz[c]), alpha=float(alpha[i]), beta=float(beta[i]),
-                theta=float(wrap_deg(float(th[c]))), phi=float(phi[i]), e_vis=e_vis, stroke=stroke, need=need,
-                limit=limit, origin=PASSES[2] if fallback else PASSES[1]))
+            cs.append(i * v + j)
+            rows.append(i)
+        self._emit(cs, rows, pos=pos, heading=heading, zz=zz, alpha=alpha, beta=beta,
+                   th=np.asarray(wrap_deg(th)), ph=np.repeat(phi, v), e_vis=e_vis, stroke=stroke, need=need,
+                   limit=limit, origin=PASSES[2] if fallback else PASSES[1])
 
 
 def plan_placement(stage: Stage, figure: Figure, action: Action, observer: Observer, *,
