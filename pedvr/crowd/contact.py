@@ -13,7 +13,9 @@ previous one) makes it O(depth), which is what lets a 4000-agent antipodal
 circle jam settle below 1 cm within ``DEFAULT_ITERATIONS``. Per iteration,
 for every overlapping pair the overlap plus a small ``SLACK`` is split
 half/half between two virtual agents; against the user or an obstacle edge
-the agent takes all of it (the user never moves; walls never move). Pairs
+the agent takes all of it (the user never moves; walls never move). Two centres at
+one point part along their pair's own direction (:func:`pedvr.crowd.coincident.apart`:
+opposite for the two, so the result still does not depend on agent order). Pairs
 and edges use the bodies' footprints (:mod:`pedvr.crowd.footprint`): discs,
 or narrower ellipses for agents that turned their shoulders. The user's body
 wins over everything: after each iteration agents are projected out of the
@@ -31,7 +33,10 @@ outgoing edge; a two-vertex segment once, as an unoriented segment.
 Sharp edge: a disc whose *centre* is already behind an edge (inside an
 obstacle) is not pulled back out; the obstacle lines of ORCA and this pass
 keep centres outside in practice, and the edge nearest such a centre would
-be ambiguous for walls thinner than a disc.
+be ambiguous for walls thinner than a disc. So no iteration's step carries a
+centre through an edge: a step as long as the way to the nearest edge (the
+push out of a deep overlap, such as two bodies at one point) stops 1 mm short
+of any edge it would cross.
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ import time
 import numpy as np
 from numba import njit, prange
 
+from pedvr.crowd.coincident import COINCIDENT, apart
 from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import ObstacleGrid, build_agent_grid_arrays, edges_near
 from pedvr.crowd.overlap import pair_overlaps
@@ -56,16 +62,18 @@ SKIN = 0.1  # m: Verlet lists hold pairs and edges up to this far beyond touchin
 
 @njit(cache=True, fastmath={"nsz", "arcp", "contract"})
 def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
-    """Correction ``(cx, cy, depth)`` that moves a footprint off the edge a -> b (its disc
+    """Correction ``(cx, cy, depth, dist)`` that moves a footprint off the edge a -> b (its disc
     radius ``r``, or, turned, its support radius toward the edge: ``b`` front to back
-    along the facing ``(fx, fy)``)."""
+    along the facing ``(fx, fy)``); ``dist`` is how far the centre is from the edge on the
+    side it belongs (inf where another edge measures it, or the centre is behind this one)."""
+    inf = np.inf
     ex = bx - ax
     ey = by - ay
     ll = ex * ex + ey * ey
     t = ((px - ax) * ex + (py - ay) * ey) / ll
     if closed and t > 1.0:
         # The end vertex is the start of the next edge, which handles it.
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, inf
     tc = min(max(t, 0.0), 1.0)
     qx = ax + tc * ex
     qy = ay + tc * ey
@@ -79,13 +87,13 @@ def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
     if closed and t >= 0.0 and dx * nx + dy * ny < 0.0:
         # Centre behind this edge: inside the polygon, or past a wall thinner
         # than the disc, where the edges on the centre's own side act.
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, inf
     if d >= r:
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, d
     if b < r and d > 1e-12:
         r = support(r, b, fx, fy, dx / d, dy / d)
         if d >= r:
-            return 0.0, 0.0, 0.0
+            return 0.0, 0.0, 0.0, d
     depth = r - d
     if d > 1e-12:
         ux = dx / d
@@ -93,7 +101,28 @@ def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
     else:
         ux = nx
         uy = ny
-    return (depth + SLACK) * ux, (depth + SLACK) * uy, depth
+    return (depth + SLACK) * ux, (depth + SLACK) * uy, depth, d
+
+
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"}, inline="always")
+def _crossing(px, py, sx, sy, ax, ay, bx, by, closed):
+    """Fraction of the move ``(px, py) -> (px + sx, py + sy)`` at which it meets the edge
+    a -> b (1.0 where it does not); a closed polygon's edge only when the move starts on the
+    side agents belong (its right)."""
+    ex = bx - ax
+    ey = by - ay
+    wx = ax - px
+    wy = ay - py
+    if closed and ex * wy - ey * wx <= 0.0:
+        return 1.0  # the centre starts behind the edge (or on it)
+    den = sx * ey - sy * ex
+    if den == 0.0:
+        return 1.0
+    t = (wx * ey - wy * ex) / den
+    u = (wx * sy - wy * sx) / den
+    if 0.0 <= t <= 1.0 and 0.0 <= u <= 1.0:
+        return t
+    return 1.0
 
 
 @njit(cache=True, inline="always")
@@ -192,19 +221,16 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
             ov = rr - d
             worst = max(worst, ov)
             share = 1.0 if fixed[j] else 0.5
-            if d > 1e-12:
+            if d > COINCIDENT:
                 ux = dx / d
                 uy = dy / d
-            elif j > i:
-                # Coincident centres: split along x by row order
-                # (the pair moves apart, symmetric and deterministic).
-                ux = -1.0
-                uy = 0.0
             else:
-                ux = 1.0
-                uy = 0.0
+                # Coincident centres: the pair's own direction (opposite for j, so the
+                # pushes cancel; pedvr.crowd.coincident).
+                ux, uy = apart(i, j)
             sx += share * (ov + SLACK) * ux
             sy += share * (ov + SLACK) * uy
+        near_edge = np.inf
         for q in range(edge_start[i], edge_start[i + 1]):
             e = edge_idx[q]
             e2 = nxt[e]
@@ -214,11 +240,12 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
             # Moving segments (door leaves) see the disc, as the door controller does, except a
             # rigid footprint (a pushed pram), which they see as it is.
             be = bi if e < n_static or rigid[i] else ri
-            ex, ey, dep = _edge_push(px, py, ri, be, fxi, fyi, vertices[e, 0], vertices[e, 1],
-                                     vertices[e2, 0], vertices[e2, 1], closed)
+            ex, ey, dep, dist = _edge_push(px, py, ri, be, fxi, fyi, vertices[e, 0], vertices[e, 1],
+                                           vertices[e2, 0], vertices[e2, 1], closed)
             sx += ex
             sy += ey
             worst = max(worst, dep)
+            near_edge = min(near_edge, dist)
         depth[i] = worst
         if fixed[i]:
             out_pos[i, 0] = px
@@ -227,10 +254,30 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
         # Heavy-ball Jacobi: the step keeps a share of the previous one, which
         # carries a push through a packed cluster in O(depth) instead of
         # O(depth^2) iterations (plain Jacobi diffuses).
-        step[i, 0] = momentum * step[i, 0] + sx
-        step[i, 1] = momentum * step[i, 1] + sy
-        out_pos[i, 0] = px + step[i, 0]
-        out_pos[i, 1] = py + step[i, 1]
+        stx = momentum * step[i, 0] + sx
+        sty = momentum * step[i, 1] + sy
+        ll = stx * stx + sty * sty
+        if ll >= near_edge * near_edge or (ll > (ri + 0.5 * SKIN) ** 2 and vertices.shape[0] > 0):
+            # A step as long as the way to an edge (the push of a deep overlap, bodies at one
+            # point): it never carries the centre through the edge, behind which no edge would
+            # push it back. It stops 1 mm short; and it is no longer than the edges left out of
+            # the lists are far (r + SKIN / 2: lists hold edges within r + SKIN of where they were
+            # built, and are rebuilt when someone has moved SKIN / 2).
+            step_len = np.sqrt(ll)
+            keep = min(1.0, (ri + 0.5 * SKIN) / step_len)
+            for q in range(edge_start[i], edge_start[i + 1]):
+                e = edge_idx[q]
+                e2 = nxt[e]
+                f = _crossing(px, py, stx, sty, vertices[e, 0], vertices[e, 1], vertices[e2, 0],
+                              vertices[e2, 1], nxt[e] != prv[e])
+                if f < 1.0:
+                    keep = min(keep, max(f - 1e-3 / step_len, 0.0))
+            stx *= keep
+            sty *= keep
+        step[i, 0] = stx
+        step[i, 1] = sty
+        out_pos[i, 0] = px + stx
+        out_pos[i, 1] = py + sty
 
 
 _list_counts_par, _list_counts_ser = _list_counts.parallel, _list_counts.serial
@@ -337,12 +384,11 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
         d = np.sqrt(dx * dx + dy * dy)
         if d >= ru + radius[i]:
             continue
-        if d > 1e-12:
+        if d > COINCIDENT:
             nx = dx / d
             ny = dy / d
-        else:
-            nx = 1.0
-            ny = 0.0
+        else:  # on the user's centre: out along the pair's own direction (pedvr.crowd.coincident)
+            nx, ny = apart(i, user)
         su = ru  # the user's reach toward the agent: its radius, or a pram's ellipse's support
         if fp_depth[user] < ru:
             su = support(ru, fp_depth[user], facing[user, 0], facing[user, 1], nx, ny)
@@ -558,7 +604,7 @@ def max_obstacle_penetration(pos, radius, vertices, nxt, prv):
         for e in range(m):
             e2 = nxt[e]
             closed = nxt[e] != prv[e]
-            _, _, dep = _edge_push(pos[i, 0], pos[i, 1], radius[i], radius[i], 1.0, 0.0,
+            _, _, dep, _ = _edge_push(pos[i, 0], pos[i, 1], radius[i], radius[i], 1.0, 0.0,
                                    vertices[e, 0], vertices[e, 1], vertices[e2, 0],
                                    vertices[e2, 1], closed)
             worst = max(worst, dep)

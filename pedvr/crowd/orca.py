@@ -79,6 +79,7 @@ import math
 import numpy as np
 from numba import prange
 
+from pedvr.crowd.coincident import COINCIDENT, apart
 from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import obstacle_neighbors_of
 from pedvr.crowd.state import (
@@ -92,6 +93,7 @@ from pedvr.crowd.state import (
 from pedvr.kernels import parallel_kernel, row_njit
 
 RVO_EPSILON = 1e-5  # RVO2's RVO_EPSILON
+DEGENERATE_W = 1e-9  # m/s: in collision, a relative velocity this near the cut-off centre has no direction
 STOPPED_SPEED = 0.05  # m/s: below this the motion direction is the heading
 ACCEL_POLYGON_SIDES = 16
 SIDEWAYS_SLOPE = math.tan(math.radians(30.0))
@@ -506,8 +508,14 @@ def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, rigid, 
 
 @row_njit(fastmath=_FM)
 def agent_line(lines, n, px, py, vx, vy, radius, qx, qy, wvx, wvy, other_radius, inv_th,
-               inv_dt, share):
-    """Append the ORCA line induced by one neighbour; ``share`` is i's part of ``u``."""
+               inv_dt, share, i, j):
+    """Append the ORCA line induced by neighbour row ``j`` on row ``i``; ``share`` is i's part of ``u``.
+
+    In collision, ``u`` leaves the cut-off circle of time ``dt`` along ``w``, the relative
+    velocity from that circle's centre; where ``w`` vanishes (the relative velocity is exactly
+    the one that closes the gap in ``dt``, e.g. two bodies at one point standing still), RVO2
+    divides by zero. Here ``u`` then points from ``j`` to ``i`` (each moves away from the other),
+    and for coincident centres along :func:`pedvr.crowd.coincident.apart` (issue 24)."""
     rpx = qx - px
     rpy = qy - py
     rvx = vx - wvx
@@ -548,9 +556,20 @@ def agent_line(lines, n, px, py, vx, vy, radius, qx, qy, wvx, wvy, other_radius,
         # Collision. Project on cut-off circle of time timeStep.
         wx = rvx - inv_dt * rpx
         wy = rvy - inv_dt * rpy
-        w_len = math.sqrt(wx * wx + wy * wy)
-        uwx = wx / w_len
-        uwy = wy / w_len
+        w_len_sq = wx * wx + wy * wy
+        if w_len_sq > DEGENERATE_W * DEGENERATE_W:
+            w_len = math.sqrt(w_len_sq)
+            uwx = wx / w_len
+            uwy = wy / w_len
+        else:
+            # At the cut-off centre: no direction out; away from the neighbour.
+            w_len = 0.0
+            if dist_sq > COINCIDENT * COINCIDENT:
+                dist = math.sqrt(dist_sq)
+                uwx = -rpx / dist
+                uwy = -rpy / dist
+            else:
+                uwx, uwy = apart(i, j)
         dx = uwy
         dy = -uwx
         ux = (combined * inv_dt - w_len) * uwx
@@ -745,7 +764,7 @@ def agent_lines(i, pos, vel, radius, depth, facing, rigid, is_user, heading, pre
             ri = support(r, b, fx, fy, dx / d, dy / d)
             rj = support(rj, depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d)
         n = agent_line(lines, n, px, py, vx, vy, ri, qx, qy, vel[j, 0], vel[j, 1], rj, inv,
-                       inv_dt, share)
+                       inv_dt, share, i, j)
     return n, num_obst, num_vel_lim, num_hard
 
 
