@@ -38,7 +38,7 @@ COINCIDENT = 1e-12  # m: centres closer than this have no line of centres
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
 
 
-@row_njit(inline="always")
+@row_njit()  # not inlined: it runs only where centres coincide, and stays out of the hot loops
 def apart(i, j):  # type: ignore[no-untyped-def]
     """Unit direction ``(x, y)`` in which row ``i`` leaves row ``j`` when their centres
     coincide (see the module docstring); ``apart(j, i)`` is its opposite. ``i != j``."""

@@ -204,6 +204,7 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
         sx = 0.0
         sy = 0.0
         worst = 0.0
+        together = False
         for q in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_idx[q]
             dx = px - cur[j, 0]
@@ -213,7 +214,10 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
             if dsq >= rr * rr:
                 continue
             d = np.sqrt(dsq)
-            if d > 1e-12 and (bi < ri or fp_depth[j] < radius[j]):
+            if d <= COINCIDENT:
+                together = True  # no line of centres: after this loop
+                continue
+            if bi < ri or fp_depth[j] < radius[j]:
                 rr = (support(ri, bi, fxi, fyi, -dx / d, -dy / d)
                       + support(radius[j], fp_depth[j], facing[j, 0], facing[j, 1], dx / d, dy / d))
                 if d >= rr:
@@ -221,15 +225,26 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
             ov = rr - d
             worst = max(worst, ov)
             share = 1.0 if fixed[j] else 0.5
-            if d > COINCIDENT:
-                ux = dx / d
-                uy = dy / d
-            else:
-                # Coincident centres: the pair's own direction (opposite for j, so the
-                # pushes cancel; pedvr.crowd.coincident).
-                ux, uy = apart(i, j)
+            ux = dx / d
+            uy = dy / d
             sx += share * (ov + SLACK) * ux
             sy += share * (ov + SLACK) * uy
+        if together:
+            # Coincident centres part along the pair's own direction (opposite for j, so the
+            # pushes cancel; pedvr.crowd.coincident). Out of the loop above, which it would slow.
+            for q in range(nbr_start[i], nbr_start[i + 1]):
+                j = nbr_idx[q]
+                dx = px - cur[j, 0]
+                dy = py - cur[j, 1]
+                d = np.sqrt(dx * dx + dy * dy)
+                if d > COINCIDENT:
+                    continue
+                ov = ri + radius[j] - d
+                worst = max(worst, ov)
+                share = 1.0 if fixed[j] else 0.5
+                ux, uy = apart(i, j)
+                sx += share * (ov + SLACK) * ux
+                sy += share * (ov + SLACK) * uy
         near_edge = np.inf
         for q in range(edge_start[i], edge_start[i + 1]):
             e = edge_idx[q]
@@ -257,14 +272,15 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
         stx = momentum * step[i, 0] + sx
         sty = momentum * step[i, 1] + sy
         ll = stx * stx + sty * sty
-        if ll >= near_edge * near_edge or (ll > (ri + 0.5 * SKIN) ** 2 and vertices.shape[0] > 0):
+        reach = ri + 0.5 * SKIN
+        if ll >= near_edge * near_edge or (ll > reach * reach and vertices.shape[0] > 0):
             # A step as long as the way to an edge (the push of a deep overlap, bodies at one
             # point): it never carries the centre through the edge, behind which no edge would
             # push it back. It stops 1 mm short; and it is no longer than the edges left out of
             # the lists are far (r + SKIN / 2: lists hold edges within r + SKIN of where they were
             # built, and are rebuilt when someone has moved SKIN / 2).
             step_len = np.sqrt(ll)
-            keep = min(1.0, (ri + 0.5 * SKIN) / step_len)
+            keep = min(1.0, reach / step_len)
             for q in range(edge_start[i], edge_start[i + 1]):
                 e = edge_idx[q]
                 e2 = nxt[e]
