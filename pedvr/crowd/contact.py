@@ -377,6 +377,94 @@ def _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx, og
     return best, hit
 
 
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"}, inline="always")
+def _user_reach(i, user, radius, fp_depth, facing, nx, ny):
+    """Centre distance at which row ``i``'s footprint touches the user's along the unit ``(nx, ny)``
+    (from the user toward the agent): the user's support (its disc, or a pram's ellipse) plus the
+    agent's."""
+    ru = radius[user]
+    su = ru
+    if fp_depth[user] < ru:
+        su = support(ru, fp_depth[user], facing[user, 0], facing[user, 1], nx, ny)
+    return su + support(radius[i], fp_depth[i], facing[i, 0], facing[i, 1], -nx, -ny)
+
+
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"})
+def _leave_along(i, user, ux, uy, sx, sy, ex, ey, sign, radius, fp_depth, facing):
+    """How far (signed, m) to move from ``(sx, sy)`` along the unit ``(ex, ey)`` to where row
+    ``i``'s footprint just clears the user's (``SLACK`` beyond touching): the root of
+    ``|s + τ e - u| = reach`` on the side of ``sign`` (the nearer root where ``sign`` is 0). The
+    reach depends on the direction (turned footprints), so it is solved again, with the reach
+    where the last root landed, until that reach is no longer than the one solved for."""
+    px = sx - ux
+    py = sy - uy
+    d = np.sqrt(px * px + py * py)
+    if d > COINCIDENT:
+        nx = px / d
+        ny = py / d
+    else:
+        nx, ny = apart(i, user)
+    reach = _user_reach(i, user, radius, fp_depth, facing, nx, ny) + SLACK
+    tau = 0.0
+    for _ in range(8):
+        b = px * ex + py * ey
+        c = px * px + py * py - reach * reach
+        disc = b * b - c
+        if disc < 0.0:  # s is outside the reach (no root on the line): nothing to do
+            return tau
+        root = np.sqrt(disc)
+        up = -b + root
+        down = -b - root
+        if sign > 0.0 or (sign == 0.0 and abs(up) <= abs(down)):
+            tau = up
+        else:
+            tau = down
+        qx = px + tau * ex
+        qy = py + tau * ey
+        q = np.sqrt(qx * qx + qy * qy)
+        if q <= COINCIDENT:
+            break
+        there = _user_reach(i, user, radius, fp_depth, facing, qx / q, qy / q) + SLACK
+        if there <= reach:
+            break  # clear of the user's footprint there
+        reach = there
+    return tau
+
+
+MAX_SLIDES = 4  # walls a push out of the user slides along before it gives up on staying inside them
+
+
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"})
+def _slide_out(i, user, ux, uy, x0, y0, x1, y1, first, radius, fp_depth, facing, vertices, nxt, og_origin,
+               og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch):
+    """From ``(x0, y0)`` toward the point ``(x1, y1)`` on the user's outline without crossing a
+    wall: where the way meets one, stop 1 mm short and slide along it to where its line leaves
+    the outline, the way the push leans (``first`` > 0 or < 0 overrides that for the first wall),
+    and so on round corners, up to ``MAX_SLIDES`` walls. Returns ``(found, x, y)``."""
+    for k in range(MAX_SLIDES):
+        frac, e = _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx, og_ny,
+                                  og_cell_start, og_cell_edges, og_edge_cells, scratch)
+        if e < 0:
+            return True, x1, y1
+        stop = max(frac - 1e-3 / max(np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2), 1e-12), 0.0)
+        sx = x0 + stop * (x1 - x0)
+        sy = y0 + stop * (y1 - y0)
+        ex = vertices[nxt[e], 0] - vertices[e, 0]
+        ey = vertices[nxt[e], 1] - vertices[e, 1]
+        el = np.sqrt(ex * ex + ey * ey)
+        ex /= el
+        ey /= el
+        lean = (x1 - sx) * ex + (y1 - sy) * ey
+        if k == 0 and first != 0.0:
+            lean = first
+        tau = _leave_along(i, user, ux, uy, sx, sy, ex, ey, lean, radius, fp_depth, facing)
+        x0 = sx
+        y0 = sy
+        x1 = sx + tau * ex
+        y1 = sy + tau * ey
+    return False, x0, y0
+
+
 @njit(cache=True, fastmath={"nsz", "arcp", "contract"})
 def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt, og_origin,
                  og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch):
@@ -385,10 +473,14 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
     walls and other agents); their heavy-ball momentum is dropped so the next iteration does
     not carry them back in.
 
-    A push never carries an agent's centre through a wall: it stops at the wall and
-    slides along it; where not even that frees the user (the user walked into a corner
-    someone stands in), the agent stays where it can and the overlap is left for the
-    metrics to report.
+    Each agent is moved onto the user's outline (``SLACK`` beyond touching) without its centre
+    crossing a wall: straight out from the user's centre, or, where that way meets a wall,
+    stopped 1 mm short and slid along the wall to where the wall's line leaves the outline (the
+    way the push leans; a turned agent's reach is solved for where it lands), round corners
+    too (:func:`_slide_out`). Cornered that way (the user walked into a corner someone stands
+    in), it slides along the first wall the other way, past the user; and where not even that
+    frees the user, the user's body still wins: the agent goes straight out, through the wall,
+    and the metrics report the wall overlap.
     """
     ux = cur[user, 0]
     uy = cur[user, 1]
@@ -405,10 +497,7 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
             ny = dy / d
         else:  # on the user's centre: out along the pair's own direction (pedvr.crowd.coincident)
             nx, ny = apart(i, user)
-        su = ru  # the user's reach toward the agent: its radius, or a pram's ellipse's support
-        if fp_depth[user] < ru:
-            su = support(ru, fp_depth[user], facing[user, 0], facing[user, 1], nx, ny)
-        rr = su + support(radius[i], fp_depth[i], facing[i, 0], facing[i, 1], -nx, -ny)
+        rr = _user_reach(i, user, radius, fp_depth, facing, nx, ny)
         if d >= rr:
             continue
         x0 = cur[i, 0]
@@ -416,28 +505,23 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
         x1 = ux + (rr + SLACK) * nx
         y1 = uy + (rr + SLACK) * ny
         if vertices.shape[0] > 0:
-            frac, e = _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx,
-                                      og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch)
-            if e >= 0:
-                # Stop 1 mm before the wall, then slide the rest of the push along it.
-                stop = max(frac - 1e-3 / max(np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2), 1e-12), 0.0)
+            found, x, y = _slide_out(i, user, ux, uy, x0, y0, x1, y1, 0.0, radius, fp_depth, facing, vertices,
+                                     nxt, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
+                                     og_edge_cells, scratch)
+            if not found:
+                # Cornered: the first wall's other way, past the user.
+                frac, e = _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx, og_ny,
+                                          og_cell_start, og_cell_edges, og_edge_cells, scratch)
                 ex = vertices[nxt[e], 0] - vertices[e, 0]
                 ey = vertices[nxt[e], 1] - vertices[e, 1]
-                el = np.sqrt(ex * ex + ey * ey)
-                ex /= el
-                ey /= el
-                sx = x0 + stop * (x1 - x0)
-                sy = y0 + stop * (y1 - y0)
-                along = ((x1 - sx) * ex + (y1 - sy) * ey)
-                tx = sx + along * ex
-                ty = sy + along * ey
-                frac2, e2 = _first_crossing(sx, sy, tx, ty, vertices, nxt, og_origin, og_cell,
-                                            og_nx, og_ny, og_cell_start, og_cell_edges,
-                                            og_edge_cells, scratch)
-                if e2 >= 0:
-                    frac2 = max(frac2 - 1e-3 / max(abs(along), 1e-12), 0.0)
-                x1 = sx + frac2 * (tx - sx)
-                y1 = sy + frac2 * (ty - sy)
+                lean = (x1 - x0) * ex + (y1 - y0) * ey
+                found, x, y = _slide_out(i, user, ux, uy, x0, y0, x1, y1, -1.0 if lean >= 0.0 else 1.0,
+                                         radius, fp_depth, facing, vertices, nxt, og_origin, og_cell, og_nx,
+                                         og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch)
+            if found:
+                x1 = x
+                y1 = y
+            # else: no way out inside the walls; the user's body wins (straight out, through the wall)
         cur[i, 0] = x1
         cur[i, 1] = y1
         step[i, 0] = 0.0
