@@ -173,6 +173,63 @@ def test_no_room_at_all_gives_way_into_the_wall_never_into_the_user() -> None:
 
 # -- walls where there is room (issue 24, item 10) ------------------------------------------------
 
+TURNED = 2 * 0.25 * DEPTH_RATIO  # m: a turned body's depth, front to back (0.26 m)
+
+
+WALLS = [(w, dead, kind, speed)
+         for w, dead, kind, speed in itertools.product((0.8, 0.9, 1.0, 1.1, 1.3), (True, False),
+                                                        ("standing", "ahead", "oncoming"), (1.0, 1.4))]
+
+
+@pytest.mark.parametrize("width, dead_end, kind, speed", WALLS,
+                         ids=[f"{w}m-{'dead' if d else 'open'}-{k}-{s}" for w, d, k, s in WALLS])
+def test_nobody_is_pushed_into_a_wall_where_a_turned_body_fits(width: float, dead_end: bool, kind: str,
+                                                               speed: float) -> None:
+    """Three agents standing, walking slowly ahead or oncoming; the user walks to the very end of a
+    dead end (its disc 0.25 m from the end wall) or out into the room, along the right-hand wall where
+    the corridor is narrower than 1.05 m, else down the middle: a turned body (0.26 m deep) fits
+    beside the user everywhere. Nobody overlaps a wall by more than 1 cm and nobody enters the user.
+    Before the fix, ORCA saw a turned agent against the wall as wide as its shoulders to a user coming
+    up behind it and chased it ahead into the dead end, where the user's body pushed it 9 cm into the
+    end wall (0.8 m, 1.4 m/s)."""
+    h = width / 2
+    user_y = -(h - 0.25 - 0.02) if width < 1.05 else 0.0
+    assert h + abs(user_y) - 0.25 >= TURNED + 0.01  # a turned body fits beside the user, with 1 cm to spare
+    scene = corridor(width, dead_end=dead_end, kind=kind, n_agents=3, user_speed=speed, user_y=user_y,
+                     end_x=5.5 if dead_end else None)
+    sim = Simulation(scene)
+    sim.advance_to(12.0 if dead_end else 15.0)
+    s = sim.summary()
+    assert s["wall_overlap_max_m"] <= 0.01, s
+    assert s["user_overlap_max_m"] == 0.0, s
+    assert s["user_spheres_reached"] == 1, s
+
+
+def test_a_turned_agent_against_a_wall_is_not_chased_by_a_user_who_passes_beside_it() -> None:
+    """The root cause of item 10. An agent turned flat against a corridor wall (its torso facing the
+    user's side, 0.13 m deep); the user 0.42 m behind it and 0.40 m to the side, walking along the
+    corridor at 1.3 m/s: the user's disc passes 0.02 m clear of the turned body. A disc as wide as the
+    pair along the line of centres (0.45 m there) made the safety step toward the user say they collide,
+    and with the wall on the other side the agent could only run ahead of the user, into the dead end;
+    the obstacle of the two footprints lets it stand."""
+    from pedvr.crowd.steering import Steering
+    from pedvr.scene.config import SteeringParams
+    from pedvr.world.obstacles import ObstacleSet
+    from tests.crowd._helpers import crowd as make
+
+    wall = ObstacleSet.from_polygons([np.array([[-6.0, 0.4], [6.0, 0.4], [6.0, 1.0], [-6.0, 1.0]])])  # y = 0.4
+    state = make([[-0.42, -0.13], [0.0, 0.27]], vel=[[1.3, 0.0], [0.0, 0.0]],
+                 pref_vel=[[1.3, 0.0], [0.0, 0.0]], is_user=[True, False], responsibility=1.0)
+    state.turn[1] = 1.0
+    state.torso[1] = -0.5 * np.pi  # facing the user's side of the corridor
+    for coupled in (False, True):
+        steer = Steering(SteeringParams(), wall, coupled=coupled)
+        px, py, dx, dy = steer.orca_lines(state, 1 / 90, 1)[-1]  # the line toward the user comes last
+        assert dx * py - dy * px <= 0.0  # standing still is on its permitted side: det(d, p - 0) <= 0
+    v = Steering(SteeringParams(), wall, coupled=False).compute_velocities(state, 1 / 90)
+    assert np.hypot(*v[1]) < 0.05, v[1]  # plain ORCA: it stays where it stands
+
+
 @pytest.mark.parametrize("width", [0.8, 0.9, 1.0])
 def test_with_no_room_beside_the_user_its_body_still_wins(width: float) -> None:
     """The user down the middle of a narrow dead end to its very end: beside the user there is
