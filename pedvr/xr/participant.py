@@ -530,10 +530,8 @@ class XrFrontend:
         self.renderer = self.user = None
 
     def close(self) -> None:
-        from pedvr.xr.run import _finish_xr
-
         try:
-            _finish_xr(self.presenter)  # type: ignore[arg-type]
+            self.presenter.finish()
         finally:
             self._release_trial()
             if self.drawer is not None:

@@ -98,3 +98,33 @@ def test_duration_stops_the_loop_and_telemetry_goes_into_the_summary(scene) -> N
     s = tel.summary()
     assert s["frames"] == p.renders and s["fps"] == pytest.approx(30.0)
     assert {"sim_ms_p50", "render_ms_p50", "missed_frames", "frame_ms_p95"} <= set(s)
+
+
+def test_offline_frames_are_taken_at_k_over_fps_and_none_at_or_after_the_end(scene) -> None:  # type: ignore[no-untyped-def]
+    """Issue 24 item 11: --fps 1 --duration 6 wrote 26 frames (the stall guard moved the clock by
+    0.25 s a frame); offline, frame k shows simulated time k/fps and the run still reaches 6 s."""
+    sim = Simulation(scene)
+    p = ScriptedPresenter(times=[float(k) for k in range(100)], period=1.0)
+    tel = run_frames(sim, p, duration=6.0, offline=True)
+    assert p.renders == 6 and tel.skipped_sim_s == 0
+    for k, shown in enumerate(p.shown):
+        assert k - sim.dt - 1e-9 <= shown <= k + 1e-9
+    assert sim.t == pytest.approx(6.0, abs=1e-9)
+
+
+def test_interrupted_loop_keeps_the_telemetry_measured_so_far(scene) -> None:  # type: ignore[no-untyped-def]
+    """Issue 23 item 5: Ctrl-C in the frame loop dropped the telemetry ('frames 0 ... p50 None')."""
+    from pedvr.xr.loop import Telemetry
+
+    class Interrupting(ScriptedPresenter):
+        def wait_frame(self) -> FrameTiming | None:
+            if self.renders == 5:
+                raise KeyboardInterrupt
+            return super().wait_frame()
+
+    tel = Telemetry(backend="fake")
+    with pytest.raises(KeyboardInterrupt):
+        run_frames(Simulation(scene), Interrupting(times=[k / 90 for k in range(50)], period=1 / 90),
+                   duration=None, telemetry=tel)
+    s = tel.summary()
+    assert s["frames"] == 5 and s["render_ms_p50"] is not None and s["frame_ms_max"] is not None
