@@ -27,7 +27,7 @@ from __future__ import annotations
 import enum
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -42,6 +42,9 @@ if TYPE_CHECKING:
 
 class BackendLostError(BackendUnavailableError):
     """The OpenXR session ended early (headset or runtime lost); the run so far is saved."""
+
+
+FACTS_AFTER_FRAMES = 10  # focused frames before the runtime's facts are read (controllers bound by then)
 
 
 class RuntimeLostError(Exception):
@@ -136,6 +139,10 @@ class XrPort(Protocol):
 
     def idle_wait(self) -> None: ...
 
+    def runtime_facts(self) -> dict[str, Any]:
+        """What ``pedvr xr check`` prints (:meth:`pedvr.xr.openxr.OpenXRPort.runtime_facts`)."""
+        ...
+
     def close(self) -> None: ...
 
 
@@ -219,6 +226,9 @@ class XrPresenter:
         self.triggers = 0
         self.menus = 0
         self.holding_door = False
+        self.eyes_rendered = [0, 0]  # frames drawn into each eye's swapchain
+        self.focused_frames = 0
+        self.facts: dict[str, Any] | None = None  # the runtime's facts, read once focused for a while
 
     @property
     def closed(self) -> bool:
@@ -258,6 +268,10 @@ class XrPresenter:
         self.hands = self.port.locate_hands(frame.display_time)
         self.triggers += int(self.controls.trigger)
         self.menus += int(self.controls.menu)
+        if self.logic.focused:
+            self.focused_frames += 1
+            if self.facts is None and self.focused_frames >= FACTS_AFTER_FRAMES:
+                self.facts = self.port.runtime_facts()
         dt = 0.0 if self._last_time is None else max(0.0, frame.display_time - self._last_time)
         self._last_time = frame.display_time
         self.user.track(
@@ -311,6 +325,8 @@ class XrPresenter:
         try:
             for i, eye in enumerate(self.eye_views()):
                 self.port.render_eye(i, self._drawer(eye))
+                if i < len(self.eyes_rendered):
+                    self.eyes_rendered[i] += 1
         except RuntimeLostError as exc:
             self._lose(exc)
 

@@ -106,6 +106,9 @@ class FakePort:
     def idle_wait(self) -> None:
         self.calls.append("idle")
 
+    def runtime_facts(self) -> dict[str, object]:
+        return {"runtime": "FakePort", "interaction_profiles": {"left": None, "right": None}}
+
     def close(self) -> None:
         self.calls.append("close")
 
