@@ -72,6 +72,9 @@ def write_outputs(
               f"{summary['user_clearance_p50_m']} m; steps inside the personal space "
               f"{summary['steps_in_user_margin']}")
     print(f"  step time p50 {summary['step_ms_p50']} ms, p95 {summary['step_ms_p95']} ms")
+    if summary.get("interrupted"):
+        how = "Ctrl-C" if summary["interrupted"] is True else summary["interrupted"]
+        print(f"  interrupted by {how} at t = {sim.t:.1f} s: the outputs cover the run so far")
     print(f"  trajectory: {record}")
     print(f"  metrics:    {metrics_json}")
     return summary

@@ -18,9 +18,15 @@ Every backend therefore prepares before its frame loop:
   fires when the cache answers, so a warm run prints one line).
 * :func:`prepare` does that on a simulation of its own (the same scene, seed
   and condition: the run itself starts at t = 0 untouched, bit for bit as
-  before) and then calls ``draw`` once (the backend draws a frame of that
-  simulation offscreen with the same programs and targets it will use), so
-  the headset's first ``xrWaitFrame`` comes after both.
+  before), then a few more steps of it with each twin of the parallel kernels
+  pinned in turn (:func:`pedvr.kernels.forcing`: which twin runs later depends
+  on the machine's load, and a twin first used mid-run would compile then),
+  and then calls ``draw`` once (the backend draws a frame of that simulation
+  offscreen with the same programs and targets it will use), so the headset's
+  first ``xrWaitFrame`` comes after all of it. The first step covers what the
+  scene does at its start; a kernel first needed later (an event minutes
+  in) still compiles when it is first needed: :class:`CompileLog` records
+  those in the run's metrics (``prepare.compiled_during_run``).
 
 The lines go to ``say`` (stderr by default); ``say=None`` is silent (sweep
 workers). The returned :class:`Prepared` goes into the run's metrics under
@@ -43,6 +49,7 @@ if TYPE_CHECKING:
 Say = Callable[[str], None]
 
 PROGRESS_EVERY_S = 5.0  # at most one progress line this often while kernels compile
+TWIN_STEPS = 4  # steps with each twin pinned: a decision step is among them (30 Hz decisions at 90 Hz)
 
 
 def stderr_say(line: str) -> None:
@@ -58,6 +65,7 @@ class Prepared:
     kernels_compiled: int = 0
     compile_s: float = 0.0
     phase_s: dict[str, float] = field(default_factory=dict)
+    compiled_during_run: list[str] = field(default_factory=list)  # kernels first compiled after preparing
 
     @property
     def total_s(self) -> float:
@@ -66,19 +74,24 @@ class Prepared:
     def summary(self) -> dict[str, object]:
         return {
             "prepare_s": round(self.total_s, 3),
-            "first_step_s": round(self.step_s, 4),
+            "first_step_s": round(self.step_s, 4),  # with prepare(): the twin steps too
             "first_draw_s": None if self.draw_s is None else round(self.draw_s, 4),
             "kernels_compiled": self.kernels_compiled,
             "compile_s": round(self.compile_s, 3),
             "first_step_phase_s": {k: round(v, 4) for k, v in self.phase_s.items()},
+            "compiled_during_run": list(self.compiled_during_run),
         }
 
 
 class _CompileWatch(numba_event.Listener):  # type: ignore[misc]
-    """A numba event listener: counts kernels compiled and says which, at most every few seconds."""
+    """A numba event listener: counts kernels compiled (pedvr's functions; numba's own overloads
+    compiled for them are part of their compile time) and says which, at most every few seconds."""
 
-    def __init__(self, sim: Simulation, say: Say | None, *, clock: Callable[[], float]) -> None:
+    def __init__(self, sim: Simulation | None, say: Say | None, *, clock: Callable[[], float],
+                 label: str | None = None) -> None:
         self.sim = sim
+        self.label = label
+        self.names: list[str] = []
         self.say = say
         self.clock = clock
         self.started = clock()
@@ -93,6 +106,8 @@ class _CompileWatch(numba_event.Listener):  # type: ignore[misc]
         """The phase of the first step running now: the first one with no time recorded yet."""
         from pedvr.sim import PHASES
 
+        if self.label is not None or self.sim is None:
+            return self.label or "run"
         done = self.sim.metrics.phase_ms
         return next((p for p in PHASES if p not in done), "set-up")
 
@@ -108,17 +123,24 @@ class _CompileWatch(numba_event.Listener):  # type: ignore[misc]
                      "upgrade; they are cached for later runs) ...")
         if phase != self._phase_said:
             self._phase_said = phase
-            self.say(f"preparing: step phase '{phase}': compiling ...")
+            self.say(f"preparing: {self._what(phase)}: compiling ...")
+
+    def _what(self, phase: str) -> str:
+        return phase if self.label is not None else f"step phase '{phase}'"
 
     def on_end(self, event: Any) -> None:
         self._depth -= 1
-        self.compiled += 1
         now = self.clock()
         if self._depth == 0:
             self.compile_s += now - self._outer_start
-        if self.say is not None and now - self._said_at >= PROGRESS_EVERY_S:
+        name = _kernel_name(event)
+        if name.startswith("numba."):
+            return  # numba's own overloads compiled for a kernel: part of that kernel's compile
+        self.compiled += 1
+        self.names.append(name)
+        if self.say is not None and (now - self._said_at >= PROGRESS_EVERY_S or self.compiled == 1):
             self._said_at = now
-            self.say(f"preparing: step phase '{self.phase()}': {self.compiled} kernels compiled "
+            self.say(f"preparing: {self._what(self.phase())}: {self.compiled} kernels compiled "
                      f"({_kernel_name(event)}), {now - self.started:.0f} s so far")
 
 
@@ -147,11 +169,45 @@ def first_step(sim: Simulation, *, say: Say | None = stderr_say,
     return out
 
 
+def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
+               clock: Callable[[], float] = time.perf_counter) -> tuple[int, float]:
+    """:data:`TWIN_STEPS` steps with every parallel kernel's parallel twin, then as many with its
+    serial twin (:func:`pedvr.kernels.forcing`); return the kernels compiled and the seconds."""
+    from pedvr.kernels import forcing
+
+    watch = _CompileWatch(None, say, clock=clock, label="both twins of the parallel kernels")
+    with numba_event.install_listener("numba:compile", watch):
+        for parallel in (True, False):
+            with forcing(parallel):
+                for _ in range(TWIN_STEPS):
+                    sim.step()
+    return watch.compiled, watch.compile_s
+
+
+class CompileLog:
+    """Kernels compiled inside the block (``with CompileLog() as log: ...``; :attr:`names`): what
+    preparing did not reach, for the run's metrics."""
+
+    def __init__(self) -> None:
+        self._watch = _CompileWatch(None, None, clock=time.perf_counter, label="run")
+
+    @property
+    def names(self) -> list[str]:
+        return self._watch.names
+
+    def __enter__(self) -> CompileLog:
+        numba_event.register("numba:compile", self._watch)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        numba_event.unregister("numba:compile", self._watch)
+
+
 def prepare(
     make_sim: Callable[[], Simulation],
     *,
     what: str,
-    draw: Callable[[Simulation], None] | None = None,
+    draw: Callable[[Simulation], object] | None = None,
     say: Say | None = stderr_say,
     clock: Callable[[], float] = time.perf_counter,
 ) -> Prepared:
@@ -161,6 +217,11 @@ def prepare(
         say(f"preparing {what}: the first step{' and the first frame' if draw else ''} ...")
     sim = make_sim()
     out = first_step(sim, say=say, clock=clock)
+    t0 = clock()
+    n, seconds = twin_steps(sim, say=say, clock=clock)
+    out.step_s += clock() - t0
+    out.kernels_compiled += n
+    out.compile_s += seconds
     if draw is not None:
         if say is not None and out.step_s > 1.0:
             say("preparing: drawing the first frame (the OpenGL driver compiles its shaders) ...")
@@ -169,6 +230,6 @@ def prepare(
         out.draw_s = clock() - t0
     if say is not None:
         frame = "" if out.draw_s is None else f", first frame {out.draw_s:.1f} s"
-        say(f"prepared in {out.total_s:.1f} s (first step {out.step_s:.1f} s, "
+        say(f"prepared in {out.total_s:.1f} s (first steps {out.step_s:.1f} s, "
             f"{out.kernels_compiled} kernels compiled{frame})")
     return out

@@ -152,8 +152,10 @@ def run_frames(
 ) -> Telemetry:
     """Run until ``duration`` simulated seconds or the presenter closes; return the telemetry.
 
-    The first frame's display time is simulation time ``sim.t``; after that
-    simulation time follows display time. ``clock`` (``() -> float`` seconds)
+    The first frame to be drawn (``should_render``) is shown at simulation time
+    ``sim.t``; after that simulation time follows display time. Frames before it
+    (an OpenXR session not yet visible) are ended without moving the simulation:
+    nothing happens in the world before the participant can see it. ``clock`` (``() -> float`` seconds)
     times the work, injected for tests. ``max_idle_polls`` bounds how many
     frameless polls (session not running) are tolerated, for tests.
     ``telemetry`` is filled as frames are made (pass one to keep what was
@@ -175,6 +177,9 @@ def run_frames(
                 break
             continue
         if origin is None:
+            if not timing.should_render:
+                presenter.end_frame()
+                continue
             origin = timing.display_time - sim.t
         if offline and duration is not None and timing.display_time - origin >= duration - 1e-9:
             sim.advance_to(duration)  # no frame at or after the end: the run still covers it all

@@ -20,7 +20,11 @@ line, which the presenter turns into :attr:`~pedvr.xr.session.XrPresenter.lost`.
 
 ``PEDVR_XR_CONTEXT=glx`` forces the glfw/GLX context even where EGL is offered
 (``egl`` refuses to fall back): for a driver whose EGL path misbehaves, and for
-testing both.
+testing both. ``PEDVR_XR_CAPTURE=DIR`` saves the first drawn frame's eyes as
+the runtime received them, read back from the swapchain images
+(``DIR/eye0.png``, ``DIR/eye1.png``, and ``DIR/views.json`` with each eye's
+pose and field of view): what a participant saw first, for a lab's records
+and for the golden tests against Monado.
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ import enum
 import functools
 import os
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
@@ -102,6 +107,7 @@ OPTIONAL_EXTENSIONS = (
     "XR_EXT_eye_gaze_interaction",  # reported by `pedvr xr check`; not bound
 )
 CONTEXT_ENV = "PEDVR_XR_CONTEXT"
+CAPTURE_ENV = "PEDVR_XR_CAPTURE"
 
 NO_RUNTIME = (
     "no OpenXR runtime is active (the loader found none: start SteamVR, Monado or Meta Quest Link, "
@@ -216,6 +222,9 @@ class OpenXRPort:
         self.egl_failed = ""  # why EGL was offered but not used (GLX was)
         self._egl: tuple[_Egl, int, int] | None = None  # libEGL, display, context: destroyed in close()
         self.refresh_hz: float | None = None
+        capture = os.environ.get(CAPTURE_ENV, "").strip()
+        self.capture: Path | None = Path(capture) if capture else None
+        self._captured: set[int] = set()
 
     @classmethod
     def open(cls) -> OpenXRPort:
@@ -352,7 +361,7 @@ class OpenXRPort:
                 pass
 
         try:
-            self.ctx = moderngl.create_context(require=330, context=Loader())
+            self.ctx = moderngl.create_context(require=330, context=Loader())  # type: ignore[arg-type]
         except Exception as exc:  # an old moderngl (no context= loader) or no GL 3.3 on this EGL
             raise fail(f"moderngl: {str(exc).strip() or type(exc).__name__}") from None
         self.context_kind = "EGL"
@@ -386,6 +395,31 @@ class OpenXRPort:
             glx_drawable=GLX.glXGetCurrentDrawable(),
             glx_context=GLX.glXGetCurrentContext(),
         )
+
+    def _gl_window(self) -> None:
+        import glfw
+        import moderngl
+
+        if not glfw.init():
+            raise BackendUnavailableError(
+                "cannot start the OpenXR backend: no display for the OpenGL context "
+                "(glfw could not initialise: no X display, and no EGL context through "
+                "XR_MNDX_egl_enable); use --backend headless"
+            )
+        glfw.window_hint(glfw.VISIBLE, glfw.FALSE)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.DOUBLEBUFFER, glfw.FALSE)
+        self.window = glfw.create_window(64, 64, "pedvr (OpenXR)", None, None)
+        if not self.window:
+            raise BackendUnavailableError(
+                "cannot start the OpenXR backend: no OpenGL 3.3 context "
+                "(glfw window creation failed); use --backend headless"
+            )
+        glfw.make_context_current(self.window)
+        glfw.swap_interval(0)  # the runtime paces frames in xrWaitFrame
+        self.ctx = moderngl.create_context(require=330)
 
     def _reference_space(self) -> None:
         xr = self.xr
@@ -668,8 +702,32 @@ class OpenXRPort:
         _, _, fbo = self.targets[index][k]
         try:
             draw(fbo, (0, 0, *self.sizes[index]))
+            if self.capture is not None and index not in self._captured:
+                self._save_capture(index, fbo)
         finally:
             xr.release_swapchain_image(sc, xr.SwapchainImageReleaseInfo())
+
+    def _save_capture(self, index: int, fbo: Any) -> None:
+        """Eye ``index`` as drawn into its swapchain image, and the views' poses (PEDVR_XR_CAPTURE)."""
+        import json
+
+        from PIL import Image
+
+        assert self.capture is not None
+        self.capture.mkdir(parents=True, exist_ok=True)
+        w, h = self.sizes[index]
+        rgb = np.frombuffer(fbo.read(viewport=(0, 0, w, h), components=3), np.uint8).reshape(h, w, 3)
+        Image.fromarray(rgb[::-1]).save(self.capture / f"eye{index}.png")
+        self._captured.add(index)
+        views = [
+            {"position": [v.pose.position.x, v.pose.position.y, v.pose.position.z],
+             "orientation": [v.pose.orientation.x, v.pose.orientation.y, v.pose.orientation.z,
+                             v.pose.orientation.w],
+             "fov": [v.fov.angle_left, v.fov.angle_right, v.fov.angle_up, v.fov.angle_down],
+             "size": list(self.sizes[i]), "space": self.space_kind}
+            for i, v in enumerate(self._xr_views)
+        ]
+        (self.capture / "views.json").write_text(json.dumps(views, indent=1) + "\n")
 
     @_lost_guard
     def end_frame(self, *, display_time: float, views: list[ViewLocation] | None) -> None:

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from pedvr.errors import BackendUnavailableError
 from pedvr.outputs import write_outputs
-from pedvr.prepare import Prepared, prepare, stderr_say
+from pedvr.prepare import CompileLog, Prepared, prepare, stderr_say
 from pedvr.render.math3d import EyeView, first_person_eye
 from pedvr.render.snapshot import Snapshot
 from pedvr.scene.config import SceneConfig
@@ -58,7 +58,7 @@ class Built:
     presenter: Presenter
     renderer: str
     make_sim: Callable[[], Simulation]
-    draw: Callable[[Simulation], None]
+    draw: Callable[[Simulation], object]
 
 
 def _xr_presenter(scene: SceneConfig) -> tuple[XrPresenter, HeadsetUser, Callable[[Simulation], None]]:
@@ -219,7 +219,12 @@ def run_with_view(
         with signals_interrupt():
             prepared = prepare(built.make_sim, what=f"{scene.name} ({backend})", draw=built.draw,
                                say=stderr_say if progress else None)
-            run_frames(sim, presenter, duration=duration, telemetry=tel, offline=backend == "headless")
+            with CompileLog() as later:
+                try:
+                    run_frames(sim, presenter, duration=duration, telemetry=tel,
+                               offline=backend == "headless")
+                finally:
+                    prepared.compiled_during_run = later.names
     except KeyboardInterrupt as exc:
         interrupted = interrupted_by(exc)
     finally:
@@ -239,6 +244,12 @@ def run_with_view(
         "realtime_factor": round(sim.t / wall, 2) if wall > 0 else None,
         "prepare": prepared.summary() if prepared is not None else None,
     }
+    if isinstance(presenter, XrPresenter):
+        extra["xr"] = {
+            "session_states": [st.name for st in presenter.logic.history],
+            "eyes_rendered": list(presenter.eyes_rendered),
+            "runtime": presenter.facts,
+        }
     if lost:
         extra["backend_lost"] = lost
     summary = write_outputs(

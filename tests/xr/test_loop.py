@@ -128,3 +128,23 @@ def test_interrupted_loop_keeps_the_telemetry_measured_so_far(scene) -> None:  #
                    duration=None, telemetry=tel)
     s = tel.summary()
     assert s["frames"] == 5 and s["render_ms_p50"] is not None and s["frame_ms_max"] is not None
+
+
+def test_the_clock_starts_at_the_first_frame_that_is_drawn(scene) -> None:  # type: ignore[no-untyped-def]
+    """An OpenXR session sends frames it will not show (not yet visible): the world waits for them, so
+    the participant's first view is the scene at t = 0, seed for seed the same."""
+
+    @dataclass
+    class Hidden(ScriptedPresenter):
+        hidden: int = 3
+
+        def wait_frame(self) -> FrameTiming | None:
+            t = self.times.pop(0)
+            show = self.ends >= self.hidden
+            return FrameTiming(display_time=t, period=self.period, should_render=show)
+
+    sim = Simulation(scene)
+    p = Hidden(times=[k / 90 for k in range(10)], period=1 / 90)
+    run_frames(sim, p, duration=None)
+    assert p.ends == 10 and p.renders == 7 and p.shown[0] == 0.0
+    assert sim.t == pytest.approx(6 / 90, abs=1e-9)
