@@ -53,13 +53,15 @@ def focused_facts(port: Any, *, timeout: float = 15.0,
         facts["focused"] = focused_frames > 0
         logic.request_exit()
         end = clock() + 5.0
-        while logic.running and clock() < end:
+        while not logic.done and clock() < end:  # on to EXITING, submitting frames while running
             for ev in port.poll_events():
                 logic.handle(ev)
             if logic.running:
                 port.wait_frame()
                 port.begin_frame()
                 port.end_frame(display_time=0.0, views=None)
+            elif not logic.done:
+                port.idle_wait()
     except RuntimeLostError as exc:
         raise BackendUnavailableError(f"xr check: {exc}") from None
     facts["session_states"] = [s.name for s in logic.history]

@@ -153,7 +153,9 @@ def run_frames(
     """Run until ``duration`` simulated seconds or the presenter closes; return the telemetry.
 
     The first frame to be drawn (``should_render``) is shown at simulation time
-    ``sim.t``; after that simulation time follows display time. Frames before it
+    ``sim.t`` (after one step when the simulation has not stepped yet and the
+    presenter is live: the first step poses the bodies); after that simulation
+    time follows display time. Frames before it
     (an OpenXR session not yet visible) are ended without moving the simulation:
     nothing happens in the world before the participant can see it. ``clock`` (``() -> float`` seconds)
     times the work, injected for tests. ``max_idle_polls`` bounds how many
@@ -180,6 +182,8 @@ def run_frames(
             if not timing.should_render:
                 presenter.end_frame()
                 continue
+            if not offline and sim.step_index == 0:
+                sim.step()  # bodies are posed by a step: a live view never shows them unposed at t = 0
             origin = timing.display_time - sim.t
         if offline and duration is not None and timing.display_time - origin >= duration - 1e-9:
             sim.advance_to(duration)  # no frame at or after the end: the run still covers it all

@@ -371,6 +371,12 @@ class XrPresenter:
             self._end_pending()
         if self.closed:
             return
+        if self.facts is None and self.logic.running:  # a short run: read them before the session ends
+            try:
+                self.facts = self.port.runtime_facts()
+            except RuntimeLostError as exc:
+                self._lose(exc)
+                return
         self.request_exit()
         deadline = tick() + timeout
         while not self.closed and tick() < deadline:

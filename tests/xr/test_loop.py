@@ -54,9 +54,10 @@ def test_simulation_follows_display_time_at_its_own_fixed_dt(scene) -> None:  # 
     p = ScriptedPresenter(times=list(times), period=1 / 60)
     tel = run_frames(sim, p, duration=None)
     assert p.renders == 31 and tel.missed_frames == 0
-    assert sim.t == pytest.approx(30 / 60, abs=dt)
+    # The first frame shows the world after its first step (the bodies posed), at t = dt.
+    assert sim.t == pytest.approx(dt + 30 / 60, abs=dt)
     for k, shown in enumerate(p.shown):
-        assert k / 60 - dt - 1e-9 <= shown <= k / 60 + 1e-9  # never ahead of the display, < one step behind
+        assert dt + k / 60 - dt - 1e-9 <= shown <= dt + k / 60 + 1e-9  # never ahead, < one step behind
     assert set(tel.steps[1:]) <= {1, 2}
 
 
@@ -85,7 +86,7 @@ def test_a_stall_skips_simulated_time_instead_of_a_burst_of_steps(scene) -> None
     tel = run_frames(
         sim, ScriptedPresenter(times=[0.0, 1 / 90, 3.0], period=1 / 90), duration=None, max_lag=0.25
     )
-    assert sim.t == pytest.approx(1 / 90 + 0.25, abs=sim.dt)
+    assert sim.t == pytest.approx(sim.dt + 1 / 90 + 0.25, abs=sim.dt)
     assert tel.skipped_sim_s == pytest.approx(3.0 - 1 / 90 - 0.25, abs=1e-9)
     assert max(tel.steps) <= round(0.25 / sim.dt) + 1
 
@@ -146,5 +147,5 @@ def test_the_clock_starts_at_the_first_frame_that_is_drawn(scene) -> None:  # ty
     sim = Simulation(scene)
     p = Hidden(times=[k / 90 for k in range(10)], period=1 / 90)
     run_frames(sim, p, duration=None)
-    assert p.ends == 10 and p.renders == 7 and p.shown[0] == 0.0
-    assert sim.t == pytest.approx(6 / 90, abs=1e-9)
+    assert p.ends == 10 and p.renders == 7 and p.shown[0] == pytest.approx(sim.dt)  # one step: posed bodies
+    assert sim.t == pytest.approx(sim.dt + 6 / 90, abs=1e-9)

@@ -289,3 +289,34 @@ def test_lost_tracking_keeps_the_last_pose_and_skips_rendering() -> None:
     frame(p)
     assert p.user.pose(1e9)[0] == pytest.approx([2.0, 4.0])  # tracking +x: the right, 2D +y (math3d)
     assert port.ended[-1] == 0 and len(drawn) == 2  # second frame: empty layer list, nothing drawn
+
+
+def test_a_lost_runtime_mid_call_ends_the_loop_with_one_line_not_an_exception() -> None:
+    """Issue 23 item 4: XR_ERROR_INSTANCE_LOST escaped from xrBeginFrame as SessionLostError."""
+    from pedvr.xr.session import RuntimeLostError
+
+    class Losing(FakePort):
+        def begin_frame(self) -> None:
+            if self.frame_index >= 3:
+                raise RuntimeLostError("the OpenXR runtime went away (InstanceLost in begin_frame): restart it")
+            super().begin_frame()
+
+    port = Losing(events=[READY + FOCUS])
+    p, _ = presenter(port)
+    assert frame(p) and frame(p)
+    assert p.wait_frame() is None
+    assert p.closed and p.lost is not None and "went away" in p.lost and "\n" not in p.lost
+    p.finish()  # nothing to end politely: no exception, no calls to a dead runtime
+    assert "request_exit" not in port.calls
+
+
+def test_finish_ends_a_frame_left_open_with_no_layers_before_asking_to_exit() -> None:
+    port = FakePort(events=[READY + FOCUS, [], [StateChanged(SessionState.STOPPING)],
+                            [StateChanged(SessionState.IDLE), StateChanged(SessionState.EXITING)]])
+    p, _ = presenter(port)
+    assert frame(p)
+    p.wait_frame()  # ... and an interrupt (Ctrl-C, SIGTERM) lands before this frame is ended
+    p.finish(timeout=1.0)
+    assert port.ended[:2] == [2, None]  # the open frame ended with no layers, nothing half-drawn
+    assert port.calls.index("request_exit") > port.calls.index("begin_frame")
+    assert p.closed and p.logic.history[-1] == SessionState.EXITING
