@@ -27,7 +27,7 @@ RUNTIME_DIR = "/run/pedvr-xr"  # each service gets a folder of its own below thi
 RUNTIME_JSON = "/usr/share/openxr/1/openxr_monado.json"
 PEDVR = "/opt/pedvr-venv/bin/pedvr"
 PYTHON = "/opt/pedvr-venv/bin/python"
-BUILD = "sudo .ci/monado-chroot build (about 4 minutes and 1.2 GiB once; set PEDVR_MONADO_ROOT to put it elsewhere)"
+BUILD = "sudo .ci/monado-chroot build (a few minutes and about 4.5 GiB, once; PEDVR_MONADO_ROOT puts it elsewhere)"
 
 
 def unavailable() -> str | None:
@@ -161,7 +161,7 @@ class Service:
         if self.proc.poll() is None:
             os.killpg(self.proc.pid, signal.SIGTERM)
             try:
-                self.proc.wait(10)
+                self.proc.wait(3)  # with its debug window (qwerty) Monado may not leave on SIGTERM
             except subprocess.TimeoutExpired:
                 self.kill()
         self._out.close()

@@ -1,8 +1,8 @@
 """Fixtures for the tests against Monado (the ``monado`` marker; see :mod:`tests.xr.monado.chroot`).
 
 Every test here is marked ``monado``. Where the chroot is missing (or the tests
-do not run as root), they all skip with the same one-line reason, which ``-ra``
-prints once, and the rest of the suite runs with its fakes.
+do not run as root), none of them is collected and the run's summary says why
+in one line; the rest of the suite runs with its fakes.
 
 pedvr runs inside the chroot (``/opt/pedvr-venv/bin/pedvr``, this checkout
 installed editable), against a ``monado-service`` each test starts and stops
@@ -31,14 +31,21 @@ WORK = "/var/tmp/pedvr-monado"  # inside the chroot
 NUMBA_CACHE = f"{WORK}/numba-cache"  # kept between runs (the cold test uses its own)
 
 
+# Without the chroot the modules here are not collected, and the run's summary says why in one line
+# (skipping each test instead prints a line per test function in -ra's summary).
+collect_ignore_glob = ["test_*.py"] if WHY else []
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    if WHY:
+        terminalreporter.write_line(f"SKIPPED tests/xr/monado (the monado tests): {WHY}", yellow=True)
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     here = Path(__file__).parent
-    skip = pytest.mark.skip(reason=f"Monado: {WHY}") if WHY else None
     for item in items:
         if here in Path(str(item.fspath)).parents:
             item.add_marker(pytest.mark.monado)
-            if skip is not None:
-                item.add_marker(skip)
 
 
 @pytest.fixture(scope="session")
