@@ -15,13 +15,12 @@ from __future__ import annotations
 import math
 import sys
 import time
-from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
-from pedvr.outputs import save_recording, write_outputs
+from pedvr.outputs import interrupted_by, save_recording, signals_interrupt, write_outputs
 from pedvr.prepare import first_step, stderr_say
 from pedvr.scene.config import SceneConfig
 from pedvr.sim import Simulation
@@ -30,22 +29,7 @@ if TYPE_CHECKING:
     from pedvr.xr.run import ViewOptions
 
 
-__all__ = ["interrupted_by", "run_headless", "save_recording", "signals_interrupt", "simulate"]
-
-
-def interrupted_by(exc: KeyboardInterrupt) -> bool | str:
-    """``interrupted`` in the metrics: True for Ctrl-C, the signal's name for SIGTERM / SIGHUP."""
-    from pedvr.study.signals import TerminatedBySignal
-
-    return exc.name if isinstance(exc, TerminatedBySignal) else True
-
-
-def signals_interrupt() -> AbstractContextManager[None]:
-    """SIGTERM and SIGHUP end a run like Ctrl-C inside this block: the outputs are written
-    (:func:`pedvr.study.signals.signals_abort`, the study's handler, reused)."""
-    from pedvr.study.signals import signals_abort
-
-    return signals_abort()
+__all__ = ["run_headless", "save_recording", "simulate"]
 
 
 def run_headless(
@@ -109,8 +93,9 @@ def simulate(
     """Step a new :class:`Simulation` for ``duration`` simulated seconds (the scene's by default).
 
     Returns the simulation and the run's timing keys (``wall_s``, ``setup_s``,
-    ``first_step_s``, ``interrupted``, ``realtime_factor``, and ``prepare``: what
-    the first step compiled) that go beside its summary in the metrics JSON.
+    ``first_step_s``, ``interrupted``, ``realtime_factor``) that go beside its
+    summary in the metrics JSON (a sweep's determinism checks leave exactly
+    these out, so no other machine-dependent key is added here).
     The first step says on stderr what numba compiles while it runs
     (:func:`pedvr.prepare.first_step`; silent without ``progress``). Ctrl-C,
     SIGTERM or SIGHUP end the run early with ``interrupted`` true (the signal's
@@ -122,7 +107,7 @@ def simulate(
     sim = Simulation(scene, seed=seed, condition=condition, responsibility=responsibility, record=record,
                      personal_space=personal_space, user_walk=user_walk)
     first = time.perf_counter()
-    prepared = first_step(sim, say=stderr_say if progress else None)
+    first_step(sim, say=stderr_say if progress else None)
     first_step_s = time.perf_counter() - first
     steps = max(0, math.ceil(duration / sim.dt - 1e-9) - 1)
     bar = tqdm(
@@ -151,6 +136,5 @@ def simulate(
         "first_step_s": round(first_step_s, 4),
         "interrupted": interrupted,
         "realtime_factor": round(sim.t / wall, 2) if wall > 0 else None,
-        "prepare": prepared.summary(),
     }
     return sim, extra

@@ -1,4 +1,5 @@
-"""A run's files and summary: the trajectory (``.npz``), the metrics (``.json``), the lines printed.
+"""A run's files and summary: the trajectory (``.npz``), the metrics (``.json``), the lines printed,
+and how a run is ended early (Ctrl-C, SIGTERM, SIGHUP) with its files still written.
 
 Shared by every backend (:mod:`pedvr.headless`, :mod:`pedvr.xr.run`) and by
 ``pedvr sweep``; it imports nothing of the backends, so they all import it
@@ -8,6 +9,7 @@ and not each other (issue 24, "the house").
 from __future__ import annotations
 
 import json
+from contextlib import AbstractContextManager
 from pathlib import Path
 
 from pedvr.scene.config import SceneConfig
@@ -78,3 +80,18 @@ def write_outputs(
     print(f"  trajectory: {record}")
     print(f"  metrics:    {metrics_json}")
     return summary
+
+
+def interrupted_by(exc: KeyboardInterrupt) -> bool | str:
+    """``interrupted`` in the metrics: True for Ctrl-C, the signal's name for SIGTERM / SIGHUP."""
+    from pedvr.study.signals import TerminatedBySignal
+
+    return exc.name if isinstance(exc, TerminatedBySignal) else True
+
+
+def signals_interrupt() -> AbstractContextManager[None]:
+    """SIGTERM and SIGHUP end a run like Ctrl-C inside this block: the outputs are written
+    (:func:`pedvr.study.signals.signals_abort`, the study's handler, reused)."""
+    from pedvr.study.signals import signals_abort
+
+    return signals_abort()

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pedvr.errors import BackendUnavailableError
-from pedvr.outputs import write_outputs
+from pedvr.outputs import interrupted_by, signals_interrupt, write_outputs
 from pedvr.prepare import CompileLog, Prepared, prepare, stderr_say
 from pedvr.render.math3d import EyeView, first_person_eye
 from pedvr.render.snapshot import Snapshot
@@ -203,8 +203,6 @@ def run_with_view(
     """Prepare, run the frame loop on ``backend`` and save the run (see
     :func:`pedvr.outputs.write_outputs`). Ctrl-C, SIGTERM and SIGHUP end the loop early and keep
     the outputs and the telemetry so far (``interrupted`` names the signal)."""
-    from pedvr.headless import interrupted_by, signals_interrupt
-
     duration = scene.duration if duration is None else duration
     t0 = time.perf_counter()
     built = build(
