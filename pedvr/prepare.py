@@ -20,7 +20,8 @@ Every backend therefore prepares before its frame loop:
   and condition: the run itself starts at t = 0 untouched, bit for bit as
   before), then a few more steps of it with each twin of the parallel kernels
   pinned in turn (:func:`pedvr.kernels.forcing`: which twin runs later depends
-  on the machine's load, and a twin first used mid-run would compile then),
+  on the machine's load, and a twin first used mid-run would compile then) and
+  one with every agent's shoulders turned (:func:`twin_steps`),
   and then calls ``draw`` once (the backend draws a frame of that simulation
   offscreen with the same programs and targets it will use), so the headset's
   first ``xrWaitFrame`` comes after all of it. The first step covers what the
@@ -42,6 +43,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numba.core.event as numba_event
+import numpy as np
 
 if TYPE_CHECKING:
     from pedvr.sim import Simulation
@@ -50,6 +52,7 @@ Say = Callable[[str], None]
 
 PROGRESS_EVERY_S = 5.0  # at most one progress line this often while kernels compile
 TWIN_STEPS = 4  # steps with each twin pinned: a decision step is among them (30 Hz decisions at 90 Hz)
+# after which one step with every agent's shoulders turned (twin_steps)
 
 
 def stderr_say(line: str) -> None:
@@ -172,7 +175,15 @@ def first_step(sim: Simulation, *, say: Say | None = stderr_say,
 def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
                clock: Callable[[], float] = time.perf_counter) -> tuple[int, float]:
     """:data:`TWIN_STEPS` steps with every parallel kernel's parallel twin, then as many with its
-    serial twin (:func:`pedvr.kernels.forcing`); return the kernels compiled and the seconds."""
+    serial twin (:func:`pedvr.kernels.forcing`), then one step with every agent's shoulders
+    turned; return the kernels compiled and the seconds. ``sim`` is preparing's own and is
+    thrown away after.
+
+    The last step is there because a scene's first steps rarely have anyone squeezing past
+    someone: the kernels of turned footprints (the distance to walls of a turned body,
+    :mod:`pedvr.crowd.footprint`) then compiled mid-run, seconds into the headset session
+    (a 4 s frame against Monado on a loaded machine). Turning every shoulder in a simulation
+    nobody sees makes them compile now."""
     from pedvr.kernels import forcing
 
     watch = _CompileWatch(None, say, clock=clock, label="both twins of the parallel kernels")
@@ -181,6 +192,11 @@ def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
             with forcing(parallel):
                 for _ in range(TWIN_STEPS):
                     sim.step()
+        crowd = sim.crowd
+        if len(crowd):
+            crowd.turn[:] = np.where(crowd.is_user, 0.0, 0.5)
+            crowd.torso[:] = crowd.heading + 0.5 * np.pi
+            sim.step()
     return watch.compiled, watch.compile_s
 
 

@@ -64,7 +64,7 @@ def test_a_warm_first_step_is_silent_and_prepare_says_one_line_before_and_one_af
     drawn: list[Simulation] = []
     out = prepare(lambda: Simulation(scene), what="headon_corridor (test)", draw=drawn.append,
                   say=lines.append)
-    assert len(drawn) == 1 and drawn[0].step_index == 1 + 2 * 4  # first step, then 4 with each twin
+    assert len(drawn) == 1 and drawn[0].step_index == 1 + 2 * 4 + 1  # first step, 4 with each twin, 1 turned
     assert lines[0] == "preparing headon_corridor (test): the first step and the first frame ..."
     assert lines[-1].startswith("prepared in ") and "0 kernels compiled" in lines[-1]
     assert len(lines) == 2
@@ -104,3 +104,25 @@ def test_pedvr_run_headless_says_nothing_extra_when_warm(quiet: bool, tmp_path, 
     assert main(args + (["--quiet"] if quiet else [])) == 0
     err = capsys.readouterr().err
     assert "preparing" not in err  # warm: numba loads every kernel from its cache
+
+
+def test_preparing_reaches_the_turned_footprint_kernels() -> None:
+    """Against Monado on a loaded machine a 4 s frame came from a kernel first compiled mid-run: the
+    wall distance of turned shoulders (nobody squeezes past anyone in a scene's first steps)."""
+    import subprocess
+    import sys
+
+    code = (
+        "from pedvr.crowd import footprint\n"
+        "from pedvr.prepare import prepare\n"
+        "from pedvr.scene.loader import load_any\n"
+        "from pedvr.scenes import resolve_scene\n"
+        "from pedvr.sim import Simulation\n"
+        "scene = load_any(resolve_scene('antipodal_circle'), seed=None)\n"
+        "before = len(footprint.wall_distance_kernel.signatures)\n"
+        "prepare(lambda: Simulation(scene), what='x', say=None)\n"
+        "print(before, len(footprint.wall_distance_kernel.signatures))\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["0", "1"]  # not compiled (or loaded) before preparing; ready after
