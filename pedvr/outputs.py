@@ -87,14 +87,14 @@ def write_outputs(
 
 def interrupted_by(exc: KeyboardInterrupt) -> bool | str:
     """``interrupted`` in the metrics: True for Ctrl-C, the signal's name for SIGTERM / SIGHUP."""
-    from pedvr.study.signals import TerminatedBySignal
+    from pedvr.signals import TerminatedBySignal
 
     return exc.name if isinstance(exc, TerminatedBySignal) else True
 
 
 def signals_interrupt() -> AbstractContextManager[None]:
     """SIGTERM and SIGHUP end a run like Ctrl-C inside this block: the outputs are written
-    (:func:`pedvr.study.signals.signals_abort`, the study's handler, reused)."""
-    from pedvr.study.signals import signals_abort
+    (:func:`pedvr.signals.signals_abort`, the study's handler, reused)."""
+    from pedvr.signals import signals_abort
 
     return signals_abort()

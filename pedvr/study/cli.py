@@ -9,7 +9,7 @@
 :func:`run_study_command`; ``python -m pedvr.study ...`` runs them on their
 own (:func:`main`). Errors print as ``pedvr: error: ...`` lines with a
 non-zero exit code, never a traceback. A session ended by SIGTERM or SIGHUP
-is recorded as aborted (:mod:`pedvr.study.signals`), says so in one line and
+is recorded as aborted (:mod:`pedvr.signals`), says so in one line and
 exits with 128 + the signal's number.
 """
 
@@ -202,11 +202,11 @@ def _run_in(
     stdin: TextIO,
     stdout: TextIO,
 ) -> int:
+    from pedvr.signals import TerminatedBySignal, signals_abort
     from pedvr.study.console import ExperimenterConsole, KeySource, NoKeys, TerminalKeys
     from pedvr.study.presenter import Participant, SimulatedParticipant, TerminalParticipant
     from pedvr.study.protocol import participant_number
     from pedvr.study.session import Session
-    from pedvr.study.signals import TerminatedBySignal, signals_abort
     from pedvr.study.store import StudyStore
 
     with StudyStore(db) as store:

@@ -19,7 +19,7 @@ participant (:meth:`Participant.ask`) to the moment the answer is confirmed.
 The in-app participant draws the item on its next frame, so the time
 includes at most one frame (11 ms at 90 Hz) before the item is visible.
 
-A session ended by Ctrl-C, SIGTERM or SIGHUP (:mod:`pedvr.study.signals`), or
+A session ended by Ctrl-C, SIGTERM or SIGHUP (:mod:`pedvr.signals`), or
 by the participant closing the view, is ``aborted`` with an ``abort`` event
 saying why; a trial running at that moment is marked ``interrupted`` at once,
 its samples up to then kept (and flagged in the export), and ``--resume``
