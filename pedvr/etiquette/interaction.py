@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pedvr.body.steps import LEFT, RIGHT
-from pedvr.etiquette.ordering import NONE, Candidate, DoubleDoor, choose_side, leaders
+from pedvr.etiquette.ordering import Candidate, DoubleDoor, choose_side, leaders
 from pedvr.etiquette.regions import (
     BOP_PULL_POLAR,
     HOLD_ANGLE,
@@ -47,7 +47,7 @@ from pedvr.etiquette.regions import (
     LeafFrame,
     waiting_radii,
 )
-from pedvr.etiquette.system import (
+from pedvr.etiquette.vocab import (
     APPROACH,
     CARRIER_PATIENCE,
     CATCH_UP,
@@ -63,6 +63,7 @@ from pedvr.etiquette.system import (
     HOLD_TIMEOUT,
     HOLDER,
     HOLDER_DEC,
+    NONE,
     OPEN_DOOR,
     OPENER_INIT,
     OPENER_RANGE,
@@ -72,12 +73,11 @@ from pedvr.etiquette.system import (
     REACH_TIME,
     STATE_TIMEOUT,
     THANK_RANGE,
-    DoorEtiquette,
-    Walker,
 )
 
 if TYPE_CHECKING:
     from pedvr.crowd.state import CrowdState
+    from pedvr.etiquette.core import EtiquetteCore, Walker
 
 TICK = 1.0 / 30.0
 READY_AFTER = 2.5  # s: the longest a holder waits for its committed follower to close up
@@ -91,7 +91,7 @@ def nh_angle(frame: LeafFrame, radius: float) -> float:
     return min(max(a, math.radians(45.0)), math.radians(85.0))
 
 
-def decide_hinged(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: CrowdState) -> None:
+def decide_hinged(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdState) -> None:
     """One decision tick of hinged door ``k`` (module docstring)."""
     ds = et.dstate[k]
     door = et.doors[k]
@@ -152,7 +152,7 @@ def decide_hinged(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: Crowd
 # -- ordering helpers ----------------------------------------------------------------------------
 
 
-def _update_waiting(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState) -> None:
+def _update_waiting(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
     for w in walkers:
         if w.is_user or w.id not in et._row:
             continue
@@ -166,7 +166,7 @@ def _update_waiting(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState)
             w.wait_from = math.nan
 
 
-def _choose_helpers(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState) -> None:
+def _choose_helpers(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
     """§4.6: a pedestrian who sees someone carrying a box or pushing a perambulator ahead of it
     overtakes to open the door for them (walking as if Rush = 1 meanwhile)."""
     carriers = [w for w in walkers if w.role in (APPROACH, FOLLOWER) and w.id in et._row
@@ -190,7 +190,7 @@ def _choose_helpers(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState)
                 break
 
 
-def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[Candidate],
+def _double_sides(et: EtiquetteCore, k: int, walkers: list[Walker], cands: list[Candidate],
                   crowd: CrowdState) -> None:
     """Alg. 3–4 pick each pedestrian's leaf; holders and followers keep theirs."""
     ds = et.dstate[k]
@@ -234,7 +234,7 @@ def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[
 # -- Alg. 2: doorway behavior --------------------------------------------------------------------
 
 
-def _regions(et: DoorEtiquette, w: Walker, holder: Walker | None, leader: Walker | None,
+def _regions(et: EtiquetteCore, w: Walker, holder: Walker | None, leader: Walker | None,
              crowd: CrowdState) -> list[tuple[np.ndarray, float]]:
     """The waiting regions ``w`` stops at (§4.2, Fig. 4, Table 1)."""
     door = et.doors[w.door]
@@ -266,14 +266,14 @@ def _regions(et: DoorEtiquette, w: Walker, holder: Walker | None, leader: Walker
     return out
 
 
-def _holder_of(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker]) -> Walker | None:
+def _holder_of(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker]) -> Walker | None:
     ds = et.dstate[w.door]
     leaf = w.leaf if w.leaf >= 0 else ds.leaves[0]
     h = ds.holder.get(leaf, ds.mutex.get(leaf))
     return by_id.get(h) if h is not None else None
 
 
-def _doorway_behavior(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     """Alg. 2 for a pedestrian not yet holder or follower."""
     ds = et.dstate[w.door]
     p = et.pos(crowd, w.id)
@@ -350,7 +350,7 @@ def _accepts(holder: Walker) -> bool:
 # -- the holder -----------------------------------------------------------------------------------
 
 
-def _holder(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     ds = et.dstate[w.door]
     r = et._row[w.id]
     radius = float(crowd.radius[r])
@@ -477,7 +477,7 @@ def _holder(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Crowd
         return
 
 
-def _ready(et: DoorEtiquette, f: Walker, crowd: CrowdState) -> bool:
+def _ready(et: EtiquetteCore, f: Walker, crowd: CrowdState) -> bool:
     """A committed follower is ready for the holder's decision (App. B.3) once it has closed up
     behind the holder (or stopped, or :data:`READY_AFTER` has passed since it committed); the
     user, whom nothing drives, at once."""
@@ -490,19 +490,19 @@ def _ready(et: DoorEtiquette, f: Walker, crowd: CrowdState) -> bool:
     return et.t - f.since > 0.3 and float(np.hypot(*crowd.vel[et._row[f.id]])) < 0.1
 
 
-def _on_pull(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+def _on_pull(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
     """Whether the holder started on the leaf's pull side (the case it handles, App. B.2)."""
     assert w.frame is not None
     return w.side == _pull_side_world(et, w)
 
 
-def _pull_side_world(et: DoorEtiquette, w: Walker) -> int:
+def _pull_side_world(et: EtiquetteCore, w: Walker) -> int:
     assert w.frame is not None
     ds = et.dstate[w.door]
     return 1 if float(w.frame.m @ ds.n) > 0 else -1
 
 
-def _arc(et: DoorEtiquette, w: Walker, fr: LeafFrame, radius: float, p: np.ndarray, phi: float, *,
+def _arc(et: EtiquetteCore, w: Walker, fr: LeafFrame, radius: float, p: np.ndarray, phi: float, *,
          facing: float, speed: float, lock: bool = True) -> None:
     """Walk round the leaf's swing circle (outside it, where no leaf angle reaches) to polar ``phi``."""
     rho = fr.outer(radius)
@@ -524,7 +524,7 @@ def _toward(p: np.ndarray, q: np.ndarray) -> float:
     return math.atan2(q[1] - p[1], q[0] - p[0])
 
 
-def _followers_in_sight(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> bool:
+def _followers_in_sight(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> bool:
     """Someone who may follow: a walker at this door, not passing, within 6 m."""
     p = et.pos(crowd, w.id)
     for o in by_id.values():
@@ -535,7 +535,7 @@ def _followers_in_sight(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], 
     return False
 
 
-def _look_back(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
+def _look_back(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     """§4.4: a considerate holder turns its head back to check for a follower."""
     if et.t - w.since < TICK * 1.5:
         ds = et.dstate[w.door]
@@ -543,7 +543,7 @@ def _look_back(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
         et.body.gaze_at(w.id, (float(back[0]), 1.6, float(back[1])))
 
 
-def _hold_pose(et: DoorEtiquette, w: Walker, crowd: CrowdState, action: str, pull: bool) -> None:
+def _hold_pose(et: EtiquetteCore, w: Walker, crowd: CrowdState, action: str, pull: bool) -> None:
     """Where the holder stands while holding (HoldDoor): HOF beyond the open leaf's edge, HOL in
     (pulling) or just through (pushing) the doorway; the hand keeps the leaf at the held angle."""
     fr = w.frame
@@ -573,7 +573,7 @@ def _hold_pose(et: DoorEtiquette, w: Walker, crowd: CrowdState, action: str, pul
         et.go_direct(w, target, facing=facing, speed=0.7, lock=False)
 
 
-def _finish(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
+def _finish(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     """NH, or done holding: pass through with the hand on the leaf, then let go (FinishDoor)."""
     if w.event is not None:
         et.end_hold(w, "passed")
@@ -583,7 +583,7 @@ def _finish(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
     _finishing(et, w, crowd)
 
 
-def _finishing(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
+def _finishing(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     fr = w.frame
     assert fr is not None
     r = et._row[w.id]
@@ -630,7 +630,7 @@ def _finishing(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
     et.go_direct(w, target, facing=facing, speed=min(0.9, float(crowd.pref_speed[r])), lock=False)
 
 
-def _give_up(et: DoorEtiquette, w: Walker, crowd: CrowdState, *, why: str) -> None:
+def _give_up(et: EtiquetteCore, w: Walker, crowd: CrowdState, *, why: str) -> None:
     et.log("give_up", w, why=why)
     if w.arm >= 0:
         et.let_go(w)
@@ -657,7 +657,7 @@ def _demote(w: Walker) -> None:
 # -- the follower ---------------------------------------------------------------------------------
 
 
-def _follower(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     h = by_id.get(w.holder) if w.holder != NONE else None
     r = et._row[w.id]
     radius = float(crowd.radius[r])
@@ -708,7 +708,7 @@ def _follower(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Cro
         return
 
 
-def _pass_first(et: DoorEtiquette, w: Walker, h: Walker, crowd: CrowdState, fr: LeafFrame,
+def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: LeafFrame,
                 side_local: int) -> None:
     """PF: walk through the held door, thanking the holder on the way."""
     r = et._row[w.id]
@@ -723,7 +723,7 @@ def _pass_first(et: DoorEtiquette, w: Walker, h: Walker, crowd: CrowdState, fr: 
     w.speed = float(crowd.pref_speed[r])
 
 
-def _take_over(et: DoorEtiquette, w: Walker, h: Walker, crowd: CrowdState, *, arm: int, at: float) -> None:
+def _take_over(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, *, arm: int, at: float) -> None:
     """PL: the follower takes the door (ReachEdge → ReleaseDoor) and is its holder now (red routine)."""
     leaf = h.leaf
     ds = et.dstate[w.door]
@@ -752,7 +752,7 @@ def _take_over(et: DoorEtiquette, w: Walker, h: Walker, crowd: CrowdState, *, ar
     w.follower = NONE
 
 
-def _thank(et: DoorEtiquette, w: Walker, h: Walker) -> None:
+def _thank(et: EtiquetteCore, w: Walker, h: Walker) -> None:
     """A follower thanks its holder: eyes on the holder, then a nod (a short dip of the gaze) or a
     small wave, drawn from the etiquette's generator."""
     if w.thanked or w.is_user or w.id not in et._row:
@@ -785,7 +785,7 @@ def sk_head() -> int:
     return sk.HEAD
 
 
-def _passing(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     p = et.pos(crowd, w.id)
     ds = et.dstate[w.door]
     h = by_id.get(w.holder) if w.holder != NONE else None
@@ -802,13 +802,13 @@ def _passing(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Crow
         et.finish(w, crowd, passed=False)
 
 
-def _through(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+def _through(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
     ds = et.dstate[w.door]
     rel = float((et.pos(crowd, w.id) - ds.centre) @ ds.n) * w.side
     return rel < -(0.25 + CLEAR)
 
 
-def _at_doorway(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+def _at_doorway(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
     ds = et.dstate[w.door]
     rel = et.pos(crowd, w.id) - ds.centre
     return abs(float(rel @ ds.n)) < 0.7 and abs(float(rel @ ds.u)) < 0.5 * et.doors[w.door].width + 0.2
@@ -817,7 +817,7 @@ def _at_doorway(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
 # -- the user ------------------------------------------------------------------------------------
 
 
-def _user_walker(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _user_walker(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     """The user is observed: a follower of an agent holder (who decides for the user), or a
     holder whose followers respond PF (the user stays on the approach side) or PL (the user is in
     or through the doorway: they take the door over)."""

@@ -34,7 +34,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-NONE = -1
+from pedvr.etiquette.vocab import NONE
+
+__all__ = ["NONE", "Candidate", "DoubleDoor", "choose_side", "initial_leader", "leaders", "proximity"]
 
 
 @dataclass

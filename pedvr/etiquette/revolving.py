@@ -29,12 +29,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pedvr.etiquette.ordering import NONE
 from pedvr.etiquette.regions import waiting_radii
-from pedvr.etiquette.system import APPROACH, ENTRANT, EXITING, RIDER, DoorEtiquette, Walker
+from pedvr.etiquette.vocab import APPROACH, ENTRANT, EXITING, NONE, RIDER
 
 if TYPE_CHECKING:
     from pedvr.crowd.state import CrowdState
+    from pedvr.etiquette.core import EtiquetteCore, Walker
 
 RIDE_AT = 0.55  # fraction of the radius at which a rider stands
 V_PUSH = 0.5  # m/s: riders push the door round at this speed (at the compartment's middle)
@@ -52,26 +52,26 @@ def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def _rev(et: DoorEtiquette, k: int) -> int:
+def _rev(et: EtiquetteCore, k: int) -> int:
     return int(np.flatnonzero(et.leaves.revolvers.door == k)[0])
 
 
-def psi_of(et: DoorEtiquette, r: int, world: float) -> float:
+def psi_of(et: EtiquetteCore, r: int, world: float) -> float:
     rv = et.leaves.revolvers
     return float(rv.sense[r]) * (world - float(rv.base[r]))
 
 
-def compartment_psi(et: DoorEtiquette, r: int, c: int) -> float:
+def compartment_psi(et: EtiquetteCore, r: int, c: int) -> float:
     rv = et.leaves.revolvers
     return float(rv.sense[r]) * float(rv.rotation[r]) + (c + 0.5) * QUARTER
 
 
-def opening_psi(et: DoorEtiquette, r: int, side: int) -> float:
+def opening_psi(et: EtiquetteCore, r: int, side: int) -> float:
     rv = et.leaves.revolvers
     return float(rv.sense[r]) * side * QUARTER
 
 
-def world_of(et: DoorEtiquette, r: int, psi: float) -> float:
+def world_of(et: EtiquetteCore, r: int, psi: float) -> float:
     rv = et.leaves.revolvers
     return float(rv.base[r]) + psi / float(rv.sense[r])
 
@@ -103,7 +103,7 @@ def best_entry(psi: list[float], opening: float, omega: float, eta: float,
     return best
 
 
-def decide_revolving(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: CrowdState) -> None:
+def decide_revolving(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdState) -> None:
     """One decision tick of revolving door ``k`` (module docstring)."""
     r = _rev(et, k)
     rv = et.leaves.revolvers
@@ -204,7 +204,7 @@ def _dir(a: float) -> np.ndarray:
     return np.array([math.cos(a), math.sin(a)])
 
 
-def _containing(et: DoorEtiquette, r: int, p: np.ndarray) -> int:
+def _containing(et: EtiquetteCore, r: int, p: np.ndarray) -> int:
     """The compartment whose quarter ``p`` (inside the drum) lies in."""
     rv = et.leaves.revolvers
     rel = p - rv.centre[r]
@@ -212,7 +212,7 @@ def _containing(et: DoorEtiquette, r: int, p: np.ndarray) -> int:
     return int((psi % (2.0 * math.pi)) // QUARTER) % 4
 
 
-def _entrant(et: DoorEtiquette, r: int, w: Walker, crowd: CrowdState) -> None:
+def _entrant(et: EtiquetteCore, r: int, w: Walker, crowd: CrowdState) -> None:
     """Walk into the best compartment for its side, catching it (faster, up to the maximum speed)
     or waiting at the opening for the next one; inside, ride the compartment it is in."""
     rv = et.leaves.revolvers
@@ -261,7 +261,7 @@ def _entrant(et: DoorEtiquette, r: int, w: Walker, crowd: CrowdState) -> None:
     et.go_direct(w, spot, facing=face, speed=float(crowd.pref_speed[row]))
 
 
-def carry_riders(et: DoorEtiquette, new_vel: np.ndarray, crowd: CrowdState) -> None:
+def carry_riders(et: EtiquetteCore, new_vel: np.ndarray, crowd: CrowdState) -> None:
     """Whoever is inside a revolving door moves with its compartment (riders, and entrants and
     exiters while inside the drum, stepping in or out as they go); the door turns while someone
     rides (pushes) it."""
@@ -293,7 +293,7 @@ def carry_riders(et: DoorEtiquette, new_vel: np.ndarray, crowd: CrowdState) -> N
     rv.push[:] = push
 
 
-def carried(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+def carried(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
     """Whether ``w`` moves with a revolving door's compartment now."""
     if w.role == RIDER:
         return w.id in et._row
