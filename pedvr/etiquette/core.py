@@ -23,7 +23,7 @@ from pedvr.body.steps import LEFT, RIGHT, generate_steps
 from pedvr.etiquette import decision as bn
 from pedvr.etiquette.doors import DoorLeaves
 from pedvr.etiquette.regions import HAND_HEIGHT, LeafFrame
-from pedvr.etiquette.vocab import APPROACH, ARRIVE, FOLLOWER, GRAB_REACH_S, HOLD_DOOR, HOLDER, NONE
+from pedvr.etiquette.vocab import APPROACH, ARRIVE, FOLLOWER, GRAB_REACH_S, HOLDER, NONE
 from pedvr.scene.config import Door, EtiquetteConfig, SceneConfig
 
 if TYPE_CHECKING:
@@ -70,6 +70,8 @@ class Walker:
     user_best: float = math.inf
     user_best_at: float = 0.0
     alone_since: float = math.nan
+    first_wait: float = math.nan  # when it first stood waiting at this door (door_deadlocks)
+    last_wait: float = math.nan  # when it last stood waiting there
 
 
 @dataclass
@@ -128,6 +130,8 @@ class EtiquetteCore:
         self.holds = {"HOF": 0, "HOL": 0, "NH": 0}
         self.passages = 0
         self.waits: list[float] = []
+        self.waited_at: dict[tuple[int, int], float] = {}  # (agent, door) -> s waited, for a dropped walker
+        self.wait_since_at: dict[tuple[int, int], float] = {}  # (agent, door) -> when it began to wait
         self.deadlocks = 0
         self._free_since = [math.nan] * len(self.doors)
         self._deadlocked: set[int] = set()
@@ -247,9 +251,10 @@ class EtiquetteCore:
 
     def go_direct(self, w: Walker, target: np.ndarray, *, facing: float, speed: float,
                   lock: bool = False) -> None:
-        """Walk straight at ``target`` (re-aimed every tick: a moving target)."""
+        """Walk straight at ``target`` (re-aimed every tick: a moving target); ``target`` may be
+        ``(K, 2)`` waypoints, the last one the target."""
         w.waiting = False
-        w.plan = np.asarray(target, np.float64).reshape(1, 2).copy()
+        w.plan = np.asarray(target, np.float64).reshape(-1, 2).copy()
         w.plan_i = 0
         w.face = facing
         w.lock = lock
@@ -281,12 +286,20 @@ class EtiquetteCore:
 
     # -- decisions (§5) --------------------------------------------------------------------------
 
-    def decide_hold(self, holder: Walker, follower: Walker, crowd: CrowdState) -> str:
-        """HOF / HOL / NH for ``follower`` by the network of §5: Effort from the distance, Care
-        from Table 3, the holder's Kindness and Rush."""
+    def effort_distance(self, holder: Walker, follower: Walker, crowd: CrowdState) -> float:
+        """Effort's distance (§5.1.1): from the holder to ``follower``, body to body, when the
+        follower has closed up (App. B.3: the decision comes once the committed follower is at
+        its place behind the holder, or at the Opposing Goal across the door)."""
         r = self._row[holder.id]
         f = self._row[follower.id]
-        d = float(np.hypot(*(crowd.pos[r] - crowd.pos[f])))
+        return float(np.hypot(*(crowd.pos[r] - crowd.pos[f])))
+
+    def decide_hold(self, holder: Walker, follower: Walker, crowd: CrowdState) -> str:
+        """HOF / HOL / NH for ``follower`` by the network of §5: Effort from the follower's distance
+        (:meth:`effort_distance`), Care from Table 3, the holder's Kindness and Rush."""
+        r = self._row[holder.id]
+        f = self._row[follower.id]
+        d = self.effort_distance(holder, follower, crowd)
         p = bn.holding_probabilities(effort=bn.effort_factor(d),
                                      care=bn.care_factor(follower_female=bool(self.female[f]),
                                                          follower_carrying=bool(self.carrying[f])),
@@ -409,19 +422,10 @@ class EtiquetteCore:
 
     # -- bookkeeping ---------------------------------------------------------------------------
 
-    def _passed(self, w: Walker) -> None:
-        h = self.walkers.get(w.holder) if w.is_user and w.holder != NONE else None
-        if h is not None and h.state == HOLD_DOOR and h.follower == w.id:
-            self.log("held_for_user", h, action=h.action)  # the user walked through the held door
-        self.passages += 1
-        if not w.is_user:
-            self.waits.append(w.waited)
-        self.log("pass", w, waited_s=round(w.waited, 3), user=w.is_user, side=w.side, leaf=w.leaf)
-
-    def finish(self, w: Walker, crowd: CrowdState, *, passed: bool = True) -> None:
-        """``w`` is through (or gives up the door): its navigation takes over again."""
-        if passed:
-            self._passed(w)
+    def finish(self, w: Walker, crowd: CrowdState) -> None:
+        """``w`` is done with the door (through it, or giving it up): its navigation takes over
+        again. Whether it passed is not decided here: a passage is counted when its body crosses
+        the doorway (:meth:`pedvr.etiquette.system.DoorEtiquette.track_passages`)."""
         self._drop(w, why="done")
         r = self._row.get(w.id)
         if r is not None and not w.is_user:
@@ -440,6 +444,8 @@ class EtiquetteCore:
         if w.event is not None:
             self.end_hold(w, why)
         self.walkers.pop(w.id, None)
+        self.waited_at[(w.id, w.door)] = w.waited  # until its body passes (or it comes back)
+        self.wait_since_at[(w.id, w.door)] = w.first_wait
         if not w.is_user and w.id in self._row:
             if w.arm >= 0:
                 self.body.reach_for(w.id, None, side="right" if w.arm == RIGHT else "left")

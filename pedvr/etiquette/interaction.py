@@ -40,7 +40,6 @@ from pedvr.etiquette.ordering import Candidate, DoubleDoor, choose_side, leaders
 from pedvr.etiquette.regions import (
     BOP_PULL_POLAR,
     HOLD_ANGLE,
-    HOLD_BEYOND,
     LANE_AT,
     PULL_HAND_AT,
     PUSH_HAND_AT,
@@ -83,6 +82,10 @@ TICK = 1.0 / 30.0
 READY_AFTER = 2.5  # s: the longest a holder waits for its committed follower to close up
 PULL_OPEN_SPEED = 0.9  # rad/s: a pulled leaf opens no faster than the puller steps round with it
 PUSH_OPEN_SPEED = 2.0  # rad/s: a pushed one, as the pusher walks in
+READY_NEAR = 0.4  # m from its close-up place at which a committed follower is ready
+PULL_STAND = math.radians(25.0)  # a puller stands this far round from the leaf's edge, passage side
+QUEUE_GAP = 0.8  # m between a committed follower's place and the next in its queue (issue 26)
+QUEUE_ASIDE = 0.45  # m off the lane that next one waits, on the side it came from
 
 
 def nh_angle(frame: LeafFrame, radius: float) -> float:
@@ -292,6 +295,21 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
         w.plan = None
         et.set_state(w, FOLLOWER_INIT)
         return
+    if leader is not None and leader.role == FOLLOWER and leader.side == w.side:
+        lh = by_id.get(leader.holder)
+        if lh is not None and lh.frame is not None:
+            # Next after a committed follower on its side: queue behind that follower's place,
+            # QUEUE_GAP back, a little off the lane that people coming through walk along.
+            fr = lh.frame
+            side_local = 1 if w.side == _pull_side_world(et, lh) else -1
+            back = _behind(fr, radius, side_local) + fr.m * side_local * QUEUE_GAP
+            off = 1.0 if float((p - back) @ fr.e) >= 0.0 or side_local > 0 else -1.0  # pull side: latch way
+            spot = back + fr.e * off * QUEUE_ASIDE
+            if float(np.hypot(*(p - spot))) > 0.25:
+                et.go_direct(w, spot, facing=_toward(spot, fr.lane(0.0)), speed=float(crowd.pref_speed[r]))
+            else:
+                et.stand(w, _toward(p, fr.lane(0.0)))
+            return
     if leader is not None or holder is not None:
         if any(float(np.hypot(*(p - c))) <= rad for c, rad in _regions(et, w, holder, leader, crowd)):
             et.stand(w, face_door)  # stop on entering the waiting region (§4.2)
@@ -386,10 +404,10 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
         a = et.leaf_open(leaf, fr)
         target_a = w.want
         if pull:
-            # Pulling: the holder steps round outside the swing with the leaf's edge; to hold it wide
-            # it ends just beyond the edge (the HOF pose), to go through it stays on the passage side.
-            lead = HOLD_BEYOND if target_a >= HOLD_ANGLE - 1e-6 else -math.radians(20.0)
-            phi = max(BOP_PULL_POLAR, min(a + lead + math.radians(20.0), target_a + lead))
+            # Pulling: the holder steps round outside the swing with the leaf's edge, on the passage
+            # side of it (whatever it decides next: HOL walks on through, HOF steps round behind
+            # the leaf while the follower comes, App. B.3).
+            phi = max(BOP_PULL_POLAR, min(a - math.radians(5.0), target_a - PULL_STAND))
             _arc(et, w, fr, radius, p, phi, facing=_toward(p, fr.handle(a, PULL_HAND_AT)), speed=1.2)
         else:
             et.go_direct(w, fr.lane(0.0), facing=fr.heading(0.0, 1.0), speed=0.55, lock=True)
@@ -410,12 +428,21 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
             return
         if not _ready(et, f, crowd):
             return  # App. B.3: the committed follower moves close behind; then the holder commits
-        action = et.decide_hold(w, f, crowd)
+        network = et.decide_hold(w, f, crowd)
+        action = network
+        f_row = et._row.get(f.id)
+        if network == "HOL" and ((not f.is_user and f_row is not None and bool(et.carrying[f_row]))
+                                 or _past(et, w, crowd)):
+            # Nobody is left to take the door over: a carrier cannot (§4.6), and a holder already on
+            # its far side (a pusher holding beyond the leaf's edge) has nothing to pass first. It
+            # was willing to hold: it holds for the follower to pass (module docstring).
+            action = "HOF"
         w.action = action
         et.holds[action] += 1
-        dist = float(np.hypot(*(et.pos(crowd, w.id) - et.pos(crowd, f.id))))  # Effort's distance (§5)
+        dist = et.effort_distance(w, f, crowd)  # Effort's distance (§5.1.1)
+        extra = {} if action == network else {"network": network}
         et.log("hold", w, follower=f.id, action=action, for_user=f.is_user, case="pull" if pull else "push",
-               distance_m=round(dist, 3))
+               distance_m=round(dist, 3), **extra)
         if action == "NH":
             _finish(et, w, crowd)
             return
@@ -477,17 +504,68 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
         return
 
 
+def _close_up(et: EtiquetteCore, w: Walker, h: Walker, fr: LeafFrame, radius: float,
+              side_local: int) -> np.ndarray:
+    """Where a committed follower goes before the holder decides (App. B.3): closely behind the
+    holder on the lane when it comes from the holder's side; from the other side, to the Opposing
+    Goal (Fig. 4), which pedvr puts beside the doorway's mouth and off the lane, so that whoever
+    comes through the other way (the holder passing first, HOL, or an earlier follower) walks past
+    it: on the pull side beyond the latch jamb (the open leaf fills the hinge side), on the push
+    side at the hinge jamb. A double door's leaves are half a doorway wide and meet in its middle:
+    there both wait on the lane."""
+    if w.side == h.side or et.doors[w.door].kind != "single":
+        return _behind(fr, radius, side_local)
+    if side_local > 0:
+        return fr.world(fr.w + radius + 0.1, radius + 0.45)
+    return fr.world(-0.2 * radius, -(radius + 0.3))
+
+
+def _past(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
+    """Whether ``w`` stands beyond the doorway line on its far side already."""
+    ds = et.dstate[w.door]
+    return float((et.pos(crowd, w.id) - ds.centre) @ ds.n) * w.side < -et.radius(crowd, w.id)
+
+
+def _behind(fr: LeafFrame, radius: float, side_local: int) -> np.ndarray:
+    """Where a follower closes up behind its holder: on the push side on the lane, 1.1 m out; on
+    the pull side behind the puller (who stands outside the leaf's swing on the lane's side of its
+    edge), a little toward the hinge and outside the swing (never in the pocket between the open
+    leaf and the wall)."""
+    if side_local > 0:
+        return fr.world(0.3, radius + 1.55)
+    return fr.lane(-(radius + 1.1))
+
+
+def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: float,
+         target: np.ndarray) -> np.ndarray:
+    """``(K, 2)`` waypoints from ``p`` to ``target``: straight, unless ``p`` is in the pocket
+    between an open leaf and the wall (the pull side, behind the leaf, inside its swing) and the
+    target is not; then out to the swing's edge and round the leaf's free edge first."""
+    a = et.leaf_open(leaf, fr)
+    lx, ly = fr.local(p)
+    rho = fr.outer(radius)
+    behind = ly > 0.0 and math.hypot(lx, ly) < rho and math.atan2(ly, lx) > a + math.radians(3.0)
+    tx, ty = fr.local(target)
+    target_behind = ty > 0.0 and math.hypot(tx, ty) < rho and math.atan2(ty, tx) > a
+    if a < math.radians(20.0) or not behind or target_behind:
+        return np.asarray(target, np.float64).reshape(1, 2)
+    phi = math.atan2(ly, lx)
+    return np.stack([fr.polar(rho, phi), fr.polar(rho, a + math.radians(10.0)),
+                     fr.polar(rho, a - math.radians(20.0)), np.asarray(target, np.float64)])
+
+
 def _ready(et: EtiquetteCore, f: Walker, crowd: CrowdState) -> bool:
     """A committed follower is ready for the holder's decision (App. B.3) once it has closed up
-    behind the holder (or stopped, or :data:`READY_AFTER` has passed since it committed); the
-    user, whom nothing drives, at once."""
+    (within :data:`READY_NEAR` of its place; or, blocked, it has stood still a second; or
+    :data:`READY_AFTER` has passed since it committed); the user, whom nothing drives, at once.
+    Effort (§5.1.1) is then read at the distance the follower waits at, as App. B.3 has it."""
     if f.is_user or f.state != FOLLOWER_INIT:
         return True
     if et.t - f.since >= READY_AFTER:
         return True
-    if f.plan is not None and float(np.hypot(*(et.pos(crowd, f.id) - f.plan[-1]))) < 0.4:
+    if f.plan is not None and float(np.hypot(*(et.pos(crowd, f.id) - f.plan[-1]))) < READY_NEAR:
         return True
-    return et.t - f.since > 0.3 and float(np.hypot(*crowd.vel[et._row[f.id]])) < 0.1
+    return et.t - f.since > 1.0 and float(np.hypot(*crowd.vel[et._row[f.id]])) < 0.1
 
 
 def _on_pull(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
@@ -570,7 +648,7 @@ def _hold_pose(et: EtiquetteCore, w: Walker, crowd: CrowdState, action: str, pul
         lx, ly = fr.local(p)
         if pull and math.atan2(ly, lx) > HOLD_ANGLE - math.radians(15.0):
             target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # round the edge first
-        et.go_direct(w, target, facing=facing, speed=0.7, lock=False)
+        et.go_direct(w, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
 
 
 def _finish(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
@@ -627,7 +705,7 @@ def _finishing(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
             et.let_go(w)
         et.finish(w, crowd)
         return
-    et.go_direct(w, target, facing=facing, speed=min(0.9, float(crowd.pref_speed[r])), lock=False)
+    et.go_direct(w, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
 
 
 def _give_up(et: EtiquetteCore, w: Walker, crowd: CrowdState, *, why: str) -> None:
@@ -671,10 +749,9 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
     carrier = bool(et.carrying[r])
     if w.state == FOLLOWER_INIT:
         if h.action == "" or h.state < HOLDER_DEC:
-            # close up: to the waiting place just before the lane on its side
-            spot = fr.lane(side_local * (radius + 1.1))
+            spot = _close_up(et, w, h, fr, radius, side_local)
             far = float(np.hypot(*(p - et.pos(crowd, h.id)))) > CATCH_UP_AT
-            et.go_direct(w, spot, facing=_toward(spot, fr.lane(0.0)),
+            et.go_direct(w, _via(et, fr, h.leaf, p, radius, spot), facing=_toward(spot, fr.lane(0.0)),
                          speed=float(crowd.pref_speed[r]) * (CATCH_UP if far else 1.0))
             if age > STATE_TIMEOUT + 6.0:
                 _demote(w)
@@ -683,6 +760,9 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
         et.set_state(w, FOLLOWER_DEC)
     if w.state == FOLLOWER_DEC:
         if h.action == "HOF" or (carrier and h.action == "HOL"):
+            if _oncoming(et, w, crowd):
+                et.stand(w, _toward(p, fr.lane(0.0)))  # one coming through the other way first
+                return
             _pass_first(et, w, h, crowd, fr, side_local)
             return
         if h.action == "HOL":
@@ -693,19 +773,34 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
             return
     if w.state == REACH_EDGE:
         a = et.leaf_open(h.leaf, fr)
-        if side_local > 0:
-            target, facing = fr.hold_beyond_tip(max(a, math.radians(60.0)), radius)
+        if side_local > 0:  # at the leaf's edge on the passage side, where the holder stood
+            target = fr.polar(fr.outer(radius), max(a, math.radians(60.0)) - PULL_STAND)
+            facing = _toward(target, fr.handle(a, 0.92))
             arm, at = RIGHT, 0.92
-        else:
-            target, facing = fr.world(0.45 * fr.w, -(radius + 0.08)), fr.heading(0.0, 1.0)
+        else:  # from the push side: at the hinge jamb, beside the lane the holder comes through on
+            target, facing = fr.world(0.6 * radius, -(radius + 0.1)), fr.heading(0.0, 1.0)
             arm, at = LEFT, 0.35
-        et.go_direct(w, target, facing=facing, speed=float(crowd.pref_speed[r]))
+        et.go_direct(w, _via(et, fr, h.leaf, p, radius, target), facing=facing,
+                     speed=float(crowd.pref_speed[r]))
         if float(np.hypot(*(p - target))) < 0.3 or age > 6.0:
             _take_over(et, w, h, crowd, arm=arm, at=at)
         elif age > STATE_TIMEOUT:
             _demote(w)
             h.follower = NONE
         return
+
+
+def _oncoming(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
+    """Whether someone passing this door the other way is still in the doorway or coming out of it
+    on ``w``'s side (a PF follower waits for it: the doorway takes one way at a time)."""
+    ds = et.dstate[w.door]
+    for o in et.walkers.values():
+        if o.door != w.door or o.side == w.side or o.role != PASSING or o.id not in et._row:
+            continue
+        rel = float((et.pos(crowd, o.id) - ds.centre) @ ds.n) * o.side  # > 0: still on its own side
+        if rel > -(et.radius(crowd, o.id) + 0.35):
+            return True
+    return False
 
 
 def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: LeafFrame,
@@ -715,8 +810,13 @@ def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: 
     radius = float(crowd.radius[r])
     w.role = PASSING
     w.state = -1
-    w.plan = np.stack([fr.lane(side_local * (radius + 0.35)), fr.lane(0.0),
-                       fr.lane(-side_local * (radius + CLEAR + 0.35))])
+    if h.follower == w.id:
+        # On its way: the holder is free for its next follower (the blue routine of Fig. 7), who
+        # closes up while this one walks through (pipelined, module docstring).
+        h.follower = NONE
+    ahead = fr.lane(side_local * (radius + 0.35))
+    w.plan = np.concatenate([_via(et, fr, h.leaf, et.pos(crowd, w.id), radius, ahead),
+                             np.stack([fr.lane(0.0), fr.lane(-side_local * (radius + CLEAR + 0.35))])])
     w.plan_i = 0
     w.face = fr.heading(0.0, -float(side_local))
     w.lock = False
@@ -799,7 +899,7 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
             h.follower = NONE
         et.finish(w, crowd)
     elif et.t - w.since > STATE_TIMEOUT + 10.0 and w.state == -1 and w.plan is None:
-        et.finish(w, crowd, passed=False)
+        et.finish(w, crowd)
 
 
 def _through(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:

@@ -54,10 +54,12 @@ from pedvr.etiquette.vocab import (
     IDLE_ANGLE,
     IDLE_LIFT,
     NONE,
+    PASS_CONFIRM,
     PASSING,
     RIDER,
     RUSH_SPEEDUP,
     SENSE_USER,
+    WAIT_ENDS,
 )
 
 if TYPE_CHECKING:
@@ -70,6 +72,15 @@ class DoorEtiquette(EtiquetteCore):
     """The etiquette layer of one simulation (module docstring). Keyword-only set-up, as
     :class:`~pedvr.etiquette.core.EtiquetteCore`."""
 
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # passages from positions (track_passages): per crowd row, its position at the last tick
+        # and, per door, the side it crossed the doorway from (0: none pending)
+        self._trk_ids = np.zeros(0, np.int64)
+        self._trk_prev = np.zeros((0, 2))
+        self._trk_pend = np.zeros((0, len(self.doors)), np.int8)
+        self.last_passage = [0.0] * len(self.doors)  # s: when each door last passed someone
+
     def smart_objects(self) -> dict[str, Any]:
         """Every door as a smart object (``pass``, ``hold``), named as in the scene."""
         return {d.name: DoorObject.of(self, k) for k, d in enumerate(self.doors)}
@@ -80,6 +91,7 @@ class DoorEtiquette(EtiquetteCore):
         """At the decision rate, in the ``decide`` phase (before the scheduler ticks)."""
         self.t = t
         self._run_later(t)
+        self.track_passages(crowd)
         self._engage(crowd, paths, cursor)
         for k, ds in enumerate(self.dstate):
             ws = [w for w in self._walkers_at(k)]
@@ -141,7 +153,10 @@ class DoorEtiquette(EtiquetteCore):
                     if float(np.hypot(*(pos[r] - ds.centre))) <= self.doors[k].sensing_range:
                         side = 1 if float((pos[r] - ds.centre) @ ds.n) >= 0.0 else -1
                         self.walkers[agent] = Walker(id=agent, door=k, side=side, since=self.t,
-                                                     speed=float(crowd.pref_speed[r]))
+                                                     speed=float(crowd.pref_speed[r]),
+                                                     waited=self.waited_at.pop((agent, k), 0.0),
+                                                     first_wait=self.wait_since_at.pop((agent, k), math.nan),
+                                                     last_wait=self.t)
                         break
                 continue
             if w.role == APPROACH and not any(k == w.door for k, _ in crossing):
@@ -156,8 +171,9 @@ class DoorEtiquette(EtiquetteCore):
             through = float(rel @ ds.n) * w.side < -(CLEAR + 0.25)
             far = float(np.hypot(*rel)) > self.doors[w.door].sensing_range
             if w.role != HOLDER and (through or far):
-                if through:
-                    self._passed(w)
+                h = self.walkers.get(w.holder) if through and w.holder != NONE else None
+                if h is not None and h.state == HOLD_DOOR and h.follower == w.id:
+                    self.log("held_for_user", h, action=h.action)  # the user walked through the held door
                 self._drop(w, why="passed" if through else "walked away")
             return
         for k, ds in enumerate(self.dstate):
@@ -395,11 +411,86 @@ class DoorEtiquette(EtiquetteCore):
         if self.user_hand_point is not None and int(lv.drive[leaf]) != OPEN:
             lv.hand(leaf, hand_angle(lv.hinge[leaf], float(lv.base[leaf]), self.user_hand_point))
 
+    def track_passages(self, crowd: CrowdState) -> None:
+        """Passages, measured from positions at the decision rate (issue 24 item 3): a body passes
+        a door when the way it moved since the last tick crosses the doorway (jamb to jamb) and it
+        then stands :data:`PASS_CONFIRM` m beyond the doorway line; one that steps back across
+        first has not passed. Each passage is a ``pass`` event (who, the side it came from, the
+        leaf it went through at a double door, how long it waited at the door) and counts in
+        ``door_passages``; what the door states believe (a FinishDoor that timed out, a walker
+        dropped on the near side) counts for nothing."""
+        ids = crowd.ids
+        n = len(crowd)
+        pos = crowd.pos
+        if self._trk_ids.shape[0] != n or not np.array_equal(self._trk_ids, ids):
+            old = {int(a): r for r, a in enumerate(self._trk_ids)}
+            prev = pos.copy()
+            pend = np.zeros((n, len(self.doors)), np.int8)
+            for r in range(n):
+                o = old.get(int(ids[r]))
+                if o is not None:
+                    prev[r] = self._trk_prev[o]
+                    pend[r] = self._trk_pend[o]
+            self._trk_ids, self._trk_prev, self._trk_pend = ids.copy(), prev, pend
+        prev, pend = self._trk_prev, self._trk_pend
+        for k, ds in enumerate(self.dstate):
+            d = self.doors[k]
+            cross = _segments_cross(prev, pos, np.asarray(d.span[0]), np.asarray(d.span[1]))
+            if cross.any():
+                came = np.where((prev - ds.centre) @ ds.n >= 0.0, 1, -1).astype(np.int8)
+                back = cross & (pend[:, k] != 0) & (pend[:, k] != came)
+                pend[back, k] = 0  # stepped back across before passing
+                fresh = cross & ~back
+                pend[fresh, k] = came[fresh]
+            todo = np.flatnonzero(pend[:, k])
+            if not todo.size:
+                continue
+            beyond = ((pos[todo] - ds.centre) @ ds.n) * pend[todo, k] < -PASS_CONFIRM
+            for r in todo[beyond]:
+                self._passage(int(r), k, int(pend[r, k]), crowd)
+                pend[r, k] = 0
+        self._trk_prev = pos.copy()
+
+    def _passage(self, r: int, k: int, side: int, crowd: CrowdState) -> None:
+        agent = int(crowd.ids[r])
+        user = bool(crowd.is_user[r])
+        w = self.walkers.get(agent)
+        waited = w.waited if w is not None and w.door == k else self.waited_at.pop((agent, k), 0.0)
+        ds = self.dstate[k]
+        leaf = -1
+        if ds.kind != "revolving":  # the leaf whose closed span the body crossed nearest
+            lv = self.leaves
+            base = lv.base[ds.leaves]
+            closed = np.stack([np.cos(base), np.sin(base)], 1)
+            mids = lv.hinge[ds.leaves] + 0.5 * lv.length[ds.leaves, None] * closed
+            along = (mids - ds.centre) @ ds.u
+            at = float((crowd.pos[r] - ds.centre) @ ds.u)
+            leaf = ds.leaves[int(np.argmin(np.abs(along - at)))]
+        self.passages += 1
+        self.last_passage[k] = self.t
+        self.wait_since_at.pop((agent, k), None)
+        if w is not None and w.door == k:
+            w.first_wait = math.nan  # its wait at this door is over
+        if not user:
+            self.waits.append(waited)
+        self.events.append({"t": round(self.t, 4), "event": "pass", "door": self.doors[k].name,
+                             "agent": agent, "waited_s": round(waited, 3), "user": user, "side": side,
+                             "leaf": leaf})
+
     def _watch_deadlocks(self, crowd: CrowdState) -> None:
-        """The metric: a pedestrian waiting more than 20 s while its doorway is free. pedvr's reading
-        of "free": nobody holds or is taking the door and nobody is within 1 m of it, for the last
-        :data:`DEADLOCK_FREE_S` at least (a queue that has waited long while the door is merely
-        between two passers, a hand-over of under a second, is not deadlocked)."""
+        """The metric ``door_deadlocks``: long waits at a door that do not end (issue 26). A
+        pedestrian's wait at a door runs from the first time it stands waiting there until its
+        body passes the door, or it has walked on without waiting for :data:`WAIT_ENDS` (a
+        shuffle forward in a queue does not end it). It is a deadlock,
+        counted once per pedestrian and logged, when it has lasted :data:`DEADLOCK_AFTER` and
+
+        * the door has passed nobody for as long (the doorway is stuck), or
+        * the doorway has been free all that while: nobody holds or is taking the door and nobody
+          is within 1 m of it, for :data:`DEADLOCK_FREE_S` at least;
+
+        and, at the end of the run (:meth:`summary`), every wait still going on that has lasted
+        :data:`DEADLOCK_AFTER` counts too: it never ended. A queue that moves on (a passage every
+        few seconds) is no deadlock while the run goes on; one still standing at the end is."""
         for k, ds in enumerate(self.dstate):
             free = not ds.holder and not ds.mutex and not bool(
                 (np.hypot(*(crowd.pos - ds.centre).T) < 1.0).any())
@@ -408,16 +499,36 @@ class DoorEtiquette(EtiquetteCore):
             elif math.isnan(self._free_since[k]):
                 self._free_since[k] = self.t
         for w in self.walkers.values():
-            if w.is_user or not w.waiting or math.isnan(w.wait_from):
+            r = self._row.get(w.id)
+            if w.is_user or r is None:
                 continue
-            if self.t - w.wait_from < DEADLOCK_AFTER or w.id in self._deadlocked:
+            if w.waiting and float(np.hypot(*crowd.vel[r])) < 0.2:
+                w.last_wait = self.t
+                if math.isnan(w.first_wait):
+                    w.first_wait = self.t
+            elif not math.isnan(w.first_wait) and self.t - w.last_wait > WAIT_ENDS:
+                w.first_wait = math.nan  # walking on, not waiting, for a while: that wait is over
+            if math.isnan(w.first_wait) or self.t - w.first_wait < DEADLOCK_AFTER or w.id in self._deadlocked:
                 continue
+            stalled = self.t - self.last_passage[w.door] >= DEADLOCK_AFTER
             since = self._free_since[w.door]
-            if math.isnan(since) or self.t - since < DEADLOCK_FREE_S:
+            free_long = not math.isnan(since) and self.t - since >= DEADLOCK_FREE_S and w.waiting
+            if not (stalled or free_long):
                 continue
             self.deadlocks += 1
             self._deadlocked.add(w.id)
-            self.log("deadlock", w, waited_s=round(self.t - w.wait_from, 2))
+            self.log("deadlock", w, waited_s=round(self.t - w.first_wait, 2),
+                     why="stalled door" if stalled else "free doorway")
+
+    def unended_waits(self) -> list[int]:
+        """Pedestrians whose wait at a door has lasted :data:`DEADLOCK_AFTER` and goes on now
+        (not counted as a deadlock already)."""
+        out = []
+        for w in self.walkers.values():
+            if not w.is_user and not math.isnan(w.first_wait) and w.id not in self._deadlocked \
+                    and self.t - w.first_wait >= DEADLOCK_AFTER:
+                out.append(w.id)
+        return out
 
     @staticmethod
     def empty_summary() -> dict[str, object]:
@@ -433,7 +544,7 @@ class DoorEtiquette(EtiquetteCore):
             "door_holds": dict(self.holds),
             "door_passages": self.passages,
             "door_wait_s_p95": round(float(np.percentile(self.waits, 95)), 4) if self.waits else 0.0,
-            "door_deadlocks": self.deadlocks,
+            "door_deadlocks": self.deadlocks + len(self.unended_waits()),
             "door_thanks": self.thanks,
             "door_holds_for_user": sum(1 for e in self.events if e["event"] == "hold" and e.get("for_user")),
             "door_events": list(self.events),
