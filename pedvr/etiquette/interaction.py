@@ -212,7 +212,9 @@ def _double_sides(et: EtiquetteCore, k: int, walkers: list[Walker], cands: list[
     pull_r, push_r, _ = waiting_radii("double")
     leaf_rows = (l0, l1)
     index = {c.id: c for c in cands}
-    for w in walkers:
+    # the farthest first: a queue's later arrivers move to the less congested leaf (§6.3), and
+    # each choice counts in the load the next one sees
+    for w in sorted(walkers, key=lambda w: (-index[w.id].d_door, w.id) if w.id in index else (0.0, w.id)):
         c = index.get(w.id)
         if c is None:
             continue
@@ -230,6 +232,10 @@ def _double_sides(et: EtiquetteCore, k: int, walkers: list[Walker], cands: list[
             side = index[leader].leaf
         side = 0 if side < 0 else side
         c.leaf = side
+        if w.role != PASSING and w.leaf != leaf_rows[side]:
+            if w.leaf in leaf_rows:
+                load[leaf_rows.index(w.leaf)] -= 1
+            load[side] += 1
         w.leaf = leaf_rows[side]
     del crowd
 
@@ -894,12 +900,21 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
             _thank(et, w, h)
     rel = float((p - ds.centre) @ ds.n) * w.side
     r = et._row[w.id]
+    fr = h.frame if h is not None and h.frame is not None else (
+        et.frame(w.leaf, w.side) if w.leaf in ds.leaves else None)
+    if fr is not None and w.plan is not None and w.leaf in ds.leaves:
+        # pushed into the pocket behind the open leaf on its way: out round the leaf's edge first
+        rest = w.plan[min(w.plan_i, w.plan.shape[0] - 1):]
+        via = _via(et, fr, w.leaf, p, float(crowd.radius[r]), rest[0])
+        if via.shape[0] > 1:
+            w.plan = np.concatenate([via, rest[1:]])
+            w.plan_i = 0
     if rel < -(float(crowd.radius[r]) + CLEAR) or (w.plan is not None and et.arrived(w, crowd, 0.3)):
         if h is not None and h.follower == w.id:
             h.follower = NONE
         et.finish(w, crowd)
-    elif et.t - w.since > STATE_TIMEOUT + 10.0 and w.state == -1 and w.plan is None:
-        et.finish(w, crowd)
+    elif et.t - w.since > STATE_TIMEOUT + 10.0 and w.state == -1:
+        et.finish(w, crowd)  # it could not get through: the door is given up (no passage counted)
 
 
 def _through(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:

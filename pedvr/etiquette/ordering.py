@@ -35,7 +35,14 @@ pedestrian with an opposite-side pedestrian prior to it adopt that pedestrian's 
 literally, two people meeting at a free double door would queue through one leaf, and §6.3 /
 Fig. 15(a) observe a two-way flow through the two right-hand doors instead. pedvr's choice: an
 opposite-side leader whose passing side is not mine, while my keep-side leaf is free, is no
-leader of mine (each passes its own door); otherwise its side is adopted. "The right-hand
+leader of mine (each passes its own door); otherwise its side is adopted. Alg. 3 read literally
+has everyone with more than two same-side pedestrians before it follow its initial leader, so a
+queue files through one leaf while the other stands free (issue 26); §6.3 observes that "if one
+door is in relatively heavy use while the other is clear, then the later arrivers will start using
+the less congested door". pedvr's choice: such a pedestrian follows its initial leader unless the
+leader's leaf carries :data:`LOAD_MARGIN` more pedestrians than the other, and then takes the other
+leaf (the simulation asks the farthest first, so the queue's tail moves over), and stays there
+while that leaf is not the busier by as much. "The right-hand
 door" is the leaf on the pedestrian's ``keep`` side as it walks through (configurable:
 ``[etiquette] keep``); a leaf is *free* when nobody holds it, waits for it or walks to it; a
 leader's passing side is adopted.
@@ -231,7 +238,12 @@ def choose_side(me: Candidate, everyone: list[Candidate], door: DoubleDoor, *, i
     init = same_before[0] if same_before else None
     if len(same_before) > 2 or (len(same_before) == 2 and not in_region):
         assert init is not None
-        return init.id, _leaf_of(init, me, door)
+        theirs = _leaf_of(init, me, door)
+        if me.leaf >= 0 and me.leaf != theirs and door.load[me.leaf] - door.load[theirs] < LOAD_MARGIN:
+            return NONE, me.leaf  # it moved over before: it stays while its leaf is not the busier
+        if door.load[theirs] - door.load[1 - theirs] >= LOAD_MARGIN:
+            return NONE, 1 - theirs  # §6.3: a later arriver takes the less congested door
+        return init.id, theirs
     leader, leaf = _alg4(me, init, everyone, door, wait_credit)
     if leader != NONE:
         theirs = _leaf_of(by_id[leader], me, door)
