@@ -13,7 +13,9 @@ measures them on ``--seeds`` seeds and prints one JSON line per observation:
   is side +1's right-hand leaf, leaf 1 side -1's);
 * ``revolving``: door_revolving: passages per minute from each side (§6.2);
 * ``deadlock``: door_opposing with ``n`` pedestrians per side for 60 s (6 + 6 and the paper's
-  12 + 14): runs with a deadlock (``door_deadlocks``), passages, and the 95th percentile wait.
+  12 + 14): runs with a deadlock (``door_deadlocks``: since issue 26 also a queue wait of 20 s
+  still going at the end) and runs with a stall (``door_stalls``: the door passed nobody, or
+  stood free, for 20 s while someone waited), passages, and the 95th percentile wait.
 
 * ``rush``: door_rush (issue 26): a single one-way door, 20 people from each side setting off
   over 20 s: how many are through after 90 s (of 40), when the last one passed, the 95th
@@ -291,14 +293,16 @@ def revolving(seeds: list[int]) -> dict[str, Any]:
 
 
 def deadlock(seeds: list[int], west: int, east: int) -> dict[str, Any]:
-    dead, passages, p95 = 0, [], []
+    dead, stalled, passages, p95 = 0, 0, [], []
     for s in seeds:
         _, summ = _run(_scene("door_opposing", (west, east)), s, 60.0)
         dead += int(summ["door_deadlocks"]) > 0
+        stalled += int(summ.get("door_stalls", summ["door_deadlocks"])) > 0
         passages.append(summ["door_passages"])
         p95.append(summ["door_wait_s_p95"])
     return {"observation": "deadlock", "per_side": [west, east], "seeds": len(seeds), "runs_deadlocked": dead,
-            "passages_mean": float(np.mean(passages)), "wait_s_p95_mean": float(np.mean(p95))}
+            "runs_stalled": stalled, "passages_mean": float(np.mean(passages)),
+            "wait_s_p95_mean": float(np.mean(p95))}
 
 
 def main() -> int:

@@ -23,7 +23,7 @@ from pedvr.body.steps import LEFT, RIGHT, generate_steps
 from pedvr.etiquette import decision as bn
 from pedvr.etiquette.doors import DoorLeaves
 from pedvr.etiquette.regions import HAND_HEIGHT, LeafFrame
-from pedvr.etiquette.vocab import APPROACH, ARRIVE, FOLLOWER, GRAB_REACH_S, HOLDER, NONE
+from pedvr.etiquette.vocab import APPROACH, ARRIVE, FOLLOWER, GRAB_REACH_S, HOLDER, NONE, REPLAN_AT
 from pedvr.scene.config import Door, EtiquetteConfig, SceneConfig
 
 if TYPE_CHECKING:
@@ -70,8 +70,12 @@ class Walker:
     user_best: float = math.inf
     user_best_at: float = 0.0
     alone_since: float = math.nan
+    freed_hand: bool = False  # a carrier who waited alone long enough and frees a hand
     first_wait: float = math.nan  # when it first stood waiting at this door (door_deadlocks)
     last_wait: float = math.nan  # when it last stood waiting there
+    gait: str = ""  # how its plan was made: "steps" (App. C, set_plan / walk_to) or "direct"
+    gait_goal: np.ndarray | None = None  # the key pose the steps lead to
+    gait_legs: int = 0
 
 
 @dataclass
@@ -230,24 +234,64 @@ class EtiquetteCore:
         return max(0.0, frame.sign * float(self.leaves.angle[leaf]))
 
     def set_plan(self, w: Walker, crowd: CrowdState, target: np.ndarray, *, facing: float | None,
-                 speed: float | None = None, backward: bool = False, lock: bool = False,
-                 end_standing: bool = True) -> None:
-        """Walk ``w`` to ``target`` along App. C's generated steps (their root keys)."""
+                 speed: float | None = None, backward: bool = False, lock: bool = False) -> None:
+        """Walk ``w`` to ``target`` along App. C's generated steps (their root keys), to stand
+        there facing ``facing`` (None: the way it walked). ``target`` is a key pose's root (2,)
+        or ``(K, 2)`` waypoints to it (round a leaf's edge): one step sequence per leg, the feet
+        carried from one leg to the next, standing only at the end (App. C.2: ``sd``)."""
         r = self._row[w.id]
         b = self.body.state
-        fl, fr = b.foot_ref[r, 0], b.foot_ref[r, 1]
-        swing = int(b.swing[r]) if bool(b.stepping[r]) else (RIGHT if float(np.hypot(*(fr - target)))
-                                                              > float(np.hypot(*(fl - target))) else LEFT)
-        plan = generate_steps(root=crowd.pos[r], left=fl, right=fr, swing=swing,
-                              standing=not bool(b.stepping[r]), target=np.asarray(target, np.float64),
-                              target_facing=facing, end_standing=end_standing, backward=backward)
-        keys = plan.root[1:] if plan.root.shape[0] > 1 else plan.root
+        pts = np.asarray(target, np.float64).reshape(-1, 2)
+        fl, fr = b.foot_ref[r, 0].copy(), b.foot_ref[r, 1].copy()
+        stepping = bool(b.stepping[r])
+        swing = int(b.swing[r]) if stepping else (RIGHT if float(np.hypot(*(fr - pts[0])))
+                                                  > float(np.hypot(*(fl - pts[0]))) else LEFT)
+        cur = crowd.pos[r].copy()
+        keys: list[np.ndarray] = []
+        face = facing
+        for i, q in enumerate(pts):
+            last = i == pts.shape[0] - 1
+            plan = generate_steps(root=cur, left=fl, right=fr, swing=swing, standing=not stepping and i == 0,
+                                  target=q, target_facing=facing if last else None, end_standing=last,
+                                  backward=backward)
+            keys.append(plan.root[1:] if plan.root.shape[0] > 1 else plan.root)
+            if not last:
+                keys.append(q.reshape(1, 2))
+            for st in plan.steps:
+                if st.side == LEFT:
+                    fl = st.pos
+                else:
+                    fr = st.pos
+            if plan.steps:
+                swing = 1 - plan.steps[-1].side
+            if last and facing is None:
+                face = float(plan.facing[-1])
+            cur = q
         w.waiting = False
-        w.plan = np.ascontiguousarray(keys)
+        w.plan = np.ascontiguousarray(np.concatenate(keys))
         w.plan_i = 0
-        w.face = float(plan.facing[-1]) if facing is None else facing
+        w.face = math.nan if face is None else face
         w.lock = lock
         w.speed = float(crowd.pref_speed[r]) if speed is None else speed
+        w.gait = "steps"
+        w.gait_goal = pts[-1].copy()
+        w.gait_legs = pts.shape[0]
+
+    def walk_to(self, w: Walker, crowd: CrowdState, target: np.ndarray, *, facing: float, speed: float,
+                lock: bool = False, backward: bool = False) -> None:
+        """A key-pose move of the door interaction (App. B) along App. C's steps (:meth:`set_plan`),
+        for a door state that names its key pose every tick: the steps are generated when the key
+        pose (or the number of legs to it) changes, by more than :data:`REPLAN_AT`; otherwise only
+        the facing, speed and lock are updated."""
+        pts = np.asarray(target, np.float64).reshape(-1, 2)
+        if w.gait == "steps" and w.plan is not None and w.gait_goal is not None \
+                and w.gait_legs == pts.shape[0] and float(np.hypot(*(w.gait_goal - pts[-1]))) < REPLAN_AT:
+            w.waiting = False
+            w.face = facing
+            w.lock = lock
+            w.speed = speed
+            return
+        self.set_plan(w, crowd, pts, facing=facing, speed=speed, lock=lock, backward=backward)
 
     def go_direct(self, w: Walker, target: np.ndarray, *, facing: float, speed: float,
                   lock: bool = False) -> None:
@@ -259,6 +303,8 @@ class EtiquetteCore:
         w.face = facing
         w.lock = lock
         w.speed = speed
+        w.gait = "direct"
+        w.gait_goal = None
 
     def stand(self, w: Walker, facing: float) -> None:
         """``w`` stands where it is, facing ``facing`` (waiting, or holding still)."""

@@ -4,7 +4,7 @@ One decision tick of one single or double door: the doorway ordering (Alg. 1, or
 for a double door, :mod:`.ordering`), the doorway behavior of Alg. 2 with the waiting regions
 of Table 1, and then the interaction states of Fig. 7 and App. B for every holder and follower:
 
-Holder: ``OpenerInit`` (walk to the BOP, App. C steps) → ``ReachDoor`` (face the handle or bar,
+Holder: ``OpenerInit`` (walk to the BOP) → ``ReachDoor`` (face the handle or bar,
 reach with the right hand to pull, the left to push, eyes on the hand) → ``OpenDoor`` (the
 automatic opening; the door leads the hand, ``f_pabs``; pulling, the holder steps round outside
 the swing; pushing, it walks into the doorway) → ``HolderDec`` (the critical motion phase: the
@@ -18,6 +18,29 @@ Follower: ``FollowerInit`` (committed: close up behind, or to the opposing side'
 the door, and become the holder in ``HolderDec``, the red routine of Fig. 7; after NH: open the
 door itself once the holder lets go). A HOF holder whose follower has passed is back in
 ``HolderDec`` for the next one (the blue routine).
+
+Motion between key poses (App. C; issue 24 item 7). Every key-pose move of App. B walks along
+App. C's generated steps (:meth:`~pedvr.etiquette.core.EtiquetteCore.set_plan` /
+``walk_to``): to the BOP, pushing into the doorway, stepping aside to hold (HOF, facing the door
+as it steps) or into the doorway (HOL), closing up behind the holder or to the Opposing Goal,
+reaching the leaf's edge to take it over, passing first, and the holder passing through
+(FinishDoor); a move that must go round an open leaf's edge is one sequence of legs. Two moves
+are walked straight, re-aimed at 30 Hz, because their target moves while it is walked to and
+App. C.2 generates steps to a fixed target: a puller stepping round outside the swing with the
+leaf's edge as the door opens, and (in :mod:`.revolving`) a pedestrian catching a turning
+compartment. Waiting and queueing before the interaction begins is doorway locomotion, not the
+procedural model (App. B.1: OpenerInit is where the holder switches to it).
+
+Under load (issue 26; §7 leaves "the efficiency of the flow" as dense crowds' future work):
+a committed follower's decision waits until it has closed up (App. B.3), and followers from the
+other side wait at the Opposing Goal beside the doorway's mouth, off the lane, where whoever
+comes through the other way passes them; the next in a queue waits :data:`QUEUE_GAP` behind a
+committed follower's place; a PF follower frees its holder for the next as it sets off (the
+blue routine, pipelined) and lets anyone coming through the other way out first; a pulling
+holder stays on the passage side of the leaf's edge (HOL walks on through; HOF steps round
+behind the leaf); holders walk at their own speed; HOL decided for a carrier (who cannot take a
+door over) or by a holder already through the doorway (a pusher holding from beyond it) is held
+as HOF, the hold the network was willing to give.
 
 Choices where the paper leaves room (it draws the key poses, Fig. 18, without measuring them):
 positions come from :class:`~pedvr.etiquette.regions.LeafFrame`; NH opens to the smallest angle
@@ -83,7 +106,7 @@ READY_AFTER = 2.5  # s: the longest a holder waits for its committed follower to
 PULL_OPEN_SPEED = 0.9  # rad/s: a pulled leaf opens no faster than the puller steps round with it
 PUSH_OPEN_SPEED = 2.0  # rad/s: a pushed one, as the pusher walks in
 READY_NEAR = 0.4  # m from its close-up place at which a committed follower is ready
-PULL_STAND = math.radians(25.0)  # a puller stands this far round from the leaf's edge, passage side
+PULL_STAND = math.radians(5.0)  # a puller stands this far round from the leaf's edge, passage side
 QUEUE_GAP = 0.8  # m between a committed follower's place and the next in its queue (issue 26)
 QUEUE_ASIDE = 0.45  # m off the lane that next one waits, on the side it came from
 
@@ -292,6 +315,13 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
     holder = _holder_of(et, w, by_id)
     leader = by_id.get(w.leader) if w.leader != NONE else None
     face_door = math.atan2(*(ds.centre - p)[::-1])
+    for lf in ds.leaves:  # caught in the pocket behind an open leaf: out round its edge first
+        fr_lf = et.frame(lf, w.side)
+        out = fr_lf.lane(fr_lf.side_of(p) * (radius + 1.1))
+        way = _via(et, fr_lf, lf, p, radius, out)
+        if way.shape[0] > 1:
+            et.walk_to(w, crowd, way, facing=face_door, speed=float(crowd.pref_speed[r]))
+            return
     if leader is not None and leader.role == HOLDER and leader.state >= HOLDER_DEC \
             and leader.follower == NONE and _accepts(leader):
         # The leader is a holder in the critical phase: commit as its follower.
@@ -332,9 +362,14 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
         if float(np.hypot(*(p - bop))) <= OPENER_RANGE + 1.0 or helper_coming:
             if math.isnan(w.alone_since):
                 w.alone_since = et.t
-            if pull and not helper_coming and et.t - w.alone_since >= CARRIER_PATIENCE:
-                et.carrier_forced += 1
-                et.log("carrier_frees_hand", w)
+            # alone, it frees a hand after CARRIER_PATIENCE; a helper who does not come within
+            # twice that is no help (no carrier is left waiting for ever)
+            patience = CARRIER_PATIENCE * (2.0 if helper_coming else 1.0)
+            if et.t - w.alone_since >= patience:
+                if not w.freed_hand:
+                    w.freed_hand = True
+                    et.carrier_forced += 1
+                    et.log("carrier_frees_hand", w)
             else:
                 et.stand(w, face_door)
                 return
@@ -345,7 +380,7 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
         # no free hand: it pushes the door open with its body (the leaves yield to it)
         w.role = PASSING
         w.state = -1
-        et.go_direct(w, fr.lane(radius + CLEAR + 0.3), facing=fr.heading(0.0, 1.0),
+        et.walk_to(w, crowd, fr.lane(radius + CLEAR + 0.3), facing=fr.heading(0.0, 1.0),
                      speed=float(crowd.pref_speed[r]))
         et.log("push_through", w)
         return
@@ -359,7 +394,7 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
         w.frame = fr
         w.waiting = False
         target, facing = fr.bop_pull(radius) if pull else fr.bop_push(radius)
-        et.set_plan(w, crowd, target, facing=facing, lock=False)
+        et.set_plan(w, crowd, _via(et, fr, leaf, p, radius, target), facing=facing, lock=False)
         et.set_state(w, OPENER_INIT)
         return
     et.approach(w)  # along its own path
@@ -414,10 +449,13 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
             # side of it (whatever it decides next: HOL walks on through, HOF steps round behind
             # the leaf while the follower comes, App. B.3).
             phi = max(BOP_PULL_POLAR, min(a - math.radians(5.0), target_a - PULL_STAND))
-            _arc(et, w, fr, radius, p, phi, facing=_toward(p, fr.handle(a, PULL_HAND_AT)), speed=1.2)
+            _arc(et, w, fr, radius, p, phi, facing=_toward(p, fr.handle(a, PULL_HAND_AT)), speed=1.5)
+            lx, ly = fr.local(p)
+            kept_up = math.atan2(ly, lx) >= target_a - PULL_STAND - math.radians(12.0)  # at its place
         else:
-            et.go_direct(w, fr.lane(0.0), facing=fr.heading(0.0, 1.0), speed=0.55, lock=True)
-        if a >= target_a - math.radians(4.0) or age > 4.0:
+            et.walk_to(w, crowd, fr.lane(0.0), facing=fr.heading(0.0, 1.0), speed=0.55, lock=True)
+            kept_up = True
+        if (a >= target_a - math.radians(4.0) and kept_up) or age > 5.0:
             et.set_state(w, HOLDER_DEC)
             ds.mutex.pop(leaf, None)
             w.action = ""
@@ -533,12 +571,11 @@ def _past(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
 
 
 def _behind(fr: LeafFrame, radius: float, side_local: int) -> np.ndarray:
-    """Where a follower closes up behind its holder: on the push side on the lane, 1.1 m out; on
-    the pull side behind the puller (who stands outside the leaf's swing on the lane's side of its
-    edge), a little toward the hinge and outside the swing (never in the pocket between the open
-    leaf and the wall)."""
+    """Where a follower closes up behind its holder, on the lane: on the push side 1.1 m out; on
+    the pull side 1.75 m out, clear of the puller, who stands outside the leaf's swing just on the
+    lane's side of its edge."""
     if side_local > 0:
-        return fr.world(0.3, radius + 1.55)
+        return fr.lane(radius + 1.75)
     return fr.lane(-(radius + 1.1))
 
 
@@ -645,16 +682,16 @@ def _hold_pose(et: EtiquetteCore, w: Walker, crowd: CrowdState, action: str, pul
         elif (math.atan2(ly, lx) < HOLD_ANGLE - math.radians(20.0)
               and math.hypot(lx, ly) < fr.outer(radius) - 0.1):
             target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # out round the swing first
-        et.go_direct(w, target, facing=facing, speed=0.7, lock=True)
+        et.walk_to(w, crowd, target, facing=facing, speed=0.7, lock=True)
     else:  # HOL: into (pull) or just through (push) the doorway, holding the leaf behind
         y = -0.05 if pull else radius + 0.15
         target = fr.world(0.42 * fr.w, y)
         facing = fr.heading(0.0, -1.0) if pull else fr.heading(0.0, 1.0)
         w.p_rel = 0.45 * fr.w
         lx, ly = fr.local(p)
-        if pull and math.atan2(ly, lx) > HOLD_ANGLE - math.radians(15.0):
-            target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # round the edge first
-        et.go_direct(w, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
+        if pull and ly > 0.0 and math.atan2(ly, lx) > et.leaf_open(w.leaf, fr) - math.radians(3.0):
+            target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # behind it: round the edge
+        et.walk_to(w, crowd, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
 
 
 def _finish(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
@@ -680,12 +717,12 @@ def _finishing(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     holding = w.arm >= 0
     if pull:
         # from the pull side through to the push side
-        if ly > 0.0 and math.atan2(ly, lx) > a - math.radians(8.0):
-            target = fr.polar(fr.outer(radius), max(a - math.radians(25.0), math.radians(10.0)))
-        elif ly > -0.2:
-            target = fr.lane(-(radius + CLEAR + 0.3))
+        out = fr.lane(-(radius + CLEAR + 0.5))
+        if ly > 0.0 and math.atan2(ly, lx) > a - math.radians(3.0):  # behind the edge: round it first
+            edge = fr.polar(fr.outer(radius), max(a - math.radians(25.0), math.radians(10.0)))
+            target = np.stack([edge, out])
         else:
-            target = fr.lane(-(radius + CLEAR + 0.5))
+            target = out
         if holding:
             w.want = max(a, math.radians(45.0))
             w.p_rel = min(max(math.hypot(lx, ly) - 0.1, 0.3 * fr.w), 0.95 * fr.w)
@@ -711,7 +748,7 @@ def _finishing(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
             et.let_go(w)
         et.finish(w, crowd)
         return
-    et.go_direct(w, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
+    et.walk_to(w, crowd, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
 
 
 def _give_up(et: EtiquetteCore, w: Walker, crowd: CrowdState, *, why: str) -> None:
@@ -757,7 +794,7 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
         if h.action == "" or h.state < HOLDER_DEC:
             spot = _close_up(et, w, h, fr, radius, side_local)
             far = float(np.hypot(*(p - et.pos(crowd, h.id)))) > CATCH_UP_AT
-            et.go_direct(w, _via(et, fr, h.leaf, p, radius, spot), facing=_toward(spot, fr.lane(0.0)),
+            et.walk_to(w, crowd, _via(et, fr, h.leaf, p, radius, spot), facing=_toward(spot, fr.lane(0.0)),
                          speed=float(crowd.pref_speed[r]) * (CATCH_UP if far else 1.0))
             if age > STATE_TIMEOUT + 6.0:
                 _demote(w)
@@ -786,9 +823,14 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
         else:  # from the push side: at the hinge jamb, beside the lane the holder comes through on
             target, facing = fr.world(0.6 * radius, -(radius + 0.1)), fr.heading(0.0, 1.0)
             arm, at = LEFT, 0.35
-        et.go_direct(w, _via(et, fr, h.leaf, p, radius, target), facing=facing,
+        et.walk_to(w, crowd, _via(et, fr, h.leaf, p, radius, target), facing=facing,
                      speed=float(crowd.pref_speed[r]))
-        if float(np.hypot(*(p - target))) < 0.3 or age > 6.0:
+        # HOL across the door: the holder passes first, so the follower takes the door over once
+        # the holder is in or through the doorway (not while it is still on its own side)
+        ds = et.dstate[w.door]
+        h_there = h.is_user or h.side == w.side or \
+            float((et.pos(crowd, h.id) - ds.centre) @ ds.n) * h.side < 0.0
+        if (float(np.hypot(*(p - target))) < 0.3 and h_there) or age > 6.0:
             _take_over(et, w, h, crowd, arm=arm, at=at)
         elif age > STATE_TIMEOUT:
             _demote(w)
@@ -820,13 +862,16 @@ def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: 
         # On its way: the holder is free for its next follower (the blue routine of Fig. 7), who
         # closes up while this one walks through (pipelined, module docstring).
         h.follower = NONE
-    ahead = fr.lane(side_local * (radius + 0.35))
-    w.plan = np.concatenate([_via(et, fr, h.leaf, et.pos(crowd, w.id), radius, ahead),
-                             np.stack([fr.lane(0.0), fr.lane(-side_local * (radius + CLEAR + 0.35))])])
-    w.plan_i = 0
-    w.face = fr.heading(0.0, -float(side_local))
-    w.lock = False
-    w.speed = float(crowd.pref_speed[r])
+    pts = _pf_points(fr, side_local, radius)
+    via = _via(et, fr, h.leaf, et.pos(crowd, w.id), radius, pts[0])
+    et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=fr.heading(0.0, -float(side_local)),
+                speed=float(crowd.pref_speed[r]))
+
+
+def _pf_points(fr: LeafFrame, side_local: int, radius: float) -> np.ndarray:
+    """PF's way through the held door: into the lane on its side, the doorway, out beyond it."""
+    return np.stack([fr.lane(side_local * (radius + 0.35)), fr.lane(0.0),
+                     fr.lane(-side_local * (radius + CLEAR + 0.35))])
 
 
 def _take_over(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, *, arm: int, at: float) -> None:
@@ -904,11 +949,11 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
         et.frame(w.leaf, w.side) if w.leaf in ds.leaves else None)
     if fr is not None and w.plan is not None and w.leaf in ds.leaves:
         # pushed into the pocket behind the open leaf on its way: out round the leaf's edge first
-        rest = w.plan[min(w.plan_i, w.plan.shape[0] - 1):]
-        via = _via(et, fr, w.leaf, p, float(crowd.radius[r]), rest[0])
-        if via.shape[0] > 1:
-            w.plan = np.concatenate([via, rest[1:]])
-            w.plan_i = 0
+        side_local = 1 if w.side == (1 if float(fr.m @ ds.n) > 0 else -1) else -1
+        pts = _pf_points(fr, side_local, float(crowd.radius[r]))
+        via = _via(et, fr, w.leaf, p, float(crowd.radius[r]), pts[0])
+        if via.shape[0] > 1 and w.gait_legs != via.shape[0] + 2:
+            et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=w.face, speed=w.speed)
     if rel < -(float(crowd.radius[r]) + CLEAR) or (w.plan is not None and et.arrived(w, crowd, 0.3)):
         if h is not None and h.follower == w.id:
             h.follower = NONE
@@ -956,8 +1001,10 @@ def _user_walker(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: 
         return
     # as a follower: an agent holder in the critical phase whose ordering puts the user next
     leader = by_id.get(w.leader) if w.leader != NONE else None
+    ds = et.dstate[w.door]
+    crossed = float((et.pos(crowd, w.id) - ds.centre) @ ds.n) * w.side < 0.0  # through: nobody to hold for
     if w.role == APPROACH and leader is not None and leader.role == HOLDER and not leader.is_user \
-            and leader.state >= HOLDER_DEC and leader.follower == NONE and _accepts(leader):
+            and leader.state >= HOLDER_DEC and leader.follower == NONE and _accepts(leader) and not crossed:
         w.role = FOLLOWER
         w.holder = leader.id
         leader.follower = w.id

@@ -30,6 +30,14 @@ before its follower and there are no cycles; a head with no holder or follower a
 follows the other side's head when that one ranks first, so two leaderless pedestrians never race
 for the door.
 
+Who is in front. Alg. 1 takes "pedestrians to the front (on the same side of and closer to the
+door)"; pedestrians waiting at a door stop where they enter a waiting region, and the regions
+are circles about the hinge or the door, so the one closer to the door is whoever stopped on the
+near part of the circle, not whoever came first: with six a side, a pedestrian waited 55 s while
+later arrivals stopped nearer and went before it. pedvr's reading: the front is by distance to
+the door less ``wait_credit`` for the time waited beyond :data:`QUEUE_HOLD` (people keep their
+place in a queue); a holder is in front of everyone, its committed follower next.
+
 Double doors (Alg. 3–4): a pedestrian's passing side is one of the two leaves. Alg. 4 has a
 pedestrian with an opposite-side pedestrian prior to it adopt that pedestrian's passing side; read
 literally, two people meeting at a free double door would queue through one leaf, and §6.3 /
@@ -82,16 +90,32 @@ def _dist(a: tuple[float, float], b: tuple[float, float]) -> float:
     return math.hypot(a[0] - b[0], a[1] - b[1])
 
 
+QUEUE_HOLD = 5.0  # s: waiting longer than this at a door keeps one's place against later arrivals
+
+
 def proximity(c: Candidate, to: tuple[float, float], wait_credit: float) -> float:
     """``E(d, t_wait)``: distance to ``to`` less the credit for time waited (module docstring)."""
     return _dist(c.pos, to) - wait_credit * c.waited
 
 
-def initial_leader(me: Candidate, everyone: list[Candidate]) -> Candidate | None:
-    """The closest pedestrian to the front of ``me``: on its side and closer to the door."""
+def place(c: Candidate, wait_credit: float) -> float:
+    """Where ``c`` stands in its side's queue (smaller: nearer the front): a holder first, a
+    committed follower next, then by distance to the door less ``wait_credit`` for the time
+    waited beyond :data:`QUEUE_HOLD` (module docstring)."""
+    if c.holder:
+        return -math.inf
+    if c.follower:
+        return -1e9 + c.d_door
+    return c.d_door - wait_credit * max(0.0, c.waited - QUEUE_HOLD)
+
+
+def initial_leader(me: Candidate, everyone: list[Candidate], *, wait_credit: float = 0.0) -> Candidate | None:
+    """The closest pedestrian to the front of ``me``: on its side and before it in the queue
+    (:func:`place`; with ``wait_credit`` 0, closer to the door)."""
     best, best_d = None, math.inf
+    mine = place(me, wait_credit)
     for c in everyone:
-        if c.id == me.id or c.side != me.side or c.d_door >= me.d_door or c.id in me.skip:
+        if c.id == me.id or c.side != me.side or place(c, wait_credit) >= mine or c.id in me.skip:
             continue
         d = _dist(c.pos, me.pos)
         if d < best_d:
@@ -130,7 +154,7 @@ def queue_keys(everyone: list[Candidate], *, wait_credit: float) -> tuple[dict[i
     ``rank[id] = (key, depth, id)``, smaller passes earlier. A holder ranks first, a committed
     follower next; ``key`` is the least ``E`` to the door of the pedestrian and everyone behind it
     on its side (nobody passes before the one ahead of it in its own queue)."""
-    initial = {c.id: initial_leader(c, everyone) for c in everyone}
+    initial = {c.id: initial_leader(c, everyone, wait_credit=wait_credit) for c in everyone}
     same: dict[int, Candidate | None] = {}
     for me in everyone:
         init = initial[me.id]
@@ -187,13 +211,14 @@ def leaders(everyone: list[Candidate], *, wait_credit: float) -> dict[int, int]:
         if lead is not None and not (lead.holder or lead.follower):
             out[me.id] = lead.id
             continue
+        mine = rank[me.id]
         if lead is None:
             opposing = [c for c in everyone if c.side != me.side and (c.follower or c.holder)]
             if opposing:
                 followers = [c for c in opposing if c.follower]
                 lead = min(followers or opposing, key=lambda c: (c.d_door, c.id))
         prior = [c for c in everyone if c.side != me.side and not c.holder and not c.follower
-                 and rank[c.id] < rank[me.id]]
+                 and rank[c.id] < mine]
         if prior:
             lead = max(prior, key=lambda c: rank[c.id])
         out[me.id] = lead.id if lead is not None else NONE

@@ -15,7 +15,9 @@ compartment may be entered from side ``s`` while its middle is within :data:`ENT
 that opening, and its rider steps out once its middle is :data:`EXIT_BEFORE` short of the far
 opening. The best entry phase for a side is the compartment whose window the pedestrian can
 reach first given the door's angle and speed (:func:`best_entry`): it speeds up, up to its
-maximum speed, to catch one that is leaving, or waits at the opening for the next one.
+maximum speed, to catch one that is leaving, or waits at the opening for the next one. Catching
+a compartment is walked straight at its middle, re-aimed at 30 Hz (the target turns with the
+door; App. C's steps are generated to a fixed target).
 
 Riders are carried: their velocity is the compartment's (``omega x r``, plus a pull toward the
 compartment's middle), set after ORCA, and the door turns at the speed its riders push it

@@ -59,6 +59,7 @@ from pedvr.etiquette.vocab import (
     RIDER,
     RUSH_SPEEDUP,
     SENSE_USER,
+    USER_AFTER_PASS,
     WAIT_ENDS,
 )
 
@@ -80,6 +81,7 @@ class DoorEtiquette(EtiquetteCore):
         self._trk_prev = np.zeros((0, 2))
         self._trk_pend = np.zeros((0, len(self.doors)), np.int8)
         self.last_passage = [0.0] * len(self.doors)  # s: when each door last passed someone
+        self._user_through: dict[int, float] = {}  # door -> when the user last went through it
 
     def smart_objects(self) -> dict[str, Any]:
         """Every door as a smart object (``pass``, ``hold``), named as in the scene."""
@@ -174,6 +176,8 @@ class DoorEtiquette(EtiquetteCore):
                 h = self.walkers.get(w.holder) if through and w.holder != NONE else None
                 if h is not None and h.state == HOLD_DOOR and h.follower == w.id:
                     self.log("held_for_user", h, action=h.action)  # the user walked through the held door
+                if through:
+                    self._user_through[w.door] = self.t
                 self._drop(w, why="passed" if through else "walked away")
             return
         for k, ds in enumerate(self.dstate):
@@ -181,6 +185,8 @@ class DoorEtiquette(EtiquetteCore):
             dist = float(np.hypot(*rel))
             if dist > self.doors[k].sensing_range or dist < 1e-9:
                 continue
+            if self.t - self._user_through.get(k, -math.inf) < USER_AFTER_PASS and self.user_leaf < 0:
+                continue  # just through it: stepping back onto its way is not coming to the door
             lateral = abs(float(rel @ ds.u))
             if lateral > 0.5 * self.doors[k].width + 1.5:
                 continue
@@ -534,17 +540,22 @@ class DoorEtiquette(EtiquetteCore):
     def empty_summary() -> dict[str, object]:
         """The door metrics of a run without door etiquette."""
         return {"door_holds": {"HOF": 0, "HOL": 0, "NH": 0}, "door_passages": 0, "door_wait_s_p95": 0.0,
-                "door_deadlocks": 0, "door_thanks": 0, "door_holds_for_user": 0, "door_events": []}
+                "door_deadlocks": 0, "door_stalls": 0, "door_thanks": 0, "door_holds_for_user": 0,
+                "door_events": []}
 
     def summary(self) -> dict[str, object]:
-        """The run's door metrics (the metrics JSON): holds by HOF / HOL / NH, passages, the 95th
-        percentile of the time agents waited at doors, deadlocks, thank-yous, doors held for the
-        user, and every door event (who held for whom, waits, thank-yous)."""
+        """The run's door metrics (the metrics JSON): holds by HOF / HOL / NH, passages (bodies
+        through a doorway), the 95th percentile of the time agents waited at doors, deadlocks (long
+        waits that did not end, :meth:`_watch_deadlocks`) and of them the stalls (seen while the
+        run went on: a door that passed nobody, or a free doorway, for 20 s while someone waited),
+        thank-yous, doors held for the user, and every door event (who held for whom, waits,
+        thank-yous)."""
         return {
             "door_holds": dict(self.holds),
             "door_passages": self.passages,
             "door_wait_s_p95": round(float(np.percentile(self.waits, 95)), 4) if self.waits else 0.0,
             "door_deadlocks": self.deadlocks + len(self.unended_waits()),
+            "door_stalls": self.deadlocks,
             "door_thanks": self.thanks,
             "door_holds_for_user": sum(1 for e in self.events if e["event"] == "hold" and e.get("for_user")),
             "door_events": list(self.events),

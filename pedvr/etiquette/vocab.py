@@ -23,6 +23,7 @@ STATE_NAMES = ("OpenerInit", "ReachDoor", "OpenDoor", "HolderDec", "HoldDoor", "
                "FollowerDec", "ReachEdge", "ReleaseDoor", "FinishDoor")
 
 OPENER_RANGE = 1.6  # m from the BOP within which a leaderless pedestrian takes the door (Alg. 2)
+REPLAN_AT = 0.05  # m a key pose moves before App. C's steps to it are generated again
 ARRIVE = 0.12  # m: a key pose is reached
 REACH_TIME = 0.35  # s: the hand reaches the handle (ReachDoor)
 DECIDE_WAIT = 0.6  # s: a holder in HolderDec waits this long for a follower to commit
@@ -38,6 +39,7 @@ HELP_RANGE = 6.0  # m: a pedestrian behind a carrier this close overtakes to ope
 DEADLOCK_AFTER = 20.0  # s of waiting with the doorway free: a deadlock (the metric)
 WAIT_ENDS = 5.0  # s of walking on without waiting that end a wait at a door (door_deadlocks)
 DEADLOCK_FREE_S = 3.0  # s the doorway must have stayed free for a long wait to count as a deadlock
+USER_AFTER_PASS = 4.0  # s after going through a door in which the user is not taken to approach it
 SENSE_USER = 0.2  # m/s: the user walking toward a door faster than this takes part in its ordering
 THANK_RANGE = 2.5  # m: a follower thanks its holder when passing this close
 LEAF_REACH = 0.9  # m: a hand farther than this from its leaf lets go
