@@ -481,6 +481,12 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
             # its far side (a pusher holding beyond the leaf's edge) has nothing to pass first. It
             # was willing to hold: it holds for the follower to pass (module docstring).
             action = "HOF"
+        elif network == "HOF" and not f.is_user and f.side != w.side and not _past(et, w, crowd) \
+                and not (f_row is not None and bool(et.carrying[f_row])):
+            # §6.1: those who reach the door first pass first; a holder still to pass does not
+            # send someone from the other side ahead of itself: it holds the door for them to take
+            # over after it has passed (HOL)
+            action = "HOL"
         w.action = action
         et.holds[action] += 1
         dist = et.effort_distance(w, f, crowd)  # Effort's distance (§5.1.1)
@@ -561,7 +567,7 @@ def _close_up(et: EtiquetteCore, w: Walker, h: Walker, fr: LeafFrame, radius: fl
         return _behind(fr, radius, side_local)
     if side_local > 0:
         return fr.world(fr.w + radius + 0.1, radius + 0.45)
-    return fr.world(-0.2 * radius, -(radius + 0.3))
+    return fr.world(-0.2 * radius, -(radius + 0.7))
 
 
 def _past(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:

@@ -26,9 +26,8 @@ swing on its own side), and ranking a whole queue by its members' own ``E`` (a f
 has waited long counts as near, while the one in front of it, who has not, counts as far) made
 leaders point across and back again in cycles; a cycle broken at the nearer pedestrian left the door
 to whoever stood closest, and the other side waited a minute. With the rank, a leader always ranks
-before its follower and there are no cycles; a head with no holder or follower anywhere still
-follows the other side's head when that one ranks first, so two leaderless pedestrians never race
-for the door.
+before its follower and there are no cycles. A head with no holder or follower anywhere has no
+leader (Alg. 1); the mutex settles who opens the door.
 
 Who is in front. Alg. 1 takes "pedestrians to the front (on the same side of and closer to the
 door)"; pedestrians waiting at a door stop where they enter a waiting region, and the regions
@@ -219,7 +218,7 @@ def leaders(everyone: list[Candidate], *, wait_credit: float) -> dict[int, int]:
                 lead = min(followers or opposing, key=lambda c: (c.d_door, c.id))
         prior = [c for c in everyone if c.side != me.side and not c.holder and not c.follower
                  and rank[c.id] < mine]
-        if prior:
+        if prior and lead is not None:  # Alg. 1 competes across only after a holder or follower
             lead = max(prior, key=lambda c: rank[c.id])
         out[me.id] = lead.id if lead is not None else NONE
     # A leader always ranks before its follower; this only guards the invariant.

@@ -226,8 +226,9 @@ class DoorEtiquette(EtiquetteCore):
                     pv[r] = v
                 continue
             p = crowd.pos[r]
-            k = w.plan_i
             last = w.plan.shape[0] - 1
+            # on from the nearest key ahead (a body pushed past its keys does not walk back to them)
+            k = w.plan_i + int(np.argmin(np.hypot(*(w.plan[w.plan_i:] - p).T)))
             while k < last and float(np.hypot(*(w.plan[k] - p))) < 0.2:
                 k += 1
             w.plan_i = k
