@@ -174,6 +174,7 @@ class Simulation:
         self.inflow = Inflow(scene.sources, scene.sinks)
         self._sources_and_sinks()
         self._face_unset()
+        self.body.pose_at_rest(self.crowd, self.crowd.heading)
         if self.recording is not None:
             self.recording.add(self.t, self.crowd, self.doors.angle)
 

@@ -435,6 +435,20 @@ class FullBody:
         self.skate.observe(b.world_pos, b.planted, b.foot_pitch, b.foot_lift, ~crowd.is_user)
         self._update_handles(t)
 
+    def pose_at_rest(self, crowd: CrowdState, heading: np.ndarray) -> None:
+        """Pose every body where it stands, facing ``heading``, before the first step: a frame
+        drawn at t = 0 (a headless video's first frame, a recording's first pose) shows people
+        standing, not every joint at the origin. Time does not pass (dt = 0): no step is taken
+        and no gait advances."""
+        b = self.state
+        if len(b) == 0:
+            return
+        b.heading[:] = np.where(np.isnan(heading), b.heading, heading)
+        self._pose(crowd, dt=0.0, t=0.0)
+        if (b.carrying != carry.NONE).any():
+            b.carry_frame[:] = carry.object_frame(b.carrying, b.root, b.carry_yaw, b.dims[:, sk.DIM_SCALE],
+                                                  b.world_pos[:, [sk.L_HAND, sk.R_HAND]], b.reach_on)
+
     # -- choreographers + coordinator -----------------------------------------------------------
 
     def _pose(self, crowd: CrowdState, *, dt: float, t: float) -> None:
