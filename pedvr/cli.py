@@ -201,6 +201,8 @@ def build_parser() -> argparse.ArgumentParser:
     sb.add_argument("--warmup", type=int, default=180, help="untimed steps first (default: %(default)s)")
     sb.add_argument("--load", type=int, action="append", default=None, metavar="K",
                     help="busy processes beside the timed steps (repeatable: one run per value; default 0)")
+    sb.add_argument("--vs", choices=("rvo2",), default=None,
+                    help="also step RVO2 (pyrvo) on the same crowd in the same loop, steering only")
     sb.add_argument("--json", action="store_true")
     dr = bsub.add_parser("doors", help="a whole step of the 4-door building with door etiquette, full bodies")
     dr.add_argument("--agents", type=_positive(int), action="append", default=None,
@@ -417,7 +419,7 @@ def _bench(args: argparse.Namespace) -> int:
     if args.bench_command == "sim":
         from pedvr.bench_sim import run_sim_bench
 
-        _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=k)
+        _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=k, vs=args.vs)
                         for n in args.agents or [100, 1000] for k in args.load or [0]], args.json)
         return 0
     if args.bench_command == "doors":
