@@ -468,7 +468,7 @@ class FullBody:
         t0 = time.perf_counter()
         pose_graph_kernel(
             dt, t, order, co.weights, masks, moves_pelvis, ps.GESTURE_MASKS,
-            b.phase, b.amp, b.style, b.dims[:, sk.DIM_SCALE].copy(), b.pelvis_rest, b.offsets,
+            b.phase, b.amp, b.style, b.dims[:, sk.DIM_SCALE].copy(), b.pelvis_rest, b.dims,
             kind, b.g_start, b.g_dur, b.noise_seed, idle_w, ps.PERM,
             b.gaze_kind, b.gaze_point, self._gaze_rows(), b.gaze_rule, user_head, has_user,
             co.has("running"), b.heading, b.gaze_ang,
