@@ -106,6 +106,24 @@ def gaze_targets_kernel(t, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head
             out[i, 2] = np.nan
 
 
+@njit(cache=True)
+def heads_kernel(world_pos, root, offsets, dims, out, fresh):  # type: ignore[no-untyped-def]
+    """Head positions after the last frame, ``out (N, 3)``; ``fresh (N,)`` where no forward kinematics
+    has run yet (the head at the origin), whose heads stand at the standing head height above the root."""
+    for i in range(out.shape[0]):
+        x, y, z = world_pos[i, sk.HEAD, 0], world_pos[i, sk.HEAD, 1], world_pos[i, sk.HEAD, 2]
+        new = x == 0.0 and y == 0.0 and z == 0.0
+        fresh[i] = new
+        if new:
+            out[i, 0] = root[i, 0]
+            out[i, 1] = offsets[i, sk.PELVIS, 1] + 0.62 * dims[i, 3]
+            out[i, 2] = root[i, 1]
+        else:
+            out[i, 0] = x
+            out[i, 1] = y
+            out[i, 2] = z
+
+
 @njit(cache=True, fastmath=FASTMATH, inline="always")
 def turn_shoulders(pose_q, turn):  # type: ignore[no-untyped-def]
     """Turn the upper torso by ``turn`` rad about the vertical relative to the pelvis (a body squeezing
@@ -374,7 +392,6 @@ def _pose_chunks(chunks, dt, t, order, weights, masks, moves_pelvis, clip_masks,
                    local_q, pelvis, world_pos, world_q)
 
 
-@njit(cache=True, fastmath=FASTMATH)
 def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
                       phase, amp, style, scale, pelvis_rest, dims,
                       g_kind, g_start, g_dur, noise_seed, idle_w, perm,
@@ -386,21 +403,24 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
                       world_q, chunks=0):  # type: ignore[no-untyped-def]
     """Pose every body: the coordinator's graph, the leg-IK node and forward kinematics.
 
-    Graph: ``order (C, 2) int64`` rows of (node id, weight column) in blending order, ``weights
-    (N, W)``, ``masks (C, J)`` and ``moves_pelvis (C,)`` per position in ``order``; ``clip_masks
-    (G, J)`` the joints each gesture clip drives (a gesture node blends only those). Node inputs
-    are the body state's arrays (:class:`pedvr.body.model.BodyState`); ``dims (N, 4)`` stand for
-    the rest offsets (:func:`pedvr.body.skeleton.offsets_row`, the bytes of ``state.offsets``);
-    ``g_kind`` is the clip playing or fading (0 none), ``idle_w`` the idle noise's strength,
-    ``gaze_row`` the row of a gazed-at agent, ``running`` the locomotion's message. ``heads (N,3)``
-    are the head positions
-    after the last frame (``fresh`` where no forward kinematics has run yet: the eyes cannot close
-    the loop there). ``shoulder_turn (N,)`` rad turns the upper torso about the vertical relative
-    to the pelvis (:func:`turn_shoulders`). Outputs: ``local_q (N,J,4)``, ``pelvis (N,3)`` the
-    final pose, ``world_pos (N,K,3)``, ``world_q (N,K,4)`` its forward kinematics; the gaze state
-    ``ang``, the pelvis height ``h_prev``, ``foot_pitch`` (heel rise) and ``ik_miss`` are updated.
-    ``yaw_lim (N, 5)`` is per body (a gaze capped by ``FullBody.gaze_limit``), the other gaze
-    parameters are shared. ``chunks > 0`` runs the bodies in that many chunks in parallel, 0 in
+    A Python function choosing the compiled loop: the serial one, or the parallel chunks, which
+    numba compiles only when a run first asks for them (a parallel kernel is among the slowest
+    to compile; issue 27: the default scene never runs it).
+
+    Graph: ``order (C, 2) int64`` rows of (node id, weight column) in blending order, ``weights (N,
+    W)``, ``masks (C, J)`` and ``moves_pelvis (C,)`` per position in ``order``; ``clip_masks (G,
+    J)`` the joints each gesture clip drives (a gesture node blends only those). Node inputs are the
+    body state's arrays (:class:`pedvr.body.model.BodyState`); ``dims (N, 4)`` stand for the rest
+    offsets (:func:`pedvr.body.skeleton.offsets_row`, the bytes of ``state.offsets``); ``g_kind`` is
+    the clip playing or fading (0 none), ``idle_w`` the idle noise's strength, ``gaze_row`` the row
+    of a gazed-at agent, ``running`` the locomotion's message. ``heads (N,3)`` are the head
+    positions after the last frame (``fresh`` where no forward kinematics has run yet: the eyes
+    cannot close the loop there). ``shoulder_turn (N,)`` rad turns the upper torso about the
+    vertical relative to the pelvis (:func:`turn_shoulders`). Outputs: ``local_q (N,J,4)``, ``pelvis
+    (N,3)`` the final pose, ``world_pos (N,K,3)``, ``world_q (N,K,4)`` its forward kinematics; the
+    gaze state ``ang``, the pelvis height ``h_prev``, ``foot_pitch`` (heel rise) and ``ik_miss`` are
+    updated. ``yaw_lim (N, 5)`` is per body (a gaze capped by ``FullBody.gaze_limit``), the other
+    gaze parameters are shared. ``chunks > 0`` runs the bodies in that many chunks in parallel, 0 in
     one serial loop (the same bytes either way: bodies are independent).
     """
     if chunks > 0:

@@ -29,6 +29,7 @@ from pedvr.body import skeleton as sk
 from pedvr.body.locomotion import DS, foot_pose_cs
 from pedvr.body.quat import FASTMATH, euler_yxz4, frame_quat, qmul4, qrot3
 from pedvr.body.style import PA, PB, Pa, Pb, Pp
+from pedvr.kernels import row_njit
 
 PELVIS_YAW = 0.07  # rad: transverse pelvic rotation at a walk (±4°)
 PELVIS_LIST = 0.05  # rad: pelvic obliquity (±3°)
@@ -216,7 +217,7 @@ def loco_shadow_kernel(phase, amp, style, scale, pelvis_rest, out_q, out_p):  # 
         loco_row(phase[i], amp[i], style[i], scale[i], pelvis_rest[i], out_q[i], out_p[i])
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def sit_row(sc, pelvis_rest, out_q, out_p):  # type: ignore[no-untyped-def]
     rest_pose(out_q)
     out_p[0] = 0.0
@@ -254,7 +255,7 @@ def perlin1d(x, perm):  # type: ignore[no-untyped-def]
 
 # -- transformers ---------------------------------------------------------------------------------
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def idle_row(t, s, w, sc, perm, in_q, in_p, out_q, out_p):  # type: ignore[no-untyped-def]
     """One body's idle noise over ``in`` (see :func:`idle_kernel`)."""
     copy_pose(in_q, in_p, out_q, out_p)
@@ -341,7 +342,7 @@ def _pre_rotate(out_q, in_q, j, g):  # type: ignore[no-untyped-def]
     _put(out_q, j, qmul4(g[0], g[1], g[2], g[3], in_q[j, 0], in_q[j, 1], in_q[j, 2], in_q[j, 3]))
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def gaze_row(dt, has, target, head_pos, root_yaw, running, share, yaw_lim, pitch_lim, speed, alpha, ang,
              in_q, out_q, eye_l, eye_r, head_q, closed):  # type: ignore[no-untyped-def]
     """One body's gaze controller (see :func:`gaze_kernel`): ``target``, ``head_pos``, ``eye_l``,
@@ -663,7 +664,7 @@ def leg_ik_kernel(dt, root, root_yaw, offsets, foot_ref, foot_yaw, foot_pitch, f
                                reach)
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def arm_to(side, thorax_q, thorax_p, tx, ty, tz, off, pose_q, q1, q2):  # type: ignore[no-untyped-def]
     """Solve one arm of a pose ``(J, 4)`` so the hand reaches ``t``, given the thorax (Spine3) frame."""
     c = sk.L_COLLAR if side == 0 else sk.R_COLLAR
@@ -686,7 +687,7 @@ def arm_to(side, thorax_q, thorax_p, tx, ty, tz, off, pose_q, q1, q2):  # type: 
         _put(pose_q, j, (0.0, 0.0, 0.0, 1.0))
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def gesture_row(t, g, start, duration, off, out_q, out_p, q1, q2, tq, tp):  # type: ignore[no-untyped-def]
     """One body's gesture clip ``g`` (see :func:`gesture_kernel`); ``tq (4,)``, ``tp (3,)`` scratch."""
     rest_pose(out_q)
@@ -749,7 +750,7 @@ def gesture_kernel(t, kind, start, duration, offsets, out_q, out_p):  # type: ig
         gesture_row(t, kind[i], start[i], duration[i], offsets[i], out_q[i], out_p[i], q1, q2, tq, tp)
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def reach_row(active, target, thorax_q, thorax_p, off, in_q, out_q, q1, q2):  # type: ignore[no-untyped-def]
     """One body's reach over ``in`` (see :func:`reach_kernel`); ``active (2,)``, ``target (2, 3)``."""
     for j in range(in_q.shape[0]):
