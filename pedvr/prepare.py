@@ -52,6 +52,7 @@ Say = Callable[[str], None]
 
 PROGRESS_EVERY_S = 5.0  # at most one progress line this often while kernels compile
 TWIN_STEPS = 4  # steps with each twin pinned: a decision step is among them (30 Hz decisions at 90 Hz)
+PREPARE_STEPS = 4  # `pedvr prepare`'s steps: past a decision step and the 30 Hz subconscious-action tick
 # after which one step with every agent's shoulders turned (twin_steps)
 
 
@@ -160,16 +161,55 @@ def first_step(sim: Simulation, *, say: Say | None = stderr_say,
     """Run ``sim``'s first step, saying what is compiled while it runs (module docstring).
 
     ``sim`` must not have stepped yet (the phase shown is read from its per-phase times)."""
+    from pedvr import warmup
+
     watch = _CompileWatch(sim, say, clock=clock)
+    warmer = warmup.take()  # the body's kernels compiling in a second process (a cold cache)
+    restore: Callable[[], None] | None = None
+    if warmer is not None:
+        if say is not None:
+            say("preparing: the body layer's kernels compile in a second process meanwhile")
+        restore = _wait_before_posing(sim, warmer, say)
     t0 = clock()
-    with numba_event.install_listener("numba:compile", watch):
-        sim.step()
+    try:
+        with numba_event.install_listener("numba:compile", watch):
+            sim.step()
+    finally:
+        if warmer is not None:
+            assert restore is not None
+            restore()
+            warmer.stop()
     out = Prepared(step_s=clock() - t0, kernels_compiled=watch.compiled, compile_s=watch.compile_s,
                    phase_s={k: v / 1e3 for k, v in sim.metrics.phase_ms.items()})
     if say is not None and watch.compiled:
         say(f"preparing: {watch.compiled} kernels compiled in {watch.compile_s:.0f} s; "
             "the next run loads them from numba's cache")
     return out
+
+
+def _wait_before_posing(sim: Simulation, warmer: Any, say: Say | None) -> Callable[[], None]:
+    """The first step waits for the second process (:mod:`pedvr.warmup`) before it first poses the
+    bodies, so their kernels are loaded from numba's cache, not compiled a second time here.
+    Returns what puts ``compose`` back as it was (done by the first call, or after the step)."""
+    body = sim.body
+    own = vars(body).get("compose")  # an instance attribute already there, else the method is used
+    compose = body.compose
+
+    def restore() -> None:
+        if own is None:
+            vars(body).pop("compose", None)
+        else:
+            body.compose = own  # type: ignore[method-assign]
+
+    def first_compose(*args: Any, **kwargs: Any) -> None:
+        restore()
+        if say is not None and warmer.proc is not None and warmer.proc.poll() is None:
+            say("preparing: waiting for the body layer's kernels (compiling in a second process) ...")
+        warmer.wait()
+        compose(*args, **kwargs)
+
+    body.compose = first_compose  # type: ignore[method-assign]
+    return restore
 
 
 def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
