@@ -20,9 +20,6 @@ from collections.abc import Callable
 from typing import Any
 
 from pedvr.errors import BackendUnavailableError
-from pedvr.xr.session import FACTS_AFTER_FRAMES, RuntimeLostError, SessionLogic
-
-SETTLE_FRAMES = FACTS_AFTER_FRAMES  # focused frames with synced actions before the profiles are read
 
 
 def focused_facts(port: Any, *, timeout: float = 15.0,
@@ -32,11 +29,15 @@ def focused_facts(port: Any, *, timeout: float = 15.0,
     ``focused`` in the answer says whether the runtime reached FOCUSED within ``timeout`` s (without
     it the interaction profiles cannot be bound). Raises BackendUnavailableError (one line) when the
     runtime goes away meanwhile."""
+    # Imported here, not at the top: `pedvr --help` and `pedvr scene check` build this command's parser
+    # and must not pull in the session logic and the renderer's maths behind it.
+    from pedvr.xr.session import FACTS_AFTER_FRAMES, RuntimeLostError, SessionLogic
+
     logic = SessionLogic(port)
     deadline = clock() + timeout
     focused_frames = 0
     try:
-        while clock() < deadline and focused_frames < SETTLE_FRAMES:
+        while clock() < deadline and focused_frames < FACTS_AFTER_FRAMES:  # synced frames, then profiles
             for ev in port.poll_events():
                 logic.handle(ev)
             if logic.done:
