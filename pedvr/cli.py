@@ -301,8 +301,8 @@ def _prepare(args: argparse.Namespace) -> int:
         compiled += first_step(sim, say=stderr_say).kernels_compiled
         for _ in range(PREPARE_STEPS - 1):  # past the 30 Hz decisions and subconscious actions
             sim.step()
-        if args.view:
-            compiled += twin_steps(sim, say=stderr_say)[0]
+        # a headless run reaches the turned footprints' kernels too (someone squeezing past): always
+        compiled += twin_steps(sim, say=stderr_say, twins=args.view)[0]
     if args.view:
         stderr_say("preparing: the procedural character's mesh ...")
         from pedvr.render.bodymesh import procedural_character

@@ -213,9 +213,10 @@ def _wait_before_posing(sim: Simulation, warmer: Any, say: Say | None) -> Callab
 
 
 def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
-               clock: Callable[[], float] = time.perf_counter) -> tuple[int, float]:
+               clock: Callable[[], float] = time.perf_counter, twins: bool = True) -> tuple[int, float]:
     """:data:`TWIN_STEPS` steps with every parallel kernel's parallel twin, then as many with its
-    serial twin (:func:`pedvr.kernels.forcing`), then one step with every agent's shoulders
+    serial twin (:func:`pedvr.kernels.forcing`; not with ``twins=False``, as ``pedvr prepare``
+    without ``--view`` for a headless run), then one step with every agent's shoulders
     turned; return the kernels compiled and the seconds. ``sim`` is preparing's own and is
     thrown away after.
 
@@ -226,9 +227,10 @@ def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
     nobody sees makes them compile now."""
     from pedvr.kernels import forcing
 
-    watch = _CompileWatch(None, say, clock=clock, label="both twins of the parallel kernels")
+    label = "both twins of the parallel kernels" if twins else "turned shoulders"
+    watch = _CompileWatch(None, say, clock=clock, label=label)
     with numba_event.install_listener("numba:compile", watch):
-        for parallel in (True, False):
+        for parallel in (True, False) if twins else ():
             with forcing(parallel):
                 for _ in range(TWIN_STEPS):
                     sim.step()

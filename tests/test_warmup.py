@@ -99,3 +99,45 @@ def test_cli_prepare_says_what_it_prepares_and_bad_scenes_are_one_line(
     assert "preparing antipodal_circle (pedvr+g)" in err and "prepared antipodal_circle in" in err
     assert main(["prepare", "antipodal_circle", "nosuchscene"]) == 2
     assert capsys.readouterr().err.strip() == "pedvr: error: nosuchscene: no such scene file"
+
+
+_AFTER_PREPARE = """
+import importlib, pkgutil, sys
+from numba.core.registry import CPUDispatcher
+import pedvr
+from pedvr.cli import DEFAULT_SCENE, main
+from pedvr.headless import simulate
+from pedvr.scene.loader import load_any
+from pedvr.scenes import resolve_scene
+
+def signatures():
+    out = {}
+    for m in pkgutil.walk_packages(pedvr.__path__, "pedvr."):
+        if m.name.split(".")[1] in ("render", "xr", "study", "sweep") or m.name.endswith("__main__"):
+            continue
+        mod = importlib.import_module(m.name)
+        for name, v in vars(mod).items():
+            if isinstance(v, CPUDispatcher):
+                out[f"{mod.__name__}.{name}"] = {str(s) for s in v.signatures}
+    return out
+
+assert main(["prepare"]) == 0
+before = signatures()
+simulate(load_any(resolve_scene(DEFAULT_SCENE), seed=None), duration=None, seed=None, condition="pedvr+g",
+         responsibility=None, record=True)
+new = {k: sorted(v - before.get(k, set())) for k, v in signatures().items() if v - before.get(k, set())}
+print(sum(bool(v) for v in before.values()), new)
+"""
+
+
+def test_a_run_after_pedvr_prepare_needs_no_kernel_it_did_not_prepare() -> None:
+    """Issue 27 goal 2: the README's set-up runs ``pedvr prepare`` so that the first ``pedvr run``
+    loads every kernel from numba's cache. In a fresh process, after ``pedvr prepare``, the default
+    scene's whole run (as ``pedvr run`` steps it headless) adds no specialisation to any kernel of
+    the simulation's layers: none would compile during a run that follows a cold ``pedvr prepare``."""
+    res = subprocess.run([sys.executable, "-c", _AFTER_PREPARE], capture_output=True, text=True,
+                         timeout=1200, check=False, env={**os.environ, "PYTHONHASHSEED": "0"})
+    assert res.returncode == 0, res.stderr[-3000:]
+    prepared, new = res.stdout.strip().splitlines()[-1].split(" ", 1)
+    assert int(prepared) > 40  # the crowd's, the world's, the body's kernels were there before the run
+    assert new == "{}", new
