@@ -287,7 +287,7 @@ def _prepare(args: argparse.Namespace) -> int:
     """``pedvr prepare``: the first steps of each scene on a simulation thrown away after, the body's
     kernels compiling beside them in a second process when numba's cache is cold (issue 27)."""
     from pedvr import warmup
-    from pedvr.prepare import PREPARE_STEPS, first_step, stderr_say, twin_steps
+    from pedvr.prepare import PREPARE_STEPS, first_step, set_up, stderr_say, twin_steps
     from pedvr.scene.loader import load_any
     from pedvr.sim import Simulation
 
@@ -297,8 +297,8 @@ def _prepare(args: argparse.Namespace) -> int:
     warmup.start_if_cold()
     for scene in scenes:
         stderr_say(f"preparing {scene.name} ({args.condition}) ...")
-        sim = Simulation(scene, condition=args.condition)
-        compiled += first_step(sim, say=stderr_say).kernels_compiled
+        sim, n = set_up(lambda s=scene: Simulation(s, condition=args.condition), say=stderr_say)
+        compiled += n + first_step(sim, say=stderr_say, intro=not n).kernels_compiled
         for _ in range(PREPARE_STEPS - 1):  # past the 30 Hz decisions and subconscious actions
             sim.step()
         # a headless run reaches the turned footprints' kernels too (someone squeezing past): always

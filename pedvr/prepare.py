@@ -92,9 +92,10 @@ class _CompileWatch(numba_event.Listener):  # type: ignore[misc]
     compiled for them are part of their compile time) and says which, at most every few seconds."""
 
     def __init__(self, sim: Simulation | None, say: Say | None, *, clock: Callable[[], float],
-                 label: str | None = None) -> None:
+                 label: str | None = None, intro: bool = True) -> None:
         self.sim = sim
         self.label = label
+        self.intro = intro  # say once what is happening (False: an earlier watch of this run said it)
         self.names: list[str] = []
         self.say = say
         self.clock = clock
@@ -122,7 +123,7 @@ class _CompileWatch(numba_event.Listener):  # type: ignore[misc]
         if self.say is None:
             return
         phase = self.phase()
-        if self._phase_said is None:
+        if self._phase_said is None and self.intro:
             self.say("preparing: numba is compiling pedvr's kernels (the first run after an install or "
                      "upgrade; they are cached for later runs) ...")
         if phase != self._phase_said:
@@ -156,14 +157,29 @@ def _kernel_name(event: Any) -> str:
     return f"{func.__module__}.{func.__qualname__}"
 
 
+def set_up(make_sim: Callable[[], Simulation], *, say: Say | None = stderr_say,
+           clock: Callable[[], float] = time.perf_counter) -> tuple[Simulation, int]:
+    """``make_sim()``, saying what numba compiles while it runs (issue 27 goal 2: building the
+    default scene compiles the world's kernels, the navigation mesh's and the visibility's, 22 s
+    of a cold run at load 5, and said nothing). Returns the simulation and the kernels compiled;
+    silent when the cache answers. Pass ``intro=not compiled`` to the :func:`first_step` after."""
+    watch = _CompileWatch(None, say, clock=clock, label="scene set-up")
+    with numba_event.install_listener("numba:compile", watch):
+        sim = make_sim()
+    if say is not None and watch.compiled:
+        say(f"preparing: scene set-up: {watch.compiled} kernels compiled in {watch.compile_s:.0f} s")
+    return sim, watch.compiled
+
+
 def first_step(sim: Simulation, *, say: Say | None = stderr_say,
-               clock: Callable[[], float] = time.perf_counter) -> Prepared:
+               clock: Callable[[], float] = time.perf_counter, intro: bool = True) -> Prepared:
     """Run ``sim``'s first step, saying what is compiled while it runs (module docstring).
 
-    ``sim`` must not have stepped yet (the phase shown is read from its per-phase times)."""
+    ``sim`` must not have stepped yet (the phase shown is read from its per-phase times).
+    ``intro=False``: the run already said that numba is compiling (:func:`set_up`)."""
     from pedvr import warmup
 
-    watch = _CompileWatch(sim, say, clock=clock)
+    watch = _CompileWatch(sim, say, clock=clock, intro=intro)
     warmer = warmup.take()  # the body's kernels compiling in a second process (a cold cache)
     restore: Callable[[], None] | None = None
     if warmer is not None:
