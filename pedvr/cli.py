@@ -21,6 +21,7 @@ exit code, never a traceback.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import os
@@ -297,7 +298,7 @@ def _prepare(args: argparse.Namespace) -> int:
     warmup.start_if_cold()
     for scene in scenes:
         stderr_say(f"preparing {scene.name} ({args.condition}) ...")
-        sim, n = set_up(lambda s=scene: Simulation(s, condition=args.condition), say=stderr_say)
+        sim, n = set_up(functools.partial(Simulation, scene, condition=args.condition), say=stderr_say)
         compiled += n + first_step(sim, say=stderr_say, intro=not n).kernels_compiled
         for _ in range(PREPARE_STEPS - 1):  # past the 30 Hz decisions and subconscious actions
             sim.step()
