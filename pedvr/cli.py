@@ -314,7 +314,7 @@ def _prepare(args: argparse.Namespace) -> int:
     return 0
 
 
-def _interrupted_code(interrupted: bool | str) -> int:
+def _interrupted_code(interrupted: object) -> int:
     """A run ended early (its outputs written) exits as the signal that ended it would, 128 + its
     number, as ``pedvr study run`` does: a script that runs ``pedvr run ... && next`` stops
     there. 0 for a run that went its whole duration."""
