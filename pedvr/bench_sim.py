@@ -16,6 +16,16 @@ PedVR gaze rule, timed inside ``decide``) and the renderer's bone matrices
 (``joint_matrices_ms_mean``, not part of the step). ``step_cpu_ms_mean`` and ``body_cpu_ms_mean``
 are this process's CPU time (all its threads) per step and in the body layer: on a shared machine
 they tell what the work costs when the wall times mostly tell how long it waited for a core.
+
+``--vs rvo2`` (issue 27) also steps RVO2 (pyrvo, :func:`pedvr.crowd.bench.rvo2_simulator`) on the
+same crowd in the same loop: after each timed ``Simulation.step()``, RVO2's agents are set to the
+crowd's positions, velocities and preferred velocities (untimed), with the scene's ORCA parameters,
+each agent's radius and maximum speed, and the plaza's walls and pillars as RVO2 obstacles (the
+outline pedvr's ORCA sees); then RVO2's ``do_step`` is timed (:func:`pedvr.crowd.bench.rvo2_step`:
+its k-d trees, neighbours, ORCA, position update; steering only, no bodies). RVO2's result is thrown
+away, so each step it steers exactly the crowd pedvr steers. Reported: ``rvo2_step_ms_p50`` / ``p95``
+/ ``mean``, ``rvo2_cpu_ms_mean`` and the ratios of pedvr's whole step to it (``ratio_p50``,
+``ratio_mean``, ``ratio_cpu``), with ``p95_over_p50`` for pedvr's step.
 """
 
 from __future__ import annotations
@@ -30,13 +40,17 @@ import numba
 import numpy as np
 
 from pedvr.benchload import check_load, cpu_load
+from pedvr.crowd.bench import rvo2_simulator, rvo2_step
 from pedvr.errors import UsageError
 from pedvr.scene.config import SceneConfig
 from pedvr.scene.loader import parse_scene
 from pedvr.sim import PHASES, Simulation
+from pedvr.world.geometry import rvo_rings, walkable_area
 
 DENSITY = 0.2  # agents per m² of the plaza
 MIN_SIDE = 16.0  # m
+PEERS = ("rvo2",)
+RVO2_WARMUP = 3  # RVO2 steps before the timed ones (its first builds the obstacle tree's caches)
 
 
 def plaza_scene(agents: int, *, seed: int = 0) -> SceneConfig:
@@ -83,10 +97,42 @@ class _Timer:
             self.cpu += time.process_time() - c0
 
 
+class _Rvo2Mirror:
+    """RVO2 on the simulation's crowd (see the module doc): :meth:`step` sets it to the crowd and
+    times one RVO2 step."""
+
+    def __init__(self, sim: Simulation) -> None:
+        c = sim.crowd
+        self.sim = sim
+        self.rvo = rvo2_simulator(sim.scene.steering, sim.dt, c.pos, c.radius, c.max_speed,
+                                  rvo_rings(walkable_area(sim.scene.world)))
+        self.ms: list[float] = []
+        self.cpu = 0.0
+        for _ in range(RVO2_WARMUP):
+            self.step()
+        self.ms.clear()
+        self.cpu = 0.0
+
+    def step(self) -> None:
+        c, rvo = self.sim.crowd, self.rvo
+        if len(c) != rvo.get_num_agents():  # the plaza has no sources or sinks
+            raise RuntimeError(f"the crowd has {len(c)} agents, RVO2 {rvo.get_num_agents()}")
+        pos, vel = c.pos.tolist(), c.vel.tolist()
+        for i in range(len(c)):
+            rvo.set_agent_position(i, tuple(pos[i]))
+            rvo.set_agent_velocity(i, tuple(vel[i]))
+        core, _, cpu = rvo2_step(rvo, c.pref_vel)
+        self.ms.append(1e3 * core)
+        self.cpu += cpu
+
+
 def run_sim_bench(agents: int, *, steps: int = 450, warmup: int = 180, load: int = 0,
-                  seed: int = 0) -> dict[str, object]:
-    """Time ``steps`` whole simulation steps of the plaza; returns a JSON-able dict (ms)."""
+                  seed: int = 0, vs: str | None = None) -> dict[str, object]:
+    """Time ``steps`` whole simulation steps of the plaza; returns a JSON-able dict (ms).
+    ``vs="rvo2"``: RVO2 steers the same crowd in the same loop (module doc)."""
     check_load(load)
+    if vs is not None and vs not in PEERS:
+        raise UsageError(f"--vs {vs!r}: expected one of {', '.join(PEERS)}")
     for name, v, lo in (("--steps", steps, 1), ("--warmup", warmup, 0)):
         if isinstance(v, bool) or not isinstance(v, int) or v < lo:
             raise UsageError(f"{name} {v!r}: expected a whole number >= {lo}")
@@ -102,6 +148,7 @@ def run_sim_bench(agents: int, *, steps: int = 450, warmup: int = 180, load: int
     sim.body.gaze_rule = gaze  # type: ignore[method-assign]
     for _ in range(warmup):
         sim.step()
+    peer = _Rvo2Mirror(sim) if vs == "rvo2" else None
     n_before = len(sim.metrics.step_ms)
     phases_before = dict(sim.metrics.phase_ms)
     for tm in (contact, gaze, *body_parts):
@@ -121,16 +168,32 @@ def run_sim_bench(agents: int, *, steps: int = 450, warmup: int = 180, load: int
             m0 = time.perf_counter()
             sim.body.joint_matrices(mats)
             mat_total += time.perf_counter() - m0
+            if peer is not None:
+                peer.step()
     ms = np.asarray(sim.metrics.step_ms[n_before:])
     phase = {k: round((sim.metrics.phase_ms.get(k, 0.0) - phases_before.get(k, 0.0)) / steps, 4)
              for k in PHASES}
     summary = sim.summary()
+    p50 = float(np.percentile(ms, 50))
+    versus: dict[str, object] = {}
+    if peer is not None:
+        rv = np.asarray(peer.ms)
+        rv50 = float(np.percentile(rv, 50))
+        versus = {
+            "vs": vs, "rvo2_step_ms_p50": round(rv50, 4),
+            "rvo2_step_ms_p95": round(float(np.percentile(rv, 95)), 4),
+            "rvo2_step_ms_mean": round(float(rv.mean()), 4),
+            "rvo2_cpu_ms_mean": round(1e3 * peer.cpu / steps, 4),
+            "ratio_p50": round(p50 / rv50, 3), "ratio_mean": round(float(ms.mean() / rv.mean()), 3),
+            "ratio_cpu": round(cpu / peer.cpu, 3) if peer.cpu > 0 else None,
+        }
     return {
         "bench": "sim", "scene": scene.name, "agents": agents, "condition": "pedvr+g", "steps": steps,
         "warmup": warmup, "dt": sim.dt, "setup_s": round(setup_s, 3),
-        "step_ms_p50": round(float(np.percentile(ms, 50)), 4),
+        "step_ms_p50": round(p50, 4),
         "step_ms_p95": round(float(np.percentile(ms, 95)), 4),
         "step_ms_mean": round(float(ms.mean()), 4),
+        "p95_over_p50": round(float(np.percentile(ms, 95)) / p50, 3),
         "step_cpu_ms_mean": round(1e3 * cpu / steps, 4),
         "phase_ms_mean": phase,
         "contact_ms_mean": round(1e3 * contact.total / steps, 4),
@@ -140,6 +203,7 @@ def run_sim_bench(agents: int, *, steps: int = 450, warmup: int = 180, load: int
         "gaze_rule_ms_mean": round(1e3 * gaze.total / steps, 4),
         "joint_matrices_ms_mean": round(1e3 * mat_total / steps, 4),
         "foot_skate_max_m": summary["foot_skate_max_m"], "overlaps_over_1cm": summary["overlaps_over_1cm"],
+        **versus,
         **running.describe(),
         "threads": numba.get_num_threads(), "threading_layer": _threading_layer(),
         "machine": platform.machine(), "python": platform.python_version(), "numba": numba.__version__,

@@ -1,6 +1,7 @@
 """The ``pedvr`` command line.
 
 ``pedvr run [SCENE]``          run a scene (default: antipodal_circle)
+``pedvr prepare [SCENE...]``   compile what a run needs into numba's cache first (the README's set-up)
 ``pedvr scene check FILE...``  validate scene files; exit 2 on problems; warnings (bodies that
                                start overlapping, :mod:`pedvr.scene.checks`) are printed, exit 0
 ``pedvr scene list``           the shipped scenes
@@ -8,7 +9,8 @@
 ``pedvr bench behavior``       behavior scheduler tick time (trees, events)
 ``pedvr bench place``          PLACE planning time per demonstration; step times with and without
 ``pedvr sweep SPEC.toml``      many headless runs on Dask (:mod:`pedvr.sweep`)
-``pedvr bench sim``            a whole simulation step with full bodies (``--load K`` beside it)
+``pedvr bench sim``            a whole simulation step with full bodies (``--load K`` beside it,
+                               ``--vs rvo2``: RVO2 steering the same crowd in the same loop)
 ``pedvr bench doors``          a whole step of the 4-door building with door etiquette (16 and 64)
 ``pedvr xr check``             the OpenXR runtime and headset: what a lab's methods section needs
 
@@ -19,6 +21,7 @@ exit code, never a traceback.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import os
@@ -164,6 +167,18 @@ def build_parser() -> argparse.ArgumentParser:
                      help="condition label the HUD shows (blind studies: never the condition's name)")
     run.add_argument("--no-vsync", action="store_true", help="desktop: do not wait for the vertical blank")
 
+    prep = sub.add_parser("prepare", help="compile what a run needs now, so the run starts at once",
+                          description="Compile numba's kernels for the first steps of a scene (the default "
+                                      "scene if none is named) into numba's cache, saying what it prepares: "
+                                      "the first `pedvr run` after an install then starts at once. The "
+                                      "README's set-up command runs it.")
+    prep.add_argument("scenes", nargs="*", metavar="SCENE",
+                      help=f"scenes to prepare (default: {DEFAULT_SCENE})")
+    prep.add_argument("--condition", default="pedvr+g", choices=CONDITIONS,
+                      help="the condition stepped (default: %(default)s, every phase of the step)")
+    prep.add_argument("--view", action="store_true",
+                      help="also what a headset, desktop or --frames run prepares before its first frame: "
+                           "both twins of the parallel kernels and the procedural character's mesh")
     scene = sub.add_parser("scene", help="scene files (check, list)")
     ssub = scene.add_subparsers(dest="scene_command", required=True, parser_class=_Parser, metavar="ACTION")
     check = ssub.add_parser("check", help="validate scene files",
@@ -202,6 +217,8 @@ def build_parser() -> argparse.ArgumentParser:
     sb.add_argument("--warmup", type=int, default=180, help="untimed steps first (default: %(default)s)")
     sb.add_argument("--load", type=int, action="append", default=None, metavar="K",
                     help="busy processes beside the timed steps (repeatable: one run per value; default 0)")
+    sb.add_argument("--vs", choices=("rvo2",), default=None,
+                    help="also step RVO2 (pyrvo) on the same crowd in the same loop, steering only")
     sb.add_argument("--json", action="store_true")
     dr = bsub.add_parser("doors", help="a whole step of the 4-door building with door etiquette, full bodies")
     dr.add_argument("--agents", type=_positive(int), action="append", default=None,
@@ -239,6 +256,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _run(args)
         if args.command == "scene":
             return _scene(args)
+        if args.command == "prepare":
+            return _prepare(args)
         if args.command == "study":
             from pedvr.study.cli import run_study_command
 
@@ -263,6 +282,36 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("pedvr: interrupted", file=sys.stderr)
         return 130
+
+
+def _prepare(args: argparse.Namespace) -> int:
+    """``pedvr prepare``: the first steps of each scene on a simulation thrown away after, the body's
+    kernels compiling beside them in a second process when numba's cache is cold (issue 27)."""
+    from pedvr import warmup
+    from pedvr.prepare import PREPARE_STEPS, first_step, set_up, stderr_say, twin_steps
+    from pedvr.scene.loader import load_any
+    from pedvr.sim import Simulation
+
+    scenes = [load_any(resolve_scene(name), seed=None) for name in args.scenes or [DEFAULT_SCENE]]
+    t0 = time.perf_counter()
+    compiled = 0
+    warmup.start_if_cold()
+    for scene in scenes:
+        stderr_say(f"preparing {scene.name} ({args.condition}) ...")
+        sim, n = set_up(functools.partial(Simulation, scene, condition=args.condition), say=stderr_say)
+        compiled += n + first_step(sim, say=stderr_say, intro=not n).kernels_compiled
+        for _ in range(PREPARE_STEPS - 1):  # past the 30 Hz decisions and subconscious actions
+            sim.step()
+        # a headless run reaches the turned footprints' kernels too (someone squeezing past): always
+        compiled += twin_steps(sim, say=stderr_say, twins=args.view)[0]
+    if args.view:
+        stderr_say("preparing: the procedural character's mesh ...")
+        from pedvr.render.bodymesh import procedural_character
+
+        procedural_character()
+    stderr_say(f"prepared {', '.join(s.name for s in scenes)} in {time.perf_counter() - t0:.1f} s "
+               f"({compiled} kernels compiled); runs now load them from numba's cache")
+    return 0
 
 
 def _interrupted_code(interrupted: object) -> int:
@@ -294,7 +343,10 @@ def _run(args: argparse.Namespace) -> int:
     path = resolve_scene(args.scene)
     scene = load_any(path, seed=args.seed)
     print(why)
+    from pedvr import warmup
     from pedvr.xr.run import ViewOptions
+
+    warmup.start_if_cold()  # a cold numba cache: the body's kernels compile beside the set-up (issue 27)
 
     while True:
         desk = backend == "desktop"
@@ -439,7 +491,7 @@ def _bench(args: argparse.Namespace) -> int:
     if args.bench_command == "sim":
         from pedvr.bench_sim import run_sim_bench
 
-        _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=k)
+        _print_results([run_sim_bench(n, steps=args.steps, warmup=args.warmup, load=k, vs=args.vs)
                         for n in args.agents or [100, 1000] for k in args.load or [0]], args.json)
         return 0
     if args.bench_command == "doors":

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 from tqdm import tqdm
 
 from pedvr.outputs import interrupted_by, save_recording, signals_interrupt, write_outputs
-from pedvr.prepare import first_step, stderr_say
+from pedvr.prepare import first_step, set_up, stderr_say
 from pedvr.scene.config import SceneConfig
 from pedvr.sim import Simulation
 
@@ -104,10 +104,12 @@ def simulate(
     """
     duration = scene.duration if duration is None else duration
     t0 = time.perf_counter()
-    sim = Simulation(scene, seed=seed, condition=condition, responsibility=responsibility, record=record,
-                     personal_space=personal_space, user_walk=user_walk)
+    say = stderr_say if progress else None
+    sim, compiled = set_up(
+        lambda: Simulation(scene, seed=seed, condition=condition, responsibility=responsibility,
+                           record=record, personal_space=personal_space, user_walk=user_walk), say=say)
     first = time.perf_counter()
-    first_step(sim, say=stderr_say if progress else None)
+    first_step(sim, say=say, intro=not compiled)
     first_step_s = time.perf_counter() - first
     steps = max(0, math.ceil(duration / sim.dt - 1e-9) - 1)
     bar = tqdm(

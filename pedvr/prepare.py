@@ -52,6 +52,7 @@ Say = Callable[[str], None]
 
 PROGRESS_EVERY_S = 5.0  # at most one progress line this often while kernels compile
 TWIN_STEPS = 4  # steps with each twin pinned: a decision step is among them (30 Hz decisions at 90 Hz)
+PREPARE_STEPS = 4  # `pedvr prepare`'s steps: past a decision step and the 30 Hz subconscious-action tick
 # after which one step with every agent's shoulders turned (twin_steps)
 
 
@@ -91,9 +92,10 @@ class _CompileWatch(numba_event.Listener):  # type: ignore[misc]
     compiled for them are part of their compile time) and says which, at most every few seconds."""
 
     def __init__(self, sim: Simulation | None, say: Say | None, *, clock: Callable[[], float],
-                 label: str | None = None) -> None:
+                 label: str | None = None, intro: bool = True) -> None:
         self.sim = sim
         self.label = label
+        self.intro = intro  # say once what is happening (False: an earlier watch of this run said it)
         self.names: list[str] = []
         self.say = say
         self.clock = clock
@@ -121,7 +123,7 @@ class _CompileWatch(numba_event.Listener):  # type: ignore[misc]
         if self.say is None:
             return
         phase = self.phase()
-        if self._phase_said is None:
+        if self._phase_said is None and self.intro:
             self.say("preparing: numba is compiling pedvr's kernels (the first run after an install or "
                      "upgrade; they are cached for later runs) ...")
         if phase != self._phase_said:
@@ -155,15 +157,44 @@ def _kernel_name(event: Any) -> str:
     return f"{func.__module__}.{func.__qualname__}"
 
 
+def set_up(make_sim: Callable[[], Simulation], *, say: Say | None = stderr_say,
+           clock: Callable[[], float] = time.perf_counter) -> tuple[Simulation, int]:
+    """``make_sim()``, saying what numba compiles while it runs (issue 27 goal 2: building the
+    default scene compiles the world's kernels, the navigation mesh's and the visibility's, 22 s
+    of a cold run at load 5, and said nothing). Returns the simulation and the kernels compiled;
+    silent when the cache answers. Pass ``intro=not compiled`` to the :func:`first_step` after."""
+    watch = _CompileWatch(None, say, clock=clock, label="scene set-up")
+    with numba_event.install_listener("numba:compile", watch):
+        sim = make_sim()
+    if say is not None and watch.compiled:
+        say(f"preparing: scene set-up: {watch.compiled} kernels compiled in {watch.compile_s:.0f} s")
+    return sim, watch.compiled
+
+
 def first_step(sim: Simulation, *, say: Say | None = stderr_say,
-               clock: Callable[[], float] = time.perf_counter) -> Prepared:
+               clock: Callable[[], float] = time.perf_counter, intro: bool = True) -> Prepared:
     """Run ``sim``'s first step, saying what is compiled while it runs (module docstring).
 
-    ``sim`` must not have stepped yet (the phase shown is read from its per-phase times)."""
-    watch = _CompileWatch(sim, say, clock=clock)
+    ``sim`` must not have stepped yet (the phase shown is read from its per-phase times).
+    ``intro=False``: the run already said that numba is compiling (:func:`set_up`)."""
+    from pedvr import warmup
+
+    watch = _CompileWatch(sim, say, clock=clock, intro=intro)
+    warmer = warmup.take()  # the body's kernels compiling in a second process (a cold cache)
+    restore: Callable[[], None] | None = None
+    if warmer is not None:
+        if say is not None:
+            say("preparing: the body layer's kernels compile in a second process meanwhile")
+        restore = _wait_before_posing(sim, warmer, say)
     t0 = clock()
-    with numba_event.install_listener("numba:compile", watch):
-        sim.step()
+    try:
+        with numba_event.install_listener("numba:compile", watch):
+            sim.step()
+    finally:
+        if warmer is not None:
+            assert restore is not None
+            restore()
+            warmer.stop()
     out = Prepared(step_s=clock() - t0, kernels_compiled=watch.compiled, compile_s=watch.compile_s,
                    phase_s={k: v / 1e3 for k, v in sim.metrics.phase_ms.items()})
     if say is not None and watch.compiled:
@@ -172,10 +203,36 @@ def first_step(sim: Simulation, *, say: Say | None = stderr_say,
     return out
 
 
+def _wait_before_posing(sim: Simulation, warmer: Any, say: Say | None) -> Callable[[], None]:
+    """The first step waits for the second process (:mod:`pedvr.warmup`) before it first poses the
+    bodies, so their kernels are loaded from numba's cache, not compiled a second time here.
+    Returns what puts ``compose`` back as it was (done by the first call, or after the step)."""
+    body = sim.body
+    own = vars(body).get("compose")  # an instance attribute already there, else the method is used
+    compose = body.compose
+
+    def restore() -> None:
+        if own is None:
+            vars(body).pop("compose", None)
+        else:
+            body.compose = own  # type: ignore[method-assign]
+
+    def first_compose(*args: Any, **kwargs: Any) -> None:
+        restore()
+        if say is not None and warmer.proc is not None and warmer.proc.poll() is None:
+            say("preparing: waiting for the body layer's kernels (compiling in a second process) ...")
+        warmer.wait()
+        compose(*args, **kwargs)
+
+    body.compose = first_compose  # type: ignore[method-assign]
+    return restore
+
+
 def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
-               clock: Callable[[], float] = time.perf_counter) -> tuple[int, float]:
+               clock: Callable[[], float] = time.perf_counter, twins: bool = True) -> tuple[int, float]:
     """:data:`TWIN_STEPS` steps with every parallel kernel's parallel twin, then as many with its
-    serial twin (:func:`pedvr.kernels.forcing`), then one step with every agent's shoulders
+    serial twin (:func:`pedvr.kernels.forcing`; not with ``twins=False``, as ``pedvr prepare``
+    without ``--view`` for a headless run), then one step with every agent's shoulders
     turned; return the kernels compiled and the seconds. ``sim`` is preparing's own and is
     thrown away after.
 
@@ -186,9 +243,10 @@ def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
     nobody sees makes them compile now."""
     from pedvr.kernels import forcing
 
-    watch = _CompileWatch(None, say, clock=clock, label="both twins of the parallel kernels")
+    label = "both twins of the parallel kernels" if twins else "turned shoulders"
+    watch = _CompileWatch(None, say, clock=clock, label=label)
     with numba_event.install_listener("numba:compile", watch):
-        for parallel in (True, False):
+        for parallel in (True, False) if twins else ():
             with forcing(parallel):
                 for _ in range(TWIN_STEPS):
                     sim.step()

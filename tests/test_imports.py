@@ -28,7 +28,7 @@ RANK = {
     "body": 3, "crowd": 3,
     "behavior": 4, "etiquette": 4, "demonstrator": 4,
     "sim": 5, "record": 5, "inflow": 5,
-    "render": 6, "measure": 6, "prepare": 6, "outputs": 6,
+    "render": 6, "measure": 6, "prepare": 6, "warmup": 6, "outputs": 6,
     "xr": 7, "study": 7, "headless": 7,
     "sweep": 8, "bench_sim": 8, "benchload": 8,
     "cli": 9, "__main__": 9,

@@ -126,3 +126,33 @@ def test_preparing_reaches_the_turned_footprint_kernels() -> None:
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["0", "1"]  # not compiled (or loaded) before preparing; ready after
+
+
+def test_scene_set_up_says_what_numba_compiles_and_the_first_step_does_not_repeat_the_intro() -> None:
+    """Issue 27 goal 2: building the scene compiles the world's kernels (22 s of a cold default run
+    at load 5) and said nothing; :func:`set_up` says it, and the first step after it does not say
+    again that numba is compiling. A warm set-up says nothing."""
+    from pedvr.prepare import set_up
+
+    def nav_mesh(x):  # type: ignore[no-untyped-def]
+        return x + 1.0
+
+    kernel = njit(cache=False)(nav_mesh)  # never compiled: as on a fresh install
+
+    def make() -> CompilingSim:
+        kernel(np.ones(2))
+        return CompilingSim()
+
+    lines: list[str] = []
+    sim, n = set_up(make, say=lines.append)  # type: ignore[arg-type]
+    assert n == 1 and isinstance(sim, CompilingSim)
+    assert lines[0].startswith("preparing: numba is compiling pedvr's kernels")
+    assert lines[1] == "preparing: scene set-up: compiling ..."
+    assert "nav_mesh" in lines[2] and lines[-1].startswith("preparing: scene set-up: 1 kernels compiled in")
+    said = len(lines)
+    first_step(sim, say=lines.append, intro=not n)  # type: ignore[arg-type]
+    after = lines[said:]
+    assert after[0] == "preparing: step phase 'avoid': compiling ..."
+    assert not any(line.startswith("preparing: numba is compiling") for line in after)
+    quiet: list[str] = []
+    assert set_up(CompilingSim, say=quiet.append)[1] == 0 and quiet == []  # type: ignore[arg-type]

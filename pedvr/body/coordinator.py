@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
@@ -169,3 +170,46 @@ class Coordinator:
                 raise ValueError(f"{name}: per-agent joint masks are only for choreographers that "
                                  "leave the pelvis")
             ps.blend_rows_kernel(pose_q, shadow_q, w, np.ascontiguousarray(joints & c.mask[None, :]))
+
+
+@njit(cache=True)
+def step_weights_kernel(t, dt, smoothing, vel_s, sitting, carrying, g_kind, g_start, g_dur, run_kind,
+                        is_arm_action, reach_on, running_speed, walk_speed, cols, msgs, weights, targets,
+                        messages, running, kind, idle_w):  # type: ignore[no-untyped-def]
+    """The default choreographers' per-step inputs to the pose graph, one pass over the bodies
+    (:meth:`pedvr.body.model.FullBody._pose`; numpy's arithmetic in its order, so the same bytes).
+
+    Messages (all cleared first): ``running`` above ``running_speed``, ``walking`` above
+    ``walk_speed`` and not running, ``sitting`` (``msgs``: their columns). Targets (``cols``: the
+    sitting, gesture and reach weight columns): sitting is the posture; a gesture's envelope (0.4 s
+    ramps) while its clip plays and the body carries nothing; reach while an arm is on a point, on
+    something carried or in a subconscious arm action (``is_arm_action`` by action kind). Then
+    every weight moves toward its target by at most ``dt / smoothing``. Outputs: ``running (N,)``,
+    ``kind (N,)`` the clip that plays or fades (0 none), ``idle_w (N,)`` the idle noise's
+    strength (full at rest, none from 0.3 m/s or seated)."""
+    step = dt / max(smoothing, 1e-9)
+    c_sit, c_gesture, c_reach = cols[0], cols[1], cols[2]
+    for i in range(weights.shape[0]):
+        speed = np.sqrt(vel_s[i, 0] ** 2 + vel_s[i, 1] ** 2)
+        run = speed > running_speed
+        running[i] = run
+        for m in range(messages.shape[1]):
+            messages[i, m] = False
+        messages[i, msgs[0]] = run
+        messages[i, msgs[1]] = (speed > walk_speed) and not run
+        messages[i, msgs[2]] = sitting[i]
+        targets[i, c_sit] = 1.0 if sitting[i] else 0.0
+        held = carrying[i] != 0
+        active = g_kind[i] > 0 and t < g_start[i] + g_dur[i] and not held
+        env = min(max(min(t - g_start[i], g_start[i] + g_dur[i] - t) / 0.4, 0.0), 1.0)
+        targets[i, c_gesture] = env if active else 0.0
+        arm = False
+        for s in range(run_kind.shape[1]):
+            k = run_kind[i, s]
+            if k >= 0 and is_arm_action[k]:
+                arm = True
+        targets[i, c_reach] = 1.0 if (reach_on[i, 0] or reach_on[i, 1] or held or arm) else 0.0
+        for c in range(weights.shape[1]):
+            weights[i, c] += min(max(targets[i, c] - weights[i, c], -step), step)
+        kind[i] = g_kind[i] if (active or weights[i, c_gesture] > 0.0) else 0
+        idle_w[i] = min(max(1.0 - speed / 0.3, 0.0), 1.0) * (0.0 if sitting[i] else 1.0)

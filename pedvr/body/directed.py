@@ -64,6 +64,7 @@ class HeadCaps:
 
     def __init__(self) -> None:
         self.caps: dict[int, float] = {}
+        self._uncapped: tuple[np.ndarray, np.ndarray] | None = None  # (base, table) without caps
 
     def set(self, agent: int, yaw: float | None) -> None:
         if yaw is None:
@@ -83,8 +84,15 @@ class HeadCaps:
 
     def table(self, ids: np.ndarray, base: np.ndarray) -> np.ndarray:
         """``(N, 5)`` yaw limits per row for the pose graph: ``base`` everywhere, :meth:`limits` where
-        an agent's gaze is capped."""
+        an agent's gaze is capped. Without caps the same table serves every step while the crowd's
+        size and ``base`` (the same array) stay the same: callers only read it."""
+        if not self.caps:
+            last = self._uncapped
+            if last is not None and last[0] is base and last[1].shape[0] == len(ids):
+                return last[1]
         out = np.tile(np.asarray(base, np.float64), (len(ids), 1))
+        if not self.caps:
+            self._uncapped = (base, out)
         if self.caps:
             rows, caps = self.rows(ids)
             for r, cap in zip(rows.tolist(), caps.tolist(), strict=True):

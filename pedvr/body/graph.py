@@ -106,6 +106,24 @@ def gaze_targets_kernel(t, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head
             out[i, 2] = np.nan
 
 
+@njit(cache=True)
+def heads_kernel(world_pos, root, offsets, dims, out, fresh):  # type: ignore[no-untyped-def]
+    """Head positions after the last frame, ``out (N, 3)``; ``fresh (N,)`` where no forward kinematics
+    has run yet (the head at the origin), whose heads stand at the standing head height above the root."""
+    for i in range(out.shape[0]):
+        x, y, z = world_pos[i, sk.HEAD, 0], world_pos[i, sk.HEAD, 1], world_pos[i, sk.HEAD, 2]
+        new = x == 0.0 and y == 0.0 and z == 0.0
+        fresh[i] = new
+        if new:
+            out[i, 0] = root[i, 0]
+            out[i, 1] = offsets[i, sk.PELVIS, 1] + 0.62 * dims[i, 3]
+            out[i, 2] = root[i, 1]
+        else:
+            out[i, 0] = x
+            out[i, 1] = y
+            out[i, 2] = z
+
+
 @njit(cache=True, fastmath=FASTMATH, inline="always")
 def turn_shoulders(pose_q, turn):  # type: ignore[no-untyped-def]
     """Turn the upper torso by ``turn`` rad about the vertical relative to the pelvis (a body squeezing
@@ -208,9 +226,9 @@ def _reach_needed(i, run_kind, run_mask, reach_on, arm_goals):  # type: ignore[n
 
 @row_njit(fastmath=FASTMATH)
 def _reach_node(i, t, w, mask, run_kind, run_mask, reach_on, reach_pt, arm_goals, scale, seed, parents,
-                offsets, root, yaw, pq, pp, sq, sp, wp, wq, active, target, q1, q2):  # type: ignore[no-untyped-def]
+                off, root, yaw, pq, pp, sq, sp, wp, wq, active, target, q1, q2):  # type: ignore[no-untyped-def]
     # the thorax and the head where the blend has put them so far
-    fk_row(parents, offsets[i], pq, root[i, 0], 0.0, root[i, 1], yaw, pp, wp, wq, sk.HEAD + 1)
+    fk_row(parents, off, pq, root[i, 0], 0.0, root[i, 1], yaw, pp, wp, wq, sk.HEAD + 1)
     for side in range(2):
         active[side] = reach_on[i, side]
         for k in range(3):
@@ -220,12 +238,12 @@ def _reach_node(i, t, w, mask, run_kind, run_mask, reach_on, reach_pt, arm_goals
             if a >= 0:
                 _arm_goal(i, a, side, t, scale, seed, arm_goals, wp, wq, target[side])
                 active[side] = True
-    ps.reach_row(active, target, wq[sk.SPINE3], wp[sk.SPINE3], offsets[i], pq, sq, q1, q2)
+    ps.reach_row(active, target, wq[sk.SPINE3], wp[sk.SPINE3], off, pq, sq, q1, q2)
     ps.blend_row(pq, pp, sq, sp, w, mask, False)
 
 
 @row_njit(fastmath=FASTMATH)
-def _arms_again(i, yaw, parents, offsets, root, pq, pp, wp, wq, active, target, q1, q2):  # type: ignore[no-untyped-def]
+def _arms_again(i, yaw, parents, off, root, pq, pp, wp, wq, active, target, q1, q2):  # type: ignore[no-untyped-def]
     """Solve the reaching arms again on the thorax where the legs' IK has just put it.
 
     The reach node solves the arms before the legs' IK sets the pelvis height, so where the knees
@@ -233,16 +251,16 @@ def _arms_again(i, yaw, parents, offsets, root, pq, pp, wp, wq, active, target, 
     pelvis dropped (up to 6 cm, a pram pusher in ``door_assist``). Solved again here, in the
     untwisted frame (the shoulders turn after this, taking the arms with the chest), the hands
     stay on their targets. Only a full-weight reach is solved again: a fading one blends."""
-    fk_row(parents, offsets[i], pq, root[i, 0], 0.0, root[i, 1], yaw, pp, wp, wq, sk.HEAD + 1)
+    fk_row(parents, off, pq, root[i, 0], 0.0, root[i, 1], yaw, pp, wp, wq, sk.HEAD + 1)
     for side in range(2):
         if active[side]:
             ps.arm_to(side, wq[sk.SPINE3], wp[sk.SPINE3], target[side, 0], target[side, 1], target[side, 2],
-                      offsets[i], pq, q1, q2)
+                      off, pq, q1, q2)
 
 
 @njit(cache=True, fastmath=FASTMATH)
 def _pose_rows(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp, style, scale,
-               pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind, gaze_point,
+               pelvis_rest, dims, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind, gaze_point,
                gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share, yaw_lim, pitch_lim,
                speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt, arm_goals, root, foot_ref,
                foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing, h_prev, ik_miss, heads, fresh,
@@ -264,27 +282,28 @@ def _pose_rows(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, p
     reach_target = np.empty((2, 3))
     wp = np.empty((nk, 3))
     wq = np.empty((nk, 4))
+    off = np.empty((nk, 3))
     alpha = np.empty(tau.shape[0])
     whole = np.empty(order.shape[0], np.bool_)
     _pose_span(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp, style, scale,
-               pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind, gaze_point,
+               pelvis_rest, dims, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind, gaze_point,
                gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share, yaw_lim, pitch_lim,
                speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt, arm_goals, root, foot_ref,
                foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing, h_prev, ik_miss, heads, fresh,
                shoulder_turn, parents, local_q, pelvis, world_pos, world_q,
                sq, sp, q1, q2, tq, tp, anks, hips, trig, reach, goal, reach_active, reach_target, wp, wq,
-               alpha, whole)
+               off, alpha, whole)
 
 
 @row_njit(fastmath=FASTMATH)
 def _pose_span(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp, style, scale,
-               pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind, gaze_point,
+               pelvis_rest, dims, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind, gaze_point,
                gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share, yaw_lim, pitch_lim,
                speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt, arm_goals, root, foot_ref,
                foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing, h_prev, ik_miss, heads, fresh,
                shoulder_turn, parents, local_q, pelvis, world_pos, world_q,
                sq, sp, q1, q2, tq, tp, anks, hips, trig, reach, goal, reach_active, reach_target, wp, wq,
-               alpha, whole):  # type: ignore[no-untyped-def]
+               off, alpha, whole):  # type: ignore[no-untyped-def]
     """:func:`_pose_rows`' work, in the scratch it allocated: no array is allocated or
     reference-counted here (:func:`pedvr.kernels.row_njit`)."""
     nk = parents.shape[0]
@@ -296,6 +315,9 @@ def _pose_span(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, p
     for i in range(lo, hi):
         pq = local_q[i]
         pp = pelvis[i]
+        # the body's rest offsets from its four dims, in scratch: the same bytes as state.offsets
+        # (skeleton.dims_offsets) without reading 0.8 kB a body from memory
+        sk.offsets_row(dims[i, sk.DIM_SCALE], dims[i, sk.DIM_SEX], dims[i, sk.DIM_BUILD], off)
         ps.rest_pose(pq)
         pp[0] = 0.0
         pp[1] = 0.0
@@ -321,7 +343,7 @@ def _pose_span(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, p
                 _sit_node(scale[i], pelvis_rest[i], w, masks[c], moves_pelvis[c], pq, pp, sq, sp)
             elif node == GESTURE:
                 if g_kind[i] != 0:
-                    _gesture_node(t, g_kind[i], g_start[i], g_dur[i], offsets[i], w, clip_masks, masks[c], pq,
+                    _gesture_node(t, g_kind[i], g_start[i], g_dur[i], off, w, clip_masks, masks[c], pq,
                                   sq, sp, q1, q2, tq, tp)
             elif node == IDLE:
                 if idle_w[i] > 0.0:
@@ -338,22 +360,22 @@ def _pose_span(lo, hi, dt, t, order, weights, masks, moves_pelvis, clip_masks, p
             elif node == REACH:
                 if _reach_needed(i, run_kind, run_mask, reach_on, arm_goals):  # else no arm to move
                     _reach_node(i, t, w, masks[c], run_kind, run_mask, reach_on, reach_pt, arm_goals, scale,
-                                noise_seed, parents, offsets, root, yaw, pq, pp, sq, sp, wp, wq, reach_active,
+                                noise_seed, parents, off, root, yaw, pq, pp, sq, sp, wp, wq, reach_active,
                                 reach_target, q1, q2)
                     reached = w >= 1.0
-        h_prev[i] = ps.leg_ik_row(dt, root[i, 0], root[i, 1], yaw, offsets[i], foot_ref[i], foot_yaw[i],
+        h_prev[i] = ps.leg_ik_row(dt, root[i, 0], root[i, 1], yaw, off, foot_ref[i], foot_yaw[i],
                                   foot_pitch[i], foot_lift[i], planted[i], stepping[i], s[i], swing[i],
                                   h_prev[i], pq, pp, ik_miss[i], q1, q2, anks, hips, trig, reach)
         if reached:
-            _arms_again(i, yaw, parents, offsets, root, pq, pp, wp, wq, reach_active, reach_target, q1, q2)
+            _arms_again(i, yaw, parents, off, root, pq, pp, wp, wq, reach_active, reach_target, q1, q2)
         if shoulder_turn[i] != 0.0:  # after the legs' IK, which does not read the spine
             turn_shoulders(pq, shoulder_turn[i])
-        fk_row(parents, offsets[i], pq, root[i, 0], 0.0, root[i, 1], yaw, pp, world_pos[i], world_q[i], nk)
+        fk_row(parents, off, pq, root[i, 0], 0.0, root[i, 1], yaw, pp, world_pos[i], world_q[i], nk)
 
 
 @njit(cache=True, fastmath=FASTMATH, parallel=True)
 def _pose_chunks(chunks, dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp, style, scale,
-                  pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind,
+                  pelvis_rest, dims, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind,
                   gaze_point, gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share,
                   yaw_lim, pitch_lim, speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt,
                   arm_goals, root, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing,
@@ -362,7 +384,7 @@ def _pose_chunks(chunks, dt, t, order, weights, masks, moves_pelvis, clip_masks,
     n = local_q.shape[0]
     for c in prange(chunks):
         _pose_rows(c * n // chunks, (c + 1) * n // chunks, dt, t, order, weights, masks, moves_pelvis,
-                   clip_masks, phase, amp, style, scale, pelvis_rest, offsets, g_kind, g_start, g_dur,
+                   clip_masks, phase, amp, style, scale, pelvis_rest, dims, g_kind, g_start, g_dur,
                    noise_seed, idle_w, perm, gaze_kind, gaze_point, gaze_row, gaze_rule, user_head, has_user,
                    running, heading, ang, share, yaw_lim, pitch_lim, speed, tau, run_kind, run_mask,
                    run_start, reach_on, reach_pt, arm_goals, root, foot_ref, foot_yaw, foot_pitch, foot_lift,
@@ -370,9 +392,8 @@ def _pose_chunks(chunks, dt, t, order, weights, masks, moves_pelvis, clip_masks,
                    local_q, pelvis, world_pos, world_q)
 
 
-@njit(cache=True, fastmath=FASTMATH)
 def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
-                      phase, amp, style, scale, pelvis_rest, offsets,
+                      phase, amp, style, scale, pelvis_rest, dims,
                       g_kind, g_start, g_dur, noise_seed, idle_w, perm,
                       gaze_kind, gaze_point, gaze_row, gaze_rule, user_head, has_user, running, heading, ang,
                       share, yaw_lim, pitch_lim, speed, tau,
@@ -382,25 +403,30 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
                       world_q, chunks=0):  # type: ignore[no-untyped-def]
     """Pose every body: the coordinator's graph, the leg-IK node and forward kinematics.
 
-    Graph: ``order (C, 2) int64`` rows of (node id, weight column) in blending order, ``weights
-    (N, W)``, ``masks (C, J)`` and ``moves_pelvis (C,)`` per position in ``order``; ``clip_masks
-    (G, J)`` the joints each gesture clip drives (a gesture node blends only those). Node inputs
-    are the body state's arrays (:class:`pedvr.body.model.BodyState`); ``g_kind`` is the clip
-    playing or fading (0 none), ``idle_w`` the idle noise's strength, ``gaze_row`` the row of a
-    gazed-at agent, ``running`` the locomotion's message. ``heads (N,3)`` are the head positions
-    after the last frame (``fresh`` where no forward kinematics has run yet: the eyes cannot close
-    the loop there). ``shoulder_turn (N,)`` rad turns the upper torso about the vertical relative
-    to the pelvis (:func:`turn_shoulders`). Outputs: ``local_q (N,J,4)``, ``pelvis (N,3)`` the
-    final pose, ``world_pos (N,K,3)``, ``world_q (N,K,4)`` its forward kinematics; the gaze state
-    ``ang``, the pelvis height ``h_prev``, ``foot_pitch`` (heel rise) and ``ik_miss`` are updated.
-    ``yaw_lim (N, 5)`` is per body (a gaze capped by ``FullBody.gaze_limit``), the other gaze
-    parameters are shared. ``chunks > 0`` runs the bodies in that many chunks in parallel, 0 in
+    A Python function choosing the compiled loop: the serial one, or the parallel chunks, which
+    numba compiles only when a run first asks for them (a parallel kernel is among the slowest
+    to compile; issue 27: the default scene never runs it).
+
+    Graph: ``order (C, 2) int64`` rows of (node id, weight column) in blending order, ``weights (N,
+    W)``, ``masks (C, J)`` and ``moves_pelvis (C,)`` per position in ``order``; ``clip_masks (G,
+    J)`` the joints each gesture clip drives (a gesture node blends only those). Node inputs are the
+    body state's arrays (:class:`pedvr.body.model.BodyState`); ``dims (N, 4)`` stand for the rest
+    offsets (:func:`pedvr.body.skeleton.offsets_row`, the bytes of ``state.offsets``); ``g_kind`` is
+    the clip playing or fading (0 none), ``idle_w`` the idle noise's strength, ``gaze_row`` the row
+    of a gazed-at agent, ``running`` the locomotion's message. ``heads (N,3)`` are the head
+    positions after the last frame (``fresh`` where no forward kinematics has run yet: the eyes
+    cannot close the loop there). ``shoulder_turn (N,)`` rad turns the upper torso about the
+    vertical relative to the pelvis (:func:`turn_shoulders`). Outputs: ``local_q (N,J,4)``, ``pelvis
+    (N,3)`` the final pose, ``world_pos (N,K,3)``, ``world_q (N,K,4)`` its forward kinematics; the
+    gaze state ``ang``, the pelvis height ``h_prev``, ``foot_pitch`` (heel rise) and ``ik_miss`` are
+    updated. ``yaw_lim (N, 5)`` is per body (a gaze capped by ``FullBody.gaze_limit``), the other
+    gaze parameters are shared. ``chunks > 0`` runs the bodies in that many chunks in parallel, 0 in
     one serial loop (the same bytes either way: bodies are independent).
     """
     if chunks > 0:
         _pose_chunks(min(chunks, local_q.shape[0]), dt, t, order, weights, masks, moves_pelvis, clip_masks,
                      phase, amp, style, scale,
-                     pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind,
+                     pelvis_rest, dims, g_kind, g_start, g_dur, noise_seed, idle_w, perm, gaze_kind,
                      gaze_point, gaze_row, gaze_rule, user_head, has_user, running, heading, ang, share,
                      yaw_lim, pitch_lim, speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt,
                      arm_goals, root, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing,
@@ -408,7 +434,7 @@ def pose_graph_kernel(dt, t, order, weights, masks, moves_pelvis, clip_masks,
                      world_q)
     else:
         _pose_rows(0, local_q.shape[0], dt, t, order, weights, masks, moves_pelvis, clip_masks, phase, amp,
-                   style, scale, pelvis_rest, offsets, g_kind, g_start, g_dur, noise_seed, idle_w, perm,
+                   style, scale, pelvis_rest, dims, g_kind, g_start, g_dur, noise_seed, idle_w, perm,
                    gaze_kind, gaze_point, gaze_row, gaze_rule, user_head, has_user, running, heading, ang,
                    share, yaw_lim, pitch_lim, speed, tau, run_kind, run_mask, run_start, reach_on, reach_pt,
                    arm_goals, root, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing,

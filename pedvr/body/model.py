@@ -31,7 +31,7 @@ from pedvr.body import actions as act
 from pedvr.body import carry
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
-from pedvr.body.coordinator import Coordinator, default_choreographers
+from pedvr.body.coordinator import MESSAGES, Coordinator, default_choreographers, step_weights_kernel
 from pedvr.body.directed import HandPaths, HeadCaps, HeldFacings
 from pedvr.body.graph import (
     ARM_ACTIONS,
@@ -42,6 +42,7 @@ from pedvr.body.graph import (
     GAZE_USER,
     gaze_rule_kernel,
     gaze_targets_kernel,
+    heads_kernel,
     pose_graph_kernel,
 )
 from pedvr.body.locomotion import T_INPLACE, V_WALK, cadence, gait_kernel, limits_kernel
@@ -268,6 +269,10 @@ class FullBody:
         # ADAPT §4.5's heuristic ranks our two-arm reach (S = 8/10) before gaze (S = 6/7); ADAPT's own
         # graph (Fig. 3) has gaze first, and the reach must see the thorax the gaze turned: override.
         self.coordinator = Coordinator(default_choreographers(), order=list(BODY_ORDER))
+        ci = self.coordinator.index
+        self._weight_cols = np.array([ci["sitting"], ci["gesture"], ci["reach"]], np.int64)
+        self._message_cols = np.array([MESSAGES.index(m) for m in ("running", "walking", "sitting")],
+                                      np.int64)
         self.gestures = gestures or GestureSets()
         self.navigate = navigate
         self._simple = SimpleBody()
@@ -455,24 +460,16 @@ class FullBody:
         """Weights and messages for this step, then the whole graph, leg IK and FK in one kernel."""
         b = self.state
         co = self.coordinator
-        speed = np.sqrt(b.vel_s[:, 0] ** 2 + b.vel_s[:, 1] ** 2)
-        running = speed > RUNNING_SPEED
-        co.clear_messages()
-        co.post("running", running)
-        co.post("walking", (speed > V_WALK) & ~running)
-        co.post("sitting", b.sitting)
-        co.set_target("sitting", b.sitting.astype(np.float64))
-        held = b.carrying != carry.NONE  # a carrier's arms stay on what it carries (no swing, no gesture)
-        g_active = (b.g_kind > 0) & (t < b.g_start + b.g_dur) & ~held
-        g_env = np.minimum(np.maximum(np.minimum(t - b.g_start, b.g_start + b.g_dur - t) / 0.4, 0.0), 1.0)
-        co.set_target("gesture", np.where(g_active, g_env, 0.0))
-        arm_act = _IS_ARM_ACTION[b.run_kind].any(axis=1)  # -1 (no action) reads the last slot, False
-        co.set_target("reach", (b.reach_on.any(axis=1) | held | arm_act).astype(np.float64))
-        co.smooth(dt)
-        # The clip plays on while its weight fades out, so it ends where it was going.
-        fading = co.weights[:, co.index["gesture"]] > 0.0
-        kind = np.where(g_active | fading, b.g_kind, 0)
-        idle_w = np.minimum(np.maximum(1.0 - speed / 0.3, 0.0), 1.0) * ~b.sitting  # np.clip costs 3x more
+        n = len(b)
+        # Messages, targets and smoothed weights in one pass (coordinator.step_weights_kernel): a
+        # carrier's arms stay on what it carries (no swing, no gesture); a clip plays on while its
+        # weight fades out, so it ends where it was going.
+        running = np.empty(n, np.bool_)
+        kind = np.empty(n, np.int64)
+        idle_w = np.empty(n)
+        step_weights_kernel(t, dt, co.smoothing, b.vel_s, b.sitting, b.carrying, b.g_kind, b.g_start, b.g_dur,
+                            b.run_kind, _IS_ARM_ACTION, b.reach_on, RUNNING_SPEED, V_WALK, self._weight_cols,
+                            self._message_cols, co.weights, co.targets, co.messages, running, kind, idle_w)
         order, masks, moves_pelvis = co.graph()
         self.hand_paths.apply(self.ids, b.reach_on, b.reach_pt, t)  # reach_along's paths, at t
         reach_on, reach_pt = self._carry_reach()
@@ -482,10 +479,10 @@ class FullBody:
         t0 = time.perf_counter()
         pose_graph_kernel(
             dt, t, order, co.weights, masks, moves_pelvis, ps.GESTURE_MASKS,
-            b.phase, b.amp, b.style, b.dims[:, sk.DIM_SCALE].copy(), b.pelvis_rest, b.offsets,
+            b.phase, b.amp, b.style, b.dims[:, sk.DIM_SCALE].copy(), b.pelvis_rest, b.dims,
             kind, b.g_start, b.g_dur, b.noise_seed, idle_w, ps.PERM,
             b.gaze_kind, b.gaze_point, self._gaze_rows(), b.gaze_rule, user_head, has_user,
-            co.has("running"), b.heading, b.gaze_ang,
+            running, b.heading, b.gaze_ang,
             ps.GAZE_SHARE, self.head_caps.table(self.ids, ps.GAZE_YAW_LIMIT), ps.GAZE_PITCH_LIMIT,
             ps.GAZE_SPEED, ps.GAZE_TAU,
             b.run_kind, b.run_mask, b.run_start, reach_on, reach_pt, ARM_GOALS,
@@ -514,11 +511,9 @@ class FullBody:
     def _heads(self) -> tuple[np.ndarray, np.ndarray]:
         """Head positions after the last frame ``(N, 3)`` (a copy) and where no FK has run yet."""
         b = self.state
-        hp = b.world_pos[:, sk.HEAD].copy()
-        fresh = np.logical_not(hp.any(axis=1))
-        if fresh.any():  # before the first FK: the standing head height
-            hp[fresh] = np.stack([b.root[fresh, 0], b.offsets[fresh, sk.PELVIS, 1] + 0.62 * b.dims[fresh, 3],
-                                  b.root[fresh, 1]], 1)
+        hp = np.empty((len(b), 3))
+        fresh = np.empty(len(b), np.bool_)
+        heads_kernel(b.world_pos, b.root, b.offsets, b.dims, hp, fresh)  # before the first FK: standing
         return hp, fresh
 
     def _gaze_rows(self) -> np.ndarray:

@@ -29,6 +29,7 @@ from pedvr.body import skeleton as sk
 from pedvr.body.locomotion import DS, foot_pose_cs
 from pedvr.body.quat import FASTMATH, euler_yxz4, frame_quat, qmul4, qrot3
 from pedvr.body.style import PA, PB, Pa, Pb, Pp
+from pedvr.kernels import row_njit
 
 PELVIS_YAW = 0.07  # rad: transverse pelvic rotation at a walk (±4°)
 PELVIS_LIST = 0.05  # rad: pelvic obliquity (±3°)
@@ -100,12 +101,12 @@ PERM = np.concatenate([_PERM, _PERM]).astype(np.int64)
 """Fixed permutation of the 1D improved-Perlin kernel (a constant, not state)."""
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def spow(x, p):  # type: ignore[no-untyped-def]
     return math.copysign(abs(x) ** p, x) if p != 1.0 else x
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _put(q, j, t):  # type: ignore[no-untyped-def]
     q[j, 0] = t[0]
     q[j, 1] = t[1]
@@ -113,7 +114,7 @@ def _put(q, j, t):  # type: ignore[no-untyped-def]
     q[j, 3] = t[3]
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def rest_pose(q):  # type: ignore[no-untyped-def]
     """Every joint of one pose ``(J, 4)`` back to the identity rotation (a generator's blank shadow)."""
     for j in range(q.shape[0]):
@@ -123,7 +124,7 @@ def rest_pose(q):  # type: ignore[no-untyped-def]
         q[j, 3] = 1.0
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def copy_pose(src_q, src_p, dst_q, dst_p):  # type: ignore[no-untyped-def]
     """A transformer's shadow starts as the pose flowing through the graph."""
     for j in range(src_q.shape[0]):
@@ -133,19 +134,19 @@ def copy_pose(src_q, src_p, dst_q, dst_p):  # type: ignore[no-untyped-def]
         dst_p[k] = src_p[k]
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _dof(style, d, t, amp):  # type: ignore[no-untyped-def]
     return (style[d, PA] * amp * spow(math.sin(style[d, Pa] * t + style[d, Pb]), style[d, Pp])
             + style[d, PB])
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _rot_x(a):  # type: ignore[no-untyped-def]
     """``euler_yxz4(0, a, 0)``."""
     return math.sin(0.5 * a), 0.0, 0.0, math.cos(0.5 * a)
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _rot_yz(yaw, roll):  # type: ignore[no-untyped-def]
     """``euler_yxz4(yaw, 0, roll)``."""
     cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
@@ -153,7 +154,7 @@ def _rot_yz(yaw, roll):  # type: ignore[no-untyped-def]
     return sy * sr, sy * cr, cy * sr, cy * cr
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _rot_xz(pitch, roll):  # type: ignore[no-untyped-def]
     """``euler_yxz4(0, pitch, roll)``."""
     cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
@@ -216,7 +217,7 @@ def loco_shadow_kernel(phase, amp, style, scale, pelvis_rest, out_q, out_p):  # 
         loco_row(phase[i], amp[i], style[i], scale[i], pelvis_rest[i], out_q[i], out_p[i])
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def sit_row(sc, pelvis_rest, out_q, out_p):  # type: ignore[no-untyped-def]
     rest_pose(out_q)
     out_p[0] = 0.0
@@ -236,7 +237,7 @@ def sit_shadow_kernel(scale, pelvis_rest, out_q, out_p):  # type: ignore[no-unty
         sit_row(scale[i], pelvis_rest[i], out_q[i], out_p[i])
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _fade(t):  # type: ignore[no-untyped-def]
     return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
 
@@ -254,7 +255,7 @@ def perlin1d(x, perm):  # type: ignore[no-untyped-def]
 
 # -- transformers ---------------------------------------------------------------------------------
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def idle_row(t, s, w, sc, perm, in_q, in_p, out_q, out_p):  # type: ignore[no-untyped-def]
     """One body's idle noise over ``in`` (see :func:`idle_kernel`)."""
     copy_pose(in_q, in_p, out_q, out_p)
@@ -289,7 +290,7 @@ def idle_kernel(t, seed, weight, scale, perm, in_q, in_p, out_q, out_p):  # type
 GAZE_REST = 1e-6  # rad: a controller with no target and every angle below this is at rest (0)
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _approach(cur, target, alpha, cap, dt):  # type: ignore[no-untyped-def]
     """Exponential approach (frame-rate independent: ``alpha = 1 − exp(−dt/τ)``), then the speed cap."""
     d = (target - cur) * alpha
@@ -301,19 +302,19 @@ def _approach(cur, target, alpha, cap, dt):  # type: ignore[no-untyped-def]
     return cur + d
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _wrap_pi(a):  # type: ignore[no-untyped-def]
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def gaze_alpha(dt, tau, out):  # type: ignore[no-untyped-def]
     """Per-joint approach factors ``1 − exp(−dt/τ)`` for this step (the same for every body)."""
     for k in range(tau.shape[0]):
         out[k] = 1.0 - math.exp(-dt / tau[k])
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def gaze_at_rest(has, ang):  # type: ignore[no-untyped-def]
     """True (and the state snapped to 0) when the controller has no target and has settled: its
     shadow is then the pose itself, so the graph may skip it."""
@@ -328,7 +329,7 @@ def gaze_at_rest(has, ang):  # type: ignore[no-untyped-def]
     return True
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _yaw_pitch(yaw, pitch):  # type: ignore[no-untyped-def]
     """``euler_yxz4(yaw, pitch, 0)``: ``R_y(yaw) R_x(pitch)``."""
     cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
@@ -336,12 +337,12 @@ def _yaw_pitch(yaw, pitch):  # type: ignore[no-untyped-def]
     return cy * sp, sy * cp, -sy * sp, cy * cp
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _pre_rotate(out_q, in_q, j, g):  # type: ignore[no-untyped-def]
     _put(out_q, j, qmul4(g[0], g[1], g[2], g[3], in_q[j, 0], in_q[j, 1], in_q[j, 2], in_q[j, 3]))
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def gaze_row(dt, has, target, head_pos, root_yaw, running, share, yaw_lim, pitch_lim, speed, alpha, ang,
              in_q, out_q, eye_l, eye_r, head_q, closed):  # type: ignore[no-untyped-def]
     """One body's gaze controller (see :func:`gaze_kernel`): ``target``, ``head_pos``, ``eye_l``,
@@ -503,13 +504,13 @@ def two_bone(sx, sy, sz, tx, ty, tz, px, py, pz, l1, l2, reach, bend_forward, q1
     return miss
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def _qinv_mul(ax, ay, az, aw, bx, by, bz, bw):  # type: ignore[no-untyped-def]
     """a⁻¹ ∘ b for unit a."""
     return qmul4(-ax, -ay, -az, aw, bx, by, bz, bw)
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def toe_rise(df, du, dp, rf, ru, R, pitch):  # type: ignore[no-untyped-def]
     """The heel-up pitch (≥ ``pitch``, ≤ ``PITCH_MAX``) that brings the ankle within ``R`` of the hip.
 
@@ -663,7 +664,7 @@ def leg_ik_kernel(dt, root, root_yaw, offsets, foot_ref, foot_yaw, foot_pitch, f
                                reach)
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def arm_to(side, thorax_q, thorax_p, tx, ty, tz, off, pose_q, q1, q2):  # type: ignore[no-untyped-def]
     """Solve one arm of a pose ``(J, 4)`` so the hand reaches ``t``, given the thorax (Spine3) frame."""
     c = sk.L_COLLAR if side == 0 else sk.R_COLLAR
@@ -686,7 +687,7 @@ def arm_to(side, thorax_q, thorax_p, tx, ty, tz, off, pose_q, q1, q2):  # type: 
         _put(pose_q, j, (0.0, 0.0, 0.0, 1.0))
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def gesture_row(t, g, start, duration, off, out_q, out_p, q1, q2, tq, tp):  # type: ignore[no-untyped-def]
     """One body's gesture clip ``g`` (see :func:`gesture_kernel`); ``tq (4,)``, ``tp (3,)`` scratch."""
     rest_pose(out_q)
@@ -749,7 +750,7 @@ def gesture_kernel(t, kind, start, duration, offsets, out_q, out_p):  # type: ig
         gesture_row(t, kind[i], start[i], duration[i], offsets[i], out_q[i], out_p[i], q1, q2, tq, tp)
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def reach_row(active, target, thorax_q, thorax_p, off, in_q, out_q, q1, q2):  # type: ignore[no-untyped-def]
     """One body's reach over ``in`` (see :func:`reach_kernel`); ``active (2,)``, ``target (2, 3)``."""
     for j in range(in_q.shape[0]):
@@ -776,7 +777,7 @@ def reach_kernel(active, target, world_pos, world_q, offsets, in_q, out_q):  # t
 
 # -- blend nodes ----------------------------------------------------------------------------------
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def blend_joint(pose_q, shadow_q, j, w):  # type: ignore[no-untyped-def]
     """``pose_q[j] ← normalize((1−w)·pose + w·shadow)``, both put in the hemisphere ``w ≥ 0``.
 
@@ -798,7 +799,7 @@ def blend_joint(pose_q, shadow_q, j, w):  # type: ignore[no-untyped-def]
         pose_q[j, k] /= nn
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@njit(cache=True, fastmath=FASTMATH)
 def blend_row(pose_q, pose_p, shadow_q, shadow_p, w, mask, mask_pelvis_pos):  # type: ignore[no-untyped-def]
     """One body's two-input blend node (see :func:`blend_kernel`); ``mask (J,)``."""
     if w <= 0.0:

@@ -31,7 +31,7 @@ FASTMATH = {"nnan", "ninf", "nsz", "arcp", "afn"}
 _FM = FASTMATH
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def qmul4(ax, ay, az, aw, bx, by, bz, bw):  # type: ignore[no-untyped-def]
     return (aw * bx + ax * bw + ay * bz - az * by,
             aw * by - ax * bz + ay * bw + az * bx,
@@ -49,7 +49,7 @@ def qmul(a, b, out):  # type: ignore[no-untyped-def]
     out[3] = w
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def qrot3(qx, qy, qz, qw, vx, vy, vz):  # type: ignore[no-untyped-def]
     # v + 2 w (u × v) + 2 u × (u × v)
     tx = 2.0 * (qy * vz - qz * vy)
@@ -70,7 +70,7 @@ def axis_angle(ax, ay, az, angle, out):  # type: ignore[no-untyped-def]
     out[3] = math.cos(0.5 * angle)
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def euler_yxz4(yaw, pitch, roll):  # type: ignore[no-untyped-def]
     """``R_y(yaw) R_x(pitch) R_z(roll)`` as a quaternion tuple (intrinsic Y, X', Z'')."""
     cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
@@ -151,7 +151,7 @@ def nlerp(a, b, t, out):  # type: ignore[no-untyped-def]
         out[k] /= n
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def yaw_from_heading(theta):  # type: ignore[no-untyped-def]
     """Rotation angle about +Y of a body facing 2D heading ``theta``."""
     return 0.5 * math.pi - theta

@@ -19,6 +19,7 @@ forward pass in node order is a valid forward kinematics order.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 JOINTS: tuple[str, ...] = (
     "Pelvis",
@@ -142,6 +143,27 @@ def dims_offsets(dims: np.ndarray) -> np.ndarray:
     for k in _HIP_NODES:
         off[:, k, 0] *= hp
     return np.ascontiguousarray(off)
+
+
+_L_SHOULDER, _R_SHOULDER = _SHOULDER_NODES
+_L_HIP, _R_HIP = _HIP_NODES
+
+
+@njit(cache=True, inline="always")
+def offsets_row(scale, sex, build, out):  # type: ignore[no-untyped-def]
+    """One body's rest offsets ``out (K, 3)`` from its dims, with :func:`dims_offsets`' arithmetic in
+    its order, so the same bytes: the pose graph makes them in scratch instead of reading them."""
+    for k in range(REST_OFFSETS.shape[0]):
+        for c in range(3):
+            out[k, c] = REST_OFFSETS[k, c] * scale
+    width = 0.95 + 0.1 * build
+    female = sex == SEX_FEMALE
+    sh = width * (0.92 if female else 1.0)
+    hp = width * (1.08 if female else 1.0)
+    out[_L_SHOULDER, 0] *= sh
+    out[_R_SHOULDER, 0] *= sh
+    out[_L_HIP, 0] *= hp
+    out[_R_HIP, 0] *= hp
 
 
 def user_dims(n: int = 1) -> np.ndarray:

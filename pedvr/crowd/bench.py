@@ -33,6 +33,7 @@ import math
 import os
 import platform
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numba
@@ -42,6 +43,7 @@ from pedvr.benchload import cpu_load
 from pedvr.crowd.contact import overlapping_pairs
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
+from pedvr.errors import UsageError
 from pedvr.kernels import forcing
 from pedvr.scene.config import SteeringParams
 from pedvr.world.obstacles import ObstacleSet
@@ -79,6 +81,49 @@ def _crowd(pos: np.ndarray) -> CrowdState:
         is_user=np.zeros(n, np.bool_), limits=np.zeros((n, N_LIMITS)))
 
 
+def rvo2_simulator(params: SteeringParams, dt: float, pos: np.ndarray, radius: np.ndarray,
+                   max_speed: np.ndarray, rings: Sequence[np.ndarray] = ()) -> Any:
+    """RVO2 (pyrvo) set up as pedvr's steering is: the same ORCA parameters (``params``), time
+    step, agents (``pos (N, 2)``, ``radius (N,)``, ``max_speed (N,)``) and obstacles (``rings``,
+    RVO2-oriented as :func:`pedvr.world.geometry.rvo_rings` gives them). Also used by
+    ``pedvr bench sim --vs rvo2`` (:mod:`pedvr.bench_sim`)."""
+    try:
+        import pyrvo
+    except ImportError:
+        raise UsageError("--vs rvo2: needs pyrvo, RVO2's binding (pip install 'pedvr[bench]')") from None
+
+    sim = pyrvo.RVOSimulator()
+    sim.set_time_step(dt)
+    sim.set_agent_defaults(params.neighbor_dist, params.max_neighbors, params.time_horizon,
+                           params.time_horizon_obst, float(radius[0]) if len(radius) else 0.25,
+                           float(max_speed[0]) if len(max_speed) else 1.0)
+    for ring in rings:
+        sim.add_obstacle([(float(x), float(y)) for x, y in ring])
+    for i in range(pos.shape[0]):
+        sim.add_agent((float(pos[i, 0]), float(pos[i, 1])))
+        if radius[i] != radius[0]:
+            sim.set_agent_radius(i, float(radius[i]))
+        if max_speed[i] != max_speed[0]:
+            sim.set_agent_max_speed(i, float(max_speed[i]))
+    sim.process_obstacles()
+    return sim
+
+
+def rvo2_step(sim: Any, pref_vel: np.ndarray) -> tuple[float, float, float]:
+    """RVO2's step: its preferred velocities set (``pref_vel (N, 2)``, a Python loop of calls, as
+    RVO2's examples do), then ``do_step``. Returns the seconds of ``do_step`` alone (the core), of
+    both (end to end) and the CPU seconds of ``do_step``."""
+    r0 = time.perf_counter()
+    for i in range(pref_vel.shape[0]):
+        sim.set_agent_pref_velocity(i, (float(pref_vel[i, 0]), float(pref_vel[i, 1])))
+    r1 = time.perf_counter()
+    c1 = time.process_time()
+    sim.do_step()
+    c2 = time.process_time()
+    r2 = time.perf_counter()
+    return r2 - r1, r2 - r0, c2 - c1
+
+
 def _pair_keys(pos: np.ndarray, radius: np.ndarray) -> np.ndarray:
     pairs = overlapping_pairs(pos, radius, OVERLAP_TOL)
     return pairs[:, 0] * pos.shape[0] + pairs[:, 1]
@@ -102,14 +147,8 @@ def _one_step(state: CrowdState, goals: np.ndarray, steering: Steering, radius: 
     ours_pairs.update(_pair_keys(state.pos, radius).tolist())
     rvo = (0.0, 0.0)
     if sim is not None:
-        pv = _pref_velocities(rvo_pos, goals)
-        r0 = time.perf_counter()
-        for i in range(agents):
-            sim.set_agent_pref_velocity(i, (float(pv[i, 0]), float(pv[i, 1])))
-        r1 = time.perf_counter()
-        sim.do_step()
-        r2 = time.perf_counter()
-        rvo = (r2 - r1, r2 - r0)
+        core, e2e, _ = rvo2_step(sim, _pref_velocities(rvo_pos, goals))
+        rvo = (core, e2e)
         for i in range(agents):
             rvo_pos[i] = sim.get_agent_position(i).to_tuple()
         rvo_pairs.update(_pair_keys(rvo_pos, radius).tolist())
@@ -166,15 +205,7 @@ def run_steering_bench(agents: int, *, vs_rvo2: bool, steps: int | None = None, 
 
     sim = None
     if vs_rvo2:
-        import pyrvo
-
-        sim = pyrvo.RVOSimulator()
-        sim.set_time_step(DT)
-        sim.set_agent_defaults(NEIGHBOR_DIST, MAX_NEIGHBORS, TIME_HORIZON, TIME_HORIZON, RADIUS,
-                               MAX_SPEED)
-        for i in range(agents):
-            sim.add_agent((float(start[i, 0]), float(start[i, 1])))
-        sim.process_obstacles()
+        sim = rvo2_simulator(params, DT, start, radius, np.full(agents, MAX_SPEED))
 
     state = _crowd(start)
     vel_out = np.empty((agents, 2))

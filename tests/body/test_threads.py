@@ -54,3 +54,41 @@ def test_pose_graph_twins_give_the_same_bytes() -> None:
         return h.hexdigest()
 
     assert digest(True) == digest(False)
+
+
+_CHILD = """
+import hashlib, sys
+import numba
+from pedvr.bench_sim import plaza_scene
+from pedvr.kernels import forcing
+from pedvr.sim import Simulation
+with forcing(numba.get_num_threads() > 1):  # on 2 threads every kernel takes its parallel twin
+    sim = Simulation(plaza_scene(300, seed=11), condition="pedvr+g", record=True)
+    for _ in range(40):
+        sim.step()
+b = sim.body.state
+h = hashlib.sha256()
+for a in (b.world_pos, b.world_q, b.local_q, b.foot_ref, b.gaze_ang, sim.crowd.pos, sim.crowd.vel):
+    h.update(a.tobytes())
+print(numba.get_num_threads(), h.hexdigest())
+"""
+
+
+def test_same_bytes_with_numba_num_threads_1_and_2() -> None:
+    """Issue 27 goal 3, as a user sets it: two processes started with ``NUMBA_NUM_THREADS=1`` and
+    ``=2`` (numba's thread pool sized at start, not changed afterwards) step the same plaza to the
+    same bytes, the two-thread one with every parallel kernel on its parallel twin."""
+    import os
+    import subprocess
+    import sys
+
+    out = {}
+    for threads in ("1", "2"):
+        env = {**os.environ, "NUMBA_NUM_THREADS": threads}
+        res = subprocess.run([sys.executable, "-c", _CHILD], env=env, capture_output=True, text=True,
+                             timeout=900, check=False)
+        assert res.returncode == 0, res.stderr[-2000:]
+        n, digest = res.stdout.split()
+        assert n == threads  # the pool really had that many threads
+        out[threads] = digest
+    assert out["1"] == out["2"]
