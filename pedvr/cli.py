@@ -265,6 +265,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
+def _interrupted_code(interrupted: bool | str) -> int:
+    """A run ended early (its outputs written) exits as the signal that ended it would, 128 + its
+    number, as ``pedvr study run`` does: a script that runs ``pedvr run ... && next`` stops
+    there. 0 for a run that went its whole duration."""
+    if interrupted is False:
+        return 0
+    import signal
+
+    sig = signal.SIGINT if interrupted is True else getattr(signal, str(interrupted), signal.SIGINT)
+    return 128 + int(sig)
+
+
 def _run(args: argparse.Namespace) -> int:
     from pedvr.errors import BackendUnavailableError
     from pedvr.scene.loader import load_any
@@ -303,7 +315,9 @@ def _run(args: argparse.Namespace) -> int:
                 from pedvr.xr.run import run_with_view
 
                 summary = run_with_view(scene, backend=backend, opts=opts, **common)
-            return 0 if summary else 1
+            if not summary:
+                return 1
+            return _interrupted_code(summary.get("interrupted", False))
         except BackendUnavailableError as exc:
             from pedvr.xr.session import BackendLostError
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
 import re
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -33,6 +35,35 @@ def test_headless_run_writes_recording_and_metrics(tmp_path: Path, capsys: pytes
         assert meta["seed"] == 4 and meta["condition"] == "decoupled" and len(meta["scene_hash"]) == 16
         assert z["pos"].shape == (181, 2, 2) and z["heading"].shape == (181, 2)
         assert z["is_user"].sum() == 1
+
+
+@pytest.mark.parametrize("sig, code, said", [(signal.SIGINT, 130, True), (signal.SIGTERM, 143, "SIGTERM"),
+                                             (signal.SIGHUP, 129, "SIGHUP")], ids=["Ctrl-C", "SIGTERM", "SIGHUP"])
+def test_an_interrupted_run_keeps_its_outputs_and_exits_as_the_signal(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture, sig: int, code: int,
+    said: object,
+) -> None:
+    """A run ended early writes what it has and exits 128 + the signal (as ``pedvr study run``
+    does), not 0: ``pedvr run ... && next`` must not go on as if the run had finished."""
+    from pedvr.sim import Simulation
+
+    step = Simulation.step
+    count = [0]
+
+    def stepping(self: Simulation) -> None:
+        step(self)
+        count[0] += 1
+        if count[0] == 40:
+            os.kill(os.getpid(), sig)
+
+    monkeypatch.setattr(Simulation, "step", stepping)
+    assert main(["run", "headon_corridor", "--backend", "headless", "--duration", "60", "--out", str(tmp_path),
+                 "--quiet"]) == code
+    m = json.loads(next(tmp_path.glob("*.json")).read_text())
+    assert m["interrupted"] == said and 40 <= m["steps"] < 60 * 90
+    assert "interrupted by" in capsys.readouterr().out
+    with np.load(next(tmp_path.glob("*.npz"))) as z:
+        assert z["pos"].shape[0] == m["steps"] + 1
 
 
 def test_auto_backend_falls_back_to_headless_and_says_why(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,

@@ -3,8 +3,8 @@
 The metrics measure every recorded step (max overlap, pairs over 1 cm, how
 close walls are), so they must cost little next to the step they measure:
 no per-agent Python, no tree rebuilt per step. Footprints are the steering's
-(:mod:`pedvr.crowd.footprint`): discs, or turned ellipses measured along the
-line of centres by their support radii.
+(:mod:`pedvr.crowd.footprint`): discs, or turned ellipses measured by the
+separating-axis theorem over a few directions (:func:`_ellipse_penetration`).
 """
 
 from __future__ import annotations
@@ -16,6 +16,58 @@ from numba import njit
 
 from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import build_agent_grid_arrays
+
+_COARSE = 36  # directions over a half turn (5° apart) before refining round the best one
+
+
+@njit(cache=True, inline="always")
+def _overlap_at(ai, bi, fxi, fyi, aj, bj, fxj, fyj, dx, dy, theta):
+    """How far two ellipses' projections on the line at angle ``theta`` overlap (``(dx, dy)``:
+    centre ``j`` minus centre ``i``)."""
+    ux = math.cos(theta)
+    uy = math.sin(theta)
+    return (support(ai, bi, fxi, fyi, ux, uy) + support(aj, bj, fxj, fyj, ux, uy)
+            - abs(dx * ux + dy * uy))
+
+
+@njit(cache=True)
+def _ellipse_penetration(ai, bi, fxi, fyi, aj, bj, fxj, fyj, dx, dy):
+    """Penetration depth of two ellipses by the separating-axis theorem: the least overlap of
+    their projections over all directions, found on a 5° grid over a half turn (the line of
+    centres among them) and refined by golden-section search round the best. The line of
+    centres alone (what steering constrains) overstates a turned body's overlap by a centimetre
+    or more when the bodies meet off their axes. Never below the true depth (every value is a
+    projection overlap) and within a fraction of a millimetre of it."""
+    base = math.atan2(dy, dx)
+    step = math.pi / _COARSE
+    best = _overlap_at(ai, bi, fxi, fyi, aj, bj, fxj, fyj, dx, dy, base)
+    at = base
+    for k in range(1, _COARSE):
+        v = _overlap_at(ai, bi, fxi, fyi, aj, bj, fxj, fyj, dx, dy, base + k * step)
+        if v < best:
+            best = v
+            at = base + k * step
+    lo = at - step
+    hi = at + step
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+    x1 = hi - g * (hi - lo)
+    x2 = lo + g * (hi - lo)
+    f1 = _overlap_at(ai, bi, fxi, fyi, aj, bj, fxj, fyj, dx, dy, x1)
+    f2 = _overlap_at(ai, bi, fxi, fyi, aj, bj, fxj, fyj, dx, dy, x2)
+    for _ in range(24):
+        if f1 < f2:
+            hi = x2
+            x2 = x1
+            f2 = f1
+            x1 = hi - g * (hi - lo)
+            f1 = _overlap_at(ai, bi, fxi, fyi, aj, bj, fxj, fyj, dx, dy, x1)
+        else:
+            lo = x1
+            x1 = x2
+            f1 = f2
+            x2 = lo + g * (hi - lo)
+            f2 = _overlap_at(ai, bi, fxi, fyi, aj, bj, fxj, fyj, dx, dy, x2)
+    return min(best, f1, f2)
 
 
 @njit(cache=True)
@@ -52,10 +104,10 @@ def pair_overlaps(pos, radius, depth, facing, tolerance):
                     rr = radius[i] + radius[j]
                     if d >= rr:
                         continue
-                    if d > 1e-12:
-                        rr = (support(radius[i], depth[i], facing[i, 0], facing[i, 1], dx / d, dy / d)
-                              + support(radius[j], depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d))
                     ov = rr - d
+                    if d > 1e-12 and (depth[i] < radius[i] or depth[j] < radius[j]):
+                        ov = _ellipse_penetration(radius[i], depth[i], facing[i, 0], facing[i, 1],
+                                                  radius[j], depth[j], facing[j, 0], facing[j, 1], dx, dy)
                     worst = max(worst, ov)
                     if ov > tolerance:
                         if m == cap:

@@ -169,6 +169,8 @@ def _measure(which: str, seconds: float) -> dict[str, float]:
             out["reached"] += sim.dt
         if sim.etiquette is not None:
             out["forced"] = float(sim.etiquette.carrier_forced)
+        # the farthest the pram got from where it started (a round trip through the door ends near it)
+        out["moved"] = max(out["moved"], float(np.hypot(*(c.pos[c.length > 0.0] - start).T).max(initial=0.0)))
         fp = footprints(c.pos, c.radius, c.turn, c.torso, c.heading, c.ahead, c.length)
         for i in np.flatnonzero(fp.rigid):
             h_i = _ellipse_support(fp.centre[i], float(fp.radius[i]), float(fp.depth[i]), fp.facing[i])
@@ -195,7 +197,6 @@ def _measure(which: str, seconds: float) -> dict[str, float]:
                     out["user_pram"] = max(out["user_pram"], _penetration(h_u, _DIRS @ c.pos[j] + c.radius[j]))
                     out["user_pram_near"] = min(out["user_pram_near"], -_penetration(h_u, _DIRS @ c.pos[j]
                                                                                          + c.radius[j]))
-    out["moved"] = float(np.hypot(*(c.pos[c.length > 0.0] - start).T).max(initial=0.0))
     out["max_overlap"] = sim.metrics.max_overlap
     return out
 
