@@ -44,7 +44,8 @@ from pedvr.scene.avatars import accessor as _accessor
 __all__ = ["REQUIRED", "AvatarError", "load_avatar", "map_bones", "normalise_bone_name"]
 
 TEXTURED = 12  # crowd.glsl's region for avatars' base-colour texture
-AVATAR_DEVIATION_SPACING = 0.003  # m: how finely levels of detail's deviations are measured at load (seconds)
+AVATAR_DEVIATION_SPACING = 0.003  # m: how finely levels of detail's deviations are measured at load,
+AVATAR_DEVIATION_POINTS = 50_000  # at most about this many points a level (a second or two)
 
 _MAIN_CHILD = {"Pelvis": "Spine1", "Spine1": "Spine2", "Spine2": "Spine3", "Spine3": "Neck", "Neck": "Head",
                **{f"{s}{a}": f"{s}{b}" for s in "LR" for a, b in (
@@ -256,7 +257,8 @@ def load_avatar(path: str | Path, *, bone_map: dict[str, str] | None = None) -> 
     lod0 = MeshLOD(vertices=out, triangles=t.astype(np.uint32))
     lods = [lod0] + [_reduced(lod0, frac) for frac in (0.3, 0.1)]
     return CharacterMesh(name=path.stem, lods=tuple(lods), rest=rest, texture=texture,
-                         lod_error=lod_deviation(lods, spacing=AVATAR_DEVIATION_SPACING))
+                         lod_error=lod_deviation(lods, spacing=AVATAR_DEVIATION_SPACING,
+                                                 max_points=AVATAR_DEVIATION_POINTS))
 
 
 _J_INDEX = {n: i for i, n in enumerate(JOINTS)}

@@ -267,7 +267,8 @@ class Renderer:
                 tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
             self._char_textures.append(tex)
         # Each level's deviation from level 0 (m), which picks the distances it is drawn from.
-        self._lod_error = [ch.lod_error or lod_deviation(ch.lods, spacing=0.003) for ch in self.characters]
+        self._lod_error = [ch.lod_error or lod_deviation(ch.lods, spacing=0.003, max_points=50_000)
+                           for ch in self.characters]
         self._white = ctx.texture((1, 1), 4, bytes([255, 255, 255, 255]))
         self.crowd_vertices = self.characters[0].vertex_counts[0]
 
