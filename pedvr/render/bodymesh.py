@@ -741,7 +741,8 @@ def lod_deviation(lods: Sequence[MeshLOD], *, spacing: float, max_points: int | 
     """Each level's largest deviation (m) from level 0, in the bind pose: the two-sided Hausdorff
     distance between their surfaces, piece by piece (each hair style against itself), measured
     between points :func:`_surface_points` spreads ``spacing`` apart (so up to 0.6 · ``spacing``
-    high: it errs on the side of finer levels). Most of a minute for the procedural character at
+    high, and the nearest-neighbour search, 5 % approximate, errs high too: on the side of finer
+    levels). Most of a minute for the procedural character at
     1.5 mm. ``max_points`` widens the spacing where level 0's surface would need more points than
     that (about 1.15 · area / spacing²): a mesh of large triangles (a boxy avatar of 160 vertices
     took a minute and a half at 3 mm) is measured in seconds."""
