@@ -2,7 +2,8 @@
 // Stereo: u_eyes is 1 (one view) or 2 (single-pass side-by-side: instance
 // k draws for eye k % 2 into the left or right half of the target).
 // Shadow pass (u_shadow_pass): the same vertices go through the key light's
-// orthographic view-projection u_light_vp into the shadow map (depth only).
+// orthographic view-projection u_light_vp into the shadow map (depth only);
+// the crowd has a program of its own for it (crowd_depth.glsl).
 uniform mat4 u_view_proj[2];
 uniform vec3 u_eye_pos[2];
 uniform int u_eyes;

@@ -1,23 +1,10 @@
-// The crowd: skinned characters, one instanced draw per character and level of detail
-// (issue 16, DESIGN.md "render"). Instance k of a draw is agent u_order[u_base + k / u_eyes]
-// seen by eye k % u_eyes. Agent i's skinning matrices are row i of u_skin (three texels per
-// bone: the rows of M = [s·R | p − s·R·r], pedvr/render/crowd.py skin_rows); its looks are
-// row i of u_looks (crowd.py look_rows). Vertices carry up to four bones and weights, two
-// shape offsets (sex, build), a region for the materials and a variant (hair styles, skirt):
-// pieces an agent does not wear collapse to a point and draw nothing.
+// The crowd: skinned characters, one instanced draw per character, level of detail and piece
+// of the mesh (issue 16, DESIGN.md "render"; skinning.glsl says which agent an instance draws).
+// Vertices carry up to four bones and weights, two shape offsets (sex, build), a region for the
+// materials; the renderer draws each agent's always-worn piece and the hair style and skirt it
+// wears (pedvr/render/crowd.py draw_plan), so no vertex runs for pieces it does not wear.
 #include "common.glsl"
-
-// Regions (pedvr/render/bodymesh.py).
-const int SKIN = 0, TRUNK = 1, ARM = 2, LEG = 3, FOOT = 4, EYE = 5, LID_UPPER = 6, LID_LOWER = 7,
-          HAIR = 8, SKIRT = 9, LIPS = 10, BROW = 11, TEXTURED = 12;
-const int SKIRT_VARIANT = 10;
-
-uniform sampler2D u_skin;
-uniform sampler2D u_looks;
-uniform isampler2D u_order;
-uniform int u_base;
-
-vec4 look(int agent, int k) { return texelFetch(u_looks, ivec2(k, agent), 0); }
+#include "skinning.glsl"
 
 #ifdef VERTEX_SHADER
 in vec3 in_pos;
@@ -31,7 +18,6 @@ in float in_t;
 in vec3 in_local;
 in float in_ao;
 in vec2 in_uv;
-in int in_variant;
 
 out vec3 v_world;
 out vec3 v_normal;
@@ -43,25 +29,9 @@ flat out int v_region;
 flat out int v_agent;
 flat out int v_eye;
 
-const float LID_CLOSE_UPPER = 0.80;  // rad the upper lid turns down to shut (24° above the axis to 22° below)
-const float LID_CLOSE_LOWER = 0.06;  // rad the lower lid rises
-
-mat3x4 bone_rows(int agent, int b) {
-    return mat3x4(texelFetch(u_skin, ivec2(3 * b, agent), 0), texelFetch(u_skin, ivec2(3 * b + 1, agent), 0),
-                  texelFetch(u_skin, ivec2(3 * b + 2, agent), 0));
-}
-
-vec3 xform(mat3x4 m, vec4 p) { return vec3(dot(m[0], p), dot(m[1], p), dot(m[2], p)); }
-
-// Rotation about the x axis by a (decreases the angle above the z axis by a).
-vec3 rot_x(vec3 v, float a) {
-    float c = cos(a), s = sin(a);
-    return vec3(v.x, c * v.y - s * v.z, s * v.y + c * v.z);
-}
-
 void main() {
     int eye = gl_InstanceID % u_eyes;
-    int agent = texelFetch(u_order, ivec2(u_base + gl_InstanceID / u_eyes, 0), 0).r;
+    int agent = instance_agent(u_eyes);
     v_agent = agent;
     v_eye = eye;
     v_region = in_region;
@@ -69,48 +39,9 @@ void main() {
     v_ao = in_ao;
     v_uv = in_uv;
     v_local = in_local;
-    if (in_variant >= 0) {
-        bool worn = in_variant == SKIRT_VARIANT ? look(agent, 4).a > 0.5
-                                                : in_variant == int(look(agent, 3).a + 0.5);
-        if (!worn) {
-            gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: nothing drawn
-            v_world = vec3(0.0);
-            v_normal = vec3(0.0, 1.0, 0.0);
-            gl_ClipDistance[0] = -1.0;
-            return;
-        }
-    }
-    vec4 shape = look(agent, 6);
-    vec3 p = in_pos + shape.x * in_dsex + shape.y * in_dbuild;
-    vec3 n = in_normal;
-    if (in_region == LID_UPPER || in_region == LID_LOWER) {
-        // Lids turn about the eye's centre: down to blink, and with the eye's pitch in the head.
-        int eb = in_local.x > 0.0 ? 14 : 15;  // LEye, REye
-        mat3x4 h = bone_rows(agent, 13), e = bone_rows(agent, eb);
-        vec3 fwd = vec3(e[0].z, e[1].z, e[2].z);  // the eye's +Z in the world (times the scale)
-        vec3 in_head = vec3(dot(vec3(h[0].x, h[1].x, h[2].x), fwd), dot(vec3(h[0].y, h[1].y, h[2].y), fwd),
-                            dot(vec3(h[0].z, h[1].z, h[2].z), fwd));
-        float pitch = asin(clamp(in_head.y / max(length(in_head), 1e-6), -1.0, 1.0));
-        float blink = look(agent, 5).a;
-        float a = in_region == LID_UPPER ? -0.75 * pitch + blink * LID_CLOSE_UPPER
-                                         : -0.35 * pitch - blink * LID_CLOSE_LOWER;
-        p = in_local + rot_x(p - in_local, a);
-        n = rot_x(n, a);
-    }
-    vec4 hp = vec4(p, 1.0);
-    vec3 world = vec3(0.0);
-    vec3 normal = vec3(0.0);
-    for (int k = 0; k < 4; ++k) {
-        float w = in_weights[k];
-        if (w > 0.0) {
-            mat3x4 m = bone_rows(agent, int(in_bones[k]));
-            world += w * xform(m, hp);
-            normal += w * xform(m, vec4(n, 0.0));
-        }
-    }
-    v_world = world;
-    v_normal = normal;
-    gl_Position = eye_clip(world, eye);
+    skin(agent, in_pos, in_normal, in_dsex, in_dbuild, in_bones, in_weights, in_region, in_local, v_world,
+         v_normal);
+    gl_Position = eye_clip(v_world, eye);
 }
 #endif
 
@@ -166,7 +97,6 @@ float cone_distance(vec3 p, vec3 a, vec3 b, float ra, float rb) {
 }
 
 void main() {
-    if (u_shadow_pass) { f_color = vec4(1.0); return; }
     vec3 skin = look(v_agent, 0).rgb;
     vec3 albedo = skin;
     float spec = 0.0;

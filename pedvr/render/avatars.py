@@ -34,7 +34,7 @@ import numpy as np
 
 from pedvr.body import JOINTS, PARENTS, REST_OFFSETS
 from pedvr.body import skeleton as sk
-from pedvr.render.bodymesh import ALWAYS, VERTEX_DTYPE, CharacterMesh, MeshLOD, _decimate
+from pedvr.render.bodymesh import ALWAYS, VERTEX_DTYPE, CharacterMesh, MeshLOD, _decimate, lod_deviation
 
 # The file is read and checked GL-free in the scene layer (scene check and scene loading use the same
 # check); these names stay importable from here.
@@ -44,6 +44,8 @@ from pedvr.scene.avatars import accessor as _accessor
 __all__ = ["REQUIRED", "AvatarError", "load_avatar", "map_bones", "normalise_bone_name"]
 
 TEXTURED = 12  # crowd.glsl's region for avatars' base-colour texture
+AVATAR_DEVIATION_SPACING = 0.003  # m: how finely levels of detail's deviations are measured at load,
+AVATAR_DEVIATION_POINTS = 50_000  # at most about this many points a level (a second or two)
 
 _MAIN_CHILD = {"Pelvis": "Spine1", "Spine1": "Spine2", "Spine2": "Spine3", "Spine3": "Neck", "Neck": "Head",
                **{f"{s}{a}": f"{s}{b}" for s in "LR" for a, b in (
@@ -254,7 +256,9 @@ def load_avatar(path: str | Path, *, bone_map: dict[str, str] | None = None) -> 
     out["local"] = cols  # the primitive's base colour factor (crowd.glsl multiplies the texture by it)
     lod0 = MeshLOD(vertices=out, triangles=t.astype(np.uint32))
     lods = [lod0] + [_reduced(lod0, frac) for frac in (0.3, 0.1)]
-    return CharacterMesh(name=path.stem, lods=tuple(lods), rest=rest, texture=texture)
+    return CharacterMesh(name=path.stem, lods=tuple(lods), rest=rest, texture=texture,
+                         lod_error=lod_deviation(lods, spacing=AVATAR_DEVIATION_SPACING,
+                                                 max_points=AVATAR_DEVIATION_POINTS))
 
 
 _J_INDEX = {n: i for i, n in enumerate(JOINTS)}

@@ -1,18 +1,24 @@
 """``pedvr bench render``: CPU cost of posing, uploading and submitting the crowd, and frame time.
 
 Stereo at ``width × height`` per eye (both eyes in one side-by-side pass),
-offscreen through EGL. Agents walk on a grid in front of the user, so all of
-them are in view, posed by the body layer (its cost is the simulation's and is not counted here).
+offscreen through EGL, with a vertical field of view of ``fovy`` degrees
+(the desktop's 70° by default; a headset's is wider, about 90–110°, so at
+the same pixels it has fewer per degree and draws more agents at coarser
+levels of detail). Agents walk on a grid in front of the user, posed by the
+body layer (its cost is the simulation's and is not counted here); those
+wholly outside both eyes' views are not drawn in them (``agents_in_view``).
 Per frame: the skinning matrices, looks and blinks (``pose_ms``), the texture
 uploads (``upload_ms``), the draw submission (``submit_ms``, CPU time to issue
 the draw calls, the shadow map's included), and the whole frame including
 ``glFinish`` (``frame_ms``). ``cpu_ms`` is the three together (the goal, issue
 16: at most 1 ms at 500 agents). ``draw_calls`` is per frame and must not grow
-with the number of agents (one per character and level of detail in the view
-and in the shadow map, plus the world's); ``vertices_per_frame`` counts the
-crowd's vertices submitted (both eyes and the shadow map) with the levels of
-detail, ``lod_agents`` how many agents each level drew, beside
-``vertices_if_all_lod0``. Absolute frame times mean something only on a GPU;
+with the number of agents (in the view and in the shadow map one per
+character, level of detail and piece of the mesh someone wears, plus the
+world's); ``vertices_per_frame`` counts the crowd's vertices submitted (both
+eyes and the shadow map: the vertex shader's runs), ``lod_agents`` how many
+agents each level drew in the view (last frame; agents out of both eyes'
+views are not drawn), beside ``vertices_if_all_lod0`` (every agent's whole
+finest mesh, all pieces, in all three). Absolute frame times mean something only on a GPU;
 on Mesa llvmpipe (``renderer`` names it) they measure the software rasteriser.
 """
 
@@ -25,7 +31,6 @@ import numpy as np
 
 from pedvr.body import FullBody
 from pedvr.crowd.state import CrowdState
-from pedvr.render.crowd import lod_levels
 from pedvr.render.math3d import desktop_stereo_eyes
 from pedvr.render.renderer import OffscreenTarget, Renderer, create_offscreen_context, gl_renderer_name
 from pedvr.render.snapshot import Snapshot
@@ -68,17 +73,20 @@ class _Crowd:
 
 
 def run_render_bench(
-    agents: int, *, width: int = 1280, height: int = 720, frames: int = 30, warmup: int = 3
+    agents: int, *, width: int = 1280, height: int = 720, frames: int = 30, warmup: int = 3,
+    fovy: float = 70.0,
 ) -> dict[str, object]:
     """Figures for ``agents`` agents; see the module docstring for the keys."""
     if agents <= 0 or frames <= 0 or width <= 0 or height <= 0:
         raise ValueError("agents, frames, width and height must be > 0")
+    if not 0.0 < fovy < 180.0:
+        raise ValueError(f"fovy = {fovy}: must be between 0 and 180 degrees")
     ctx = create_offscreen_context()
     side = math.ceil(math.sqrt(agents)) * 0.9 + 4.0
     world = WorldConfig(bounds=((-2.0, -side), (side + 4.0, side)))
     r = Renderer(ctx, world=world)
     target = OffscreenTarget(ctx, (2 * width, height))
-    eyes = desktop_stereo_eyes(pos=np.zeros(2), heading=0.0, aspect=width / height)
+    eyes = desktop_stereo_eyes(pos=np.zeros(2), heading=0.0, aspect=width / height, fovy=math.radians(fovy))
     pose, upload, submit, frame, calls, verts = [], [], [], [], [], []
     crowd = _Crowd(agents)
     for i in range(warmup + frames):
@@ -99,7 +107,7 @@ def run_render_bench(
             calls.append(r.stats.draw_calls)
             verts.append(r.stats.vertices)
     name = gl_renderer_name(ctx)
-    lod = lod_levels(crowd.base, np.zeros(2))
+    lod = list(r.stats.lod_agents)
     lod0 = r.characters[0].vertex_counts[0]
     target.release()
     r.release()
@@ -112,6 +120,7 @@ def run_render_bench(
         "agents": agents,
         "width": width,
         "height": height,
+        "fovy": fovy,
         "eyes": 2,
         "frames": frames,
         "pose_ms_p50": p(pose, 50),
@@ -124,7 +133,8 @@ def run_render_bench(
         "draw_calls_constant": min(calls) == max(calls),
         "vertices_per_frame": int(np.median(verts)),
         "vertices_if_all_lod0": 3 * lod0 * agents,  # two eyes and the shadow map
-        "lod_agents": np.bincount(lod, minlength=3).tolist(),
+        "lod_agents": lod,
+        "agents_in_view": int(sum(lod)),
         "mesh_vertices_per_lod": list(r.characters[0].vertex_counts),
         "renderer": name,
     }

@@ -81,11 +81,25 @@ LID_OPEN_UPPER = math.radians(24.0)  # rad above the eye's axis: the open upper 
 LID_OPEN_LOWER = math.radians(-21.0)  # rad: the lower lid's margin
 SIGMA = 0.012  # m: how far skin weights blend across the flesh of neighbouring bones
 LOD_TRIANGLES = {  # per piece and level of detail (the body's before its seams are cut, which adds
-    # about 500, 300 and 120 triangles: as many as the uncut 11000, 2800 and 700 had)
-    "body": (10500, 2500, 575), "hair": (1000, 320, 100), "skirt": (600, 200, 60),
-    "eye": (200, 80, 32), "lid": (140, 50, 20),
+    # about 500, 300 and 120 triangles to the first three: as many as the uncut 11000, 2800 and 700
+    # had). The levels' largest deviations from level 0 (CharacterMesh.lod_error) come out near 3, 6,
+    # 11 and 19 mm, about doubling from level to level, so that each level serves from twice the
+    # distance of the one before (issue 27: pedvr/render/crowd.py lod_levels). Long hair needs more
+    # triangles than the other styles for the same deviation (with fewer the decimator folds its tail
+    # away: 28 mm); the skirt keeps all its triangles at level 1 (fewer cost it 5 mm). Hair is a
+    # shell millimetres over the scalp: decimated, it sinks into it and the scalp shows through in
+    # patches wider than its deviation says (at 450 triangles, level 1, plainly along the hairline 2 m
+    # away in a headset), so it keeps all its triangles at level 1 and 600 at level 2.
+    "body": (10500, 5000, 2500, 900, 575), "hair": (1000, 1000, 600, 320, 140),
+    "hair_long": (1000, 1000, 600, 320, 200), "skirt": (600, 600, 200, 60, 60), "eye": (200, 120, 80, 32, 32),
+    "lid": (140, 80, 50, 20, 20),
 }
-MESH_VERSION = 2
+LEVELS = len(LOD_TRIANGLES["body"])
+# Each level's largest deviation from level 0 (m): lod_deviation of the procedural character at a
+# 1.5 mm spacing, written here because measuring takes most of a minute and the mesh is generated
+# on a cold start (issue 27 goal 2); tests/render/test_characters.py measures it again.
+PROCEDURAL_LOD_ERROR = (0.0, 0.0030, 0.0061, 0.0106, 0.0187)
+MESH_VERSION = 3
 LEG_SEAM_Y = 0.9  # m, bind pose: the legs begin below this height (under the lowest shirt hem, 0.95 m)
 SEAM_SNAP = 0.08  # a seam crossing an edge this close to a vertex goes through the vertex (no slivers)
 ARM_BONES = tuple(f"{s}{j}" for s in "LR" for j in ("Shoulder", "Elbow", "Wrist", "Hand"))
@@ -110,12 +124,16 @@ class CharacterMesh:
     the 1.75 m reference height; None for the procedural body, whose joints
     follow each agent's dims (:func:`pedvr.body.rest_positions`).
     ``texture`` is an RGBA ``uint8`` base-colour image (avatars), or None.
+    ``lod_error`` is each level's largest deviation (m) from level 0's surface
+    (:func:`lod_deviation`; 0 for level 0), which picks the distance each level
+    is drawn from; empty when not measured (the renderer measures it then).
     """
 
     name: str
     lods: tuple[MeshLOD, ...]
     rest: np.ndarray | None = None
     texture: np.ndarray | None = None
+    lod_error: tuple[float, ...] = ()
 
     @property
     def vertex_counts(self) -> tuple[int, ...]:
@@ -343,7 +361,7 @@ class _Piece:
     verts: np.ndarray
     tris: np.ndarray
     variant: int
-    lod_tris: tuple[int, int, int]
+    lod_tris: tuple[int, ...]
 
 
 def closed_manifold(tris: np.ndarray) -> bool:
@@ -641,7 +659,8 @@ def _pieces() -> list[_Piece]:
         table = im.prim_table(prims)
         lo, hi = np.array([-0.13, 1.3, -0.2]), np.array([0.13, 1.81, 0.16])
         v, t = im.polygonise(table, *_box_grid(lo, hi, 0.004))
-        pieces.append(_Piece(f"hair_{style}", table, prims, v, t, k, LOD_TRIANGLES["hair"]))
+        budget = LOD_TRIANGLES.get(f"hair_{style}", LOD_TRIANGLES["hair"])
+        pieces.append(_Piece(f"hair_{style}", table, prims, v, t, k, budget))
     prims = skirt_prims()
     table = im.prim_table(prims)
     v, t = im.polygonise(table, *_box_grid(np.array([-0.3, 0.5, -0.25]), np.array([0.3, 1.04, 0.25]), 0.01))
@@ -690,13 +709,68 @@ def build_procedural() -> CharacterMesh:
                 for name, s, b in (("female", 1.0, 0.5), ("heavy", 0.0, 1.0), ("slender", 0.0, 0.0))}
     pieces = _pieces()
     lods = []
-    for level in range(3):
+    for level in range(LEVELS):
         parts = []
         for piece in pieces:
             v, t = _decimate(piece.verts, piece.tris, piece.lod_tris[level])
             parts.append(_finish(piece, v, t, rest, variants))
         lods.append(_concat(parts))
-    return CharacterMesh(name="procedural", lods=tuple(lods))
+    return CharacterMesh(name="procedural", lods=tuple(lods), lod_error=PROCEDURAL_LOD_ERROR)
+
+
+def _surface_points(v: np.ndarray, t: np.ndarray, spacing: float) -> np.ndarray:
+    """Points on the triangles ``t`` of vertices ``v``: the vertices and, on each triangle, a
+    barycentric grid whose steps are at most ``spacing`` (every point of the surface is within
+    0.58 · ``spacing`` of one)."""
+    p = v[t]
+    edge = np.max(np.linalg.norm(p - np.roll(p, 1, axis=1), axis=2), axis=1)
+    steps = np.maximum(np.ceil(edge / spacing), 1).astype(np.int64)
+    out = [v[np.unique(t)]]
+    for m in np.unique(steps):
+        i, j = np.meshgrid(np.arange(m + 1), np.arange(m + 1), indexing="ij")
+        keep = i + j <= m
+        a, b = i[keep] / m, j[keep] / m
+        q = p[steps == m]
+        out.append((a[None, :, None] * q[:, None, 0] + b[None, :, None] * q[:, None, 1]
+                    + (1.0 - a - b)[None, :, None] * q[:, None, 2]).reshape(-1, 3))
+    return np.concatenate(out)
+
+
+def lod_deviation(lods: Sequence[MeshLOD], *, spacing: float, max_points: int | None = None
+                  ) -> tuple[float, ...]:
+    """Each level's largest deviation (m) from level 0, in the bind pose: the two-sided Hausdorff
+    distance between their surfaces, piece by piece (each hair style against itself), measured
+    between points :func:`_surface_points` spreads ``spacing`` apart (so up to 0.6 · ``spacing``
+    high, and the nearest-neighbour search, 5 % approximate, errs high too: on the side of finer
+    levels). Most of a minute for the procedural character at
+    1.5 mm. ``max_points`` widens the spacing where level 0's surface would need more points than
+    that (about 1.15 · area / spacing²): a mesh of large triangles (a boxy avatar of 160 vertices
+    took a minute and a half at 3 mm) is measured in seconds."""
+    from scipy.spatial import cKDTree
+
+    if max_points is not None:
+        p = lods[0].vertices["pos"].astype(np.float64)[lods[0].triangles.astype(np.int64)]
+        area = 0.5 * float(np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).sum())
+        spacing = max(spacing, math.sqrt(1.15 * area / max_points))
+
+    def pieces(lod: MeshLOD) -> dict[int, np.ndarray]:
+        v = lod.vertices
+        t = lod.triangles.astype(np.int64)
+        var = v["variant"][t[:, 0]]
+        pos = v["pos"].astype(np.float64)
+        return {int(k): _surface_points(pos, t[var == k], spacing) for k in np.unique(var)}
+
+    ref = pieces(lods[0])
+    out = [0.0]
+    for lod in lods[1:]:
+        worst = 0.0
+        for k, pts in pieces(lod).items():
+            if k not in ref:
+                raise ValueError(f"a level of detail has variant {k}, which level 0 has not")
+            worst = max(worst, float(cKDTree(ref[k]).query(pts, eps=0.05)[0].max()),
+                        float(cKDTree(pts).query(ref[k], eps=0.05)[0].max()))
+        out.append(worst)
+    return tuple(out)
 
 
 def _concat(parts: list[MeshLOD]) -> MeshLOD:
@@ -726,9 +800,9 @@ def procedural_character() -> CharacterMesh:
     path = _cache_dir() / f"procedural-{_cache_key()}.npz"
     try:
         with np.load(path) as data:
-            lods = tuple(MeshLOD(vertices=data[f"v{i}"], triangles=data[f"t{i}"]) for i in range(3))
+            lods = tuple(MeshLOD(vertices=data[f"v{i}"], triangles=data[f"t{i}"]) for i in range(LEVELS))
         if all(lod.vertices.dtype == VERTEX_DTYPE for lod in lods):
-            return CharacterMesh(name="procedural", lods=lods)
+            return CharacterMesh(name="procedural", lods=lods, lod_error=PROCEDURAL_LOD_ERROR)
     except (OSError, KeyError, ValueError):
         pass
     mesh = build_procedural()

@@ -5,13 +5,14 @@ Per frame the renderer needs, for every drawn agent, its skinning matrices
 layout), its looks (:func:`agent_looks`: colours and garments, drawn once from
 the agent's stable id and its body dims) with the blink of the moment
 (:class:`Blinks`), and which character and level of detail draws it
-(:func:`draw_groups`). Everything here is deterministic in the agent ids and
+(:func:`lod_levels`, :func:`draw_plan`). Everything here is deterministic in the agent ids and
 the snapshot's time.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numba
@@ -23,7 +24,6 @@ from pedvr.body import skeleton as sk
 N_JOINTS = len(JOINTS)
 SKIN_TEXELS = 3 * N_JOINTS  # rows of each bone's 3×4 skinning matrix
 LOOK_TEXELS = 8
-LOD_DISTANCES = (6.0, 15.0)  # m: level 0 nearer than 6 m, level 1 nearer than 15 m, level 2 beyond
 
 
 def _srgb(hexes: tuple[str, ...]) -> np.ndarray:
@@ -172,29 +172,175 @@ def skin_rows(world: np.ndarray, rows: np.ndarray, scale: np.ndarray, rest: np.n
                 out[a, o, 3] = world[i, j, k, 3] - rr
 
 
-def lod_levels(pos: np.ndarray, viewer: np.ndarray | None, levels: int = 3) -> np.ndarray:
-    """Level of detail ``(N,) int64`` by ground distance from ``viewer`` (2D); all 0 without a viewer."""
-    n = len(pos)
-    if viewer is None:
-        return np.zeros(n, np.int64)
+# Levels of detail by what they would change on screen (issue 27): a level is good enough for an
+# agent when its surface's largest deviation from level 0's (CharacterMesh.lod_error, metres)
+# subtends at most LOD_TOLERANCE_PX pixels of the view at the agent's distance. For the procedural
+# character (deviations 3.0, 6.1, 10.6 and 18.7 mm: bodymesh.PROCEDURAL_LOD_ERROR) in the desktop's
+# 70° view 1600 pixels high (1142 pixels per radian) that is level 1 from 3.4 m, level 2 from 7.0 m,
+# level 3 from 12.1 m and level 4 from 21.4 m; a headset's wider view has fewer pixels per radian
+# and brings them nearer (at 100°, 1600 pixels high: 2.0, 4.1, 7.1 and 12.5 m).
+LOD_TOLERANCE_PX = 1.0
+
+
+def lod_levels(pos: np.ndarray, viewer: np.ndarray, *, pixels_per_radian: float,
+               errors: Sequence[float]) -> np.ndarray:
+    """Level of detail ``(N,) int64`` of agents at ground points ``pos (N, 2)`` seen from ``viewer`` (2D).
+
+    ``errors``: each level's largest deviation (m) from level 0 (``CharacterMesh.lod_error``).
+    ``pixels_per_radian``: the view's resolution at its centre (:func:`pixels_per_radian`). Each
+    agent gets the coarsest level whose error subtends at most :data:`LOD_TOLERANCE_PX` at its
+    ground distance (never more than the eye's distance to the body, so this errs on the fine side).
+    """
     d = np.hypot(pos[:, 0] - viewer[0], pos[:, 1] - viewer[1])
-    lod = np.searchsorted(np.asarray(LOD_DISTANCES), d, side="right")
-    return np.minimum(lod, levels - 1).astype(np.int64)
+    # Level k will do beyond errors[k] · pixels / tolerance (a coarser level never before a finer one).
+    e = np.maximum.accumulate(np.asarray(errors, np.float64))[1:]
+    beyond = e * max(float(pixels_per_radian), 0.0) / LOD_TOLERANCE_PX
+    return np.searchsorted(beyond, d, side="right").astype(np.int64)
 
 
-def draw_groups(character: np.ndarray, lod: np.ndarray, characters: int,
-                levels: int) -> tuple[np.ndarray, list[tuple[int, int, int, int]]]:
-    """Instance order and the draws: ``order (N,)`` agent rows sorted by (character, level), and
-    ``(character, level, first, count)`` for each non-empty group (one draw call each)."""
-    key = np.asarray(character, np.int64) * levels + np.asarray(lod, np.int64)
-    order = np.argsort(key, kind="stable")
-    counts = np.bincount(key, minlength=characters * levels)
-    groups, first = [], 0
-    for g, c in enumerate(counts):
-        if c:
-            groups.append((g // levels, g % levels, first, int(c)))
-        first += int(c)
-    return order.astype(np.int32), groups
+# The key light's shadow map draws each character at the coarsest level that deviates from level 0
+# by at most SHADOW_LOD_TEXELS of the map's texels: its 3×3 filter taps 1.5 texels apart
+# (shaders/common.glsl) blur the edge over 4.5 texels, so a deviation under 2 moves no edge by more
+# than the filter does. At the default 2048 texels over 32 m (1.6 cm each) that is the procedural
+# character's coarsest level (18.7 mm against 31 mm).
+SHADOW_LOD_TEXELS = 2.0
+
+
+def shadow_level(errors: Sequence[float], texel: float) -> int:
+    """The coarsest level whose deviation ``errors[k]`` (m) is within :data:`SHADOW_LOD_TEXELS`
+    shadow-map texels of ``texel`` metres (0 when none is)."""
+    e = np.maximum.accumulate(np.asarray(errors, np.float64))
+    return int(np.flatnonzero(e <= SHADOW_LOD_TEXELS * texel).max(initial=0))
+
+
+def pixels_per_radian(projection: np.ndarray, viewport_height: int) -> float:
+    """Pixels per radian at the centre of a view whose projection is ``projection`` (OpenGL, 4×4),
+    drawn ``viewport_height`` pixels high: the vertical focal length in pixels."""
+    return float(projection[1, 1]) * viewport_height / 2.0
+
+
+# A sphere that holds an agent whatever its pose (issue 27: agents outside every eye's view are not
+# drawn): centred BOUND_CENTRE · scale above its ground point, BOUND_RADIUS · scale + BOUND_MARGIN
+# across. At the 1.75 m reference the head's top is 0.85 m from the centre, a raised hand 1.3 m, a
+# foot a stride ahead 1.1 m; the margin covers the pose's root straying from the snapshot's ground
+# point (the body's coupling) and a held object's reach.
+BOUND_CENTRE = 0.9  # m at scale 1
+BOUND_RADIUS = 1.3  # m at scale 1
+BOUND_MARGIN = 0.3  # m
+
+
+def in_views(pos: np.ndarray, scale: np.ndarray, view_projections: Sequence[np.ndarray]) -> np.ndarray:
+    """``(N,) bool``: which agents at ground points ``pos (N, 2)`` (world x and z) with height scale
+    ``scale (N,)`` may show in any of the views (world-to-clip matrices, OpenGL convention): their
+    bounding sphere is not wholly outside one of the view's six frustum planes (Gribb and
+    Hartmann's planes from the matrix's rows). Conservative: a sphere beyond a frustum's corner
+    counts as seen."""
+    pos = np.asarray(pos, np.float64).reshape(-1, 2)
+    scale = np.asarray(scale, np.float64)
+    centre = np.stack([pos[:, 0], BOUND_CENTRE * scale, pos[:, 1], np.ones(len(pos))], axis=1)
+    radius = BOUND_RADIUS * scale + BOUND_MARGIN
+    seen = np.zeros(len(pos), np.bool_)
+    for m in view_projections:
+        m = np.asarray(m, np.float64)
+        planes = np.stack([m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2]])
+        planes /= np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
+        seen |= (centre @ planes.T >= -radius[:, None]).all(axis=1)
+    return seen
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One variant's triangles in a level of detail's index buffer as :func:`mesh_pieces` orders it.
+
+    ``variant`` is the vertices' (``bodymesh.ALWAYS``, a hair style, ``bodymesh.SKIRT_VARIANT``);
+    ``first`` and ``indices`` the range in the index buffer (3 per triangle); ``vertices`` how
+    many distinct vertices the triangles use (how often the vertex shader runs per instance).
+    """
+
+    variant: int
+    first: int
+    indices: int
+    vertices: int
+
+
+def mesh_pieces(triangles: np.ndarray, variant: np.ndarray) -> tuple[np.ndarray, tuple[Piece, ...]]:
+    """The triangles ``(T, 3)`` ordered by their vertices' ``variant`` (always-worn first, stable
+    within a variant) and the pieces of that order; a triangle across variants is an error."""
+    t = np.asarray(triangles, np.int64).reshape(-1, 3)
+    var = np.asarray(variant, np.int64)[t]
+    if t.size and not (var == var[:, :1]).all():
+        bad = int(np.flatnonzero((var != var[:, :1]).any(axis=1))[0])
+        raise ValueError(f"triangle {bad} joins vertices of variants {sorted(set(var[bad].tolist()))}")
+    tv = var[:, 0] if t.size else np.zeros(0, np.int64)
+    order = np.argsort(tv, kind="stable")
+    t, tv = t[order], tv[order]
+    pieces = []
+    for v in np.unique(tv):
+        rows = np.flatnonzero(tv == v)
+        pieces.append(Piece(variant=int(v), first=3 * int(rows[0]), indices=3 * len(rows),
+                            vertices=len(np.unique(t[rows]))))
+    return t.astype(np.uint32), tuple(pieces)
+
+
+@dataclass(frozen=True)
+class Draw:
+    """One instanced draw of the crowd: piece ``piece`` of ``character``'s level ``level`` for the
+    agents in columns ``first`` to ``first + count`` of row ``row`` of the instance order."""
+
+    character: int
+    level: int
+    piece: int
+    row: int
+    first: int
+    count: int
+
+
+ORDER_ROWS = 2  # row 0: by (character, level, skirt); row 1: by (character, level, hair style)
+
+
+def draw_plan(character: np.ndarray, lod: np.ndarray, hair_style: np.ndarray, skirt: np.ndarray,
+              pieces: list[list[tuple[Piece, ...]]], *, always: int, skirt_variant: int
+              ) -> tuple[np.ndarray, list[Draw]]:
+    """The instance order ``(ORDER_ROWS, N) int32`` and the draws that give every agent the pieces
+    it wears, and only those: the always-worn piece of its character and level, the hair style's
+    piece, the skirt if it wears one.
+
+    ``pieces[c][l]``: character ``c``'s level ``l`` (:func:`mesh_pieces`); a piece's variant is
+    ``always``, ``skirt_variant`` or a hair style's index. Draws per frame are bounded by the
+    characters, levels and pieces, whatever the number of agents.
+    """
+    character = np.asarray(character, np.int64)
+    lod = np.asarray(lod, np.int64)
+    style = np.asarray(hair_style, np.int64)
+    skirted = np.asarray(skirt, np.bool_).astype(np.int64)
+    levels = max((len(p) for p in pieces), default=1)
+    styles = int(style.max()) + 1 if style.size else 1
+    group = character * levels + lod
+    keys = (group * 2 + skirted, group * styles + style)
+    order = np.zeros((ORDER_ROWS, len(group)), np.int32)
+    starts, counts = [], []
+    for row, key in enumerate(keys):
+        order[row] = np.argsort(key, kind="stable")
+        n = np.bincount(key, minlength=len(pieces) * levels * (2 if row == 0 else styles))
+        counts.append(n)
+        starts.append(np.cumsum(n) - n)
+    draws = []
+    for c, per_level in enumerate(pieces):
+        for level, level_pieces in enumerate(per_level):
+            g = c * levels + level
+            for k, piece in enumerate(level_pieces):
+                if piece.variant == always:
+                    row, first, count = 0, starts[0][2 * g], counts[0][2 * g] + counts[0][2 * g + 1]
+                elif piece.variant == skirt_variant:
+                    row, first, count = 0, starts[0][2 * g + 1], counts[0][2 * g + 1]
+                elif 0 <= piece.variant < styles:
+                    key = g * styles + piece.variant
+                    row, first, count = 1, starts[1][key], counts[1][key]
+                else:
+                    continue  # a hair style nobody here wears
+                if count:
+                    draws.append(Draw(c, level, k, row, int(first), int(count)))
+    return order, draws
 
 
 class Blinks:

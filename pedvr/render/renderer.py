@@ -11,8 +11,16 @@ OpenGL 3.3 core; every program comes from a file in ``shaders/``
 2. :meth:`Renderer.draw_scene` draws floor, walls and obstacles, the red
    target sphere, the crowd and its contact shadows for one eye or, with two
    eyes, for both eyes in a single pass side by side (instance ``k`` draws
-   for eye ``k % 2``; a clip plane cuts each half): the crowd is one draw call
-   whatever the number of agents or eyes.
+   for eye ``k % 2``; a clip plane cuts each half). The crowd is a few draw
+   calls whatever the number of agents or eyes: one per character, level of
+   detail and piece of the mesh that someone wears (the body, each hair
+   style, the skirt: :func:`~pedvr.render.crowd.draw_plan`), each agent at
+   the level its distance and the view's pixels call for
+   (:func:`~pedvr.render.crowd.lod_levels`), and only the agents that may
+   show in one of the eyes (:func:`~pedvr.render.crowd.in_views`). The key
+   light's shadow map draws the agents in its box at a level as coarse as its
+   texels allow (:func:`~pedvr.render.crowd.shadow_level`), depth only
+   (``shaders/crowd_depth.glsl``).
 3. Overlays: :meth:`draw_overhead` (debug view), :meth:`draw_panel` (HUD,
    questionnaires), :meth:`draw_anaglyph`, :meth:`draw_vignette`.
 
@@ -33,22 +41,38 @@ import numpy as np
 
 from pedvr.errors import BackendUnavailableError
 from pedvr.etiquette.doors import DoorLeaves
-from pedvr.render.bodymesh import VERTEX_ATTRIBUTES, VERTEX_FORMAT, CharacterMesh, procedural_character
+from pedvr.render.bodymesh import (
+    ALWAYS,
+    SKIRT_VARIANT,
+    VERTEX_ATTRIBUTES,
+    VERTEX_DTYPE,
+    VERTEX_FORMAT,
+    CharacterMesh,
+    lod_deviation,
+    procedural_character,
+)
 from pedvr.render.carried import carried_vertices
 from pedvr.render.carried import frames as carried_frames
 from pedvr.render.crowd import (
     LOOK_TEXELS,
     N_JOINTS,
+    ORDER_ROWS,
     SKIN_TEXELS,
     Blinks,
+    Draw,
     Looks,
+    Piece,
     _hash01,
     agent_looks,
     bind_joints,
-    draw_groups,
+    draw_plan,
     eye_directions,
+    in_views,
     lod_levels,
     look_rows,
+    mesh_pieces,
+    pixels_per_radian,
+    shadow_level,
     skin_rows,
 )
 from pedvr.render.environment import (
@@ -63,7 +87,7 @@ from pedvr.render.environment import (
     sphere_vertices,
 )
 from pedvr.render.figures import default_dims, standing_bones
-from pedvr.render.lighting import SHADOW_MAP_SIZE, light_view_projection
+from pedvr.render.lighting import SHADOW_HALF_EXTENT, SHADOW_MAP_SIZE, light_view_projection
 from pedvr.render.math3d import EyeView, overhead_transform
 from pedvr.render.overhead import BACKGROUND, disc_fan, frame_geometry, static_triangles
 from pedvr.render.shaders import SHADER_DIR, compile_program
@@ -110,6 +134,7 @@ class FrameStats:
     draw_calls: int = 0
     agents_drawn: int = 0
     vertices: int = 0  # crowd vertices submitted since begin_frame (all views and the shadow pass)
+    lod_agents: tuple[int, ...] = ()  # agents at each level of detail in the last view drawn (those in it)
 
 
 class OffscreenTarget:
@@ -197,30 +222,43 @@ class Renderer:
         self._rows = np.zeros(0, np.int64)
         self._drawn_pos = np.zeros((0, 2))
         self._drawn_char = np.zeros(0, np.int64)
+        self._drawn_scale = np.zeros(0)
         self._looks_key: tuple[bytes, bytes, bytes] | None = None
         self._looks_cache: tuple[Looks, np.ndarray] | None = None
+        self._drawn_style = np.zeros(0, np.int64)
+        self._drawn_skirt = np.zeros(0, np.bool_)
         self._blinks = Blinks()
         self._shadow_dirty = True
         self._light_vp = np.eye(4)
 
-        names = ("crowd", "environment", "shadow", "overlay", "discs", "panel", "composite")
+        names = ("crowd", "crowd_depth", "environment", "shadow", "overlay", "discs", "panel", "composite")
         self.programs = {n: compile_program(ctx, f"{n}.glsl", shader_dir=shader_dir) for n in names}
         p = self.programs
 
         self.characters: list[CharacterMesh] = list(characters) if characters else [procedural_character()]
         self._profile_chars = [np.asarray(c, np.int64) for c in profile_characters]
-        self._char_vaos: list[list[tuple[moderngl.VertexArray, int]]] = []
+        # Per character and level: the view's and the shadow map's vertex arrays over one vertex
+        # buffer and one index buffer ordered by piece (crowd.mesh_pieces), and the pieces.
+        self._char_vaos: list[list[tuple[moderngl.VertexArray, moderngl.VertexArray]]] = []
+        self._char_pieces: list[list[tuple[Piece, ...]]] = []
         self._char_buffers: list[moderngl.Buffer] = []
         self._char_textures: list[moderngl.Texture | None] = []
+        view_layout = _vertex_layout(p["crowd"])
+        depth_layout = _vertex_layout(p["crowd_depth"])
         for ch in self.characters:
-            vaos = []
+            vaos, pieces = [], []
             for lod in ch.lods:
+                tris, parts = mesh_pieces(lod.triangles, lod.vertices["variant"])
                 vbo = ctx.buffer(lod.vertices.tobytes())
-                ibo = ctx.buffer(lod.triangles.astype(np.uint32).tobytes())
+                ibo = ctx.buffer(tris.tobytes())
                 self._char_buffers += [vbo, ibo]
-                vaos.append((ctx.vertex_array(p["crowd"], [(vbo, VERTEX_FORMAT, *VERTEX_ATTRIBUTES)],
-                                              index_buffer=ibo, index_element_size=4), len(lod.vertices)))
-            self._char_vaos.append(vaos)
+                vaos.append(tuple(ctx.vertex_array(prog, [(vbo, *layout)], index_buffer=ibo,
+                                                   index_element_size=4)
+                                  for prog, layout in ((p["crowd"], view_layout),
+                                                       (p["crowd_depth"], depth_layout))))
+                pieces.append(parts)
+            self._char_vaos.append(vaos)  # type: ignore[arg-type]
+            self._char_pieces.append(pieces)
             tex = None
             if ch.texture is not None:
                 img = np.ascontiguousarray(ch.texture, np.uint8)  # glTF's v runs down the image, as GL's t
@@ -228,6 +266,9 @@ class Renderer:
                 tex.build_mipmaps()
                 tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
             self._char_textures.append(tex)
+        # Each level's deviation from level 0 (m), which picks the distances it is drawn from.
+        self._lod_error = [ch.lod_error or lod_deviation(ch.lods, spacing=0.003, max_points=50_000)
+                           for ch in self.characters]
         self._white = ctx.texture((1, 1), 4, bytes([255, 255, 255, 255]))
         self.crowd_vertices = self.characters[0].vertex_counts[0]
 
@@ -307,7 +348,7 @@ class Renderer:
         self._skin = self.ctx.texture((SKIN_TEXELS, cap), 4, dtype="f4")
         self._looks = self.ctx.texture((LOOK_TEXELS, cap), 4, dtype="f4")
         self._discs = self.ctx.texture((1, cap), 4, dtype="f4")
-        self._order = self.ctx.texture((cap, 1), 1, dtype="i4")
+        self._order = self.ctx.texture((cap, 2 * ORDER_ROWS), 1, dtype="i4")  # the views', the shadow map's
         for tex in (self._skin, self._looks, self._discs, self._order):
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._skin_buf = np.zeros((cap, SKIN_TEXELS, 4), np.float32)
@@ -357,7 +398,10 @@ class Renderer:
             for c, ch in enumerate(self.characters):
                 if ch.rest is not None:
                     rest[char == c] = ch.rest
-            self._looks_cache = (agent_looks(ids, dims), rest)
+            looks = agent_looks(ids, dims)
+            self._looks_cache = (looks, rest)
+            self._drawn_style = np.asarray(looks.hair_style, np.int64)
+            self._drawn_skirt = np.asarray(looks.skirt, np.bool_)
             self._looks_key = key
         return self._looks_cache
 
@@ -418,6 +462,7 @@ class Renderer:
         self._rows = rows
         self._drawn_pos = np.asarray(snap.pos, np.float64)[rows]
         self._drawn_char = char
+        self._drawn_scale = d[:, 3].astype(np.float64)
         self._sphere = None if snap.sphere is None else np.asarray(snap.sphere, dtype=np.float64)
         self._snap = snap
         self._shadow_dirty = True
@@ -449,33 +494,63 @@ class Renderer:
         _set(prog, "u_shadows", self.shadows and not shadow_pass)
         _set(prog, "u_shadow_map", 7)
 
-    def _draw_crowd(self, groups: list[tuple[int, int, int, int]], eyes: int, *, shadow_pass: bool) -> None:
-        crowd = self.programs["crowd"]
-        _set(crowd, "u_skin", 0)
-        _set(crowd, "u_looks", 1)
-        _set(crowd, "u_order", 2)
-        _set(crowd, "u_albedo", 3)
+    def _draw_crowd(self, draws: list[Draw], eyes: int, *, shadow_pass: bool) -> None:
+        """Issue ``draws`` (of the views' order rows, or the shadow map's) for ``eyes`` eyes."""
+        prog = self.programs["crowd_depth" if shadow_pass else "crowd"]
+        _set(prog, "u_skin", 0)
+        _set(prog, "u_looks", 1)
+        _set(prog, "u_order", 2)
+        _set(prog, "u_albedo", 3)
+        _set(prog, "u_base_color", (1.0, 1.0, 1.0, 1.0))
         self._skin.use(location=0)
         self._looks.use(location=1)
         self._order.use(location=2)
-        for c, level, first, count in groups:
-            vao, verts = self._char_vaos[c][level]
-            tex = self._char_textures[c] or self._white
-            tex.use(location=3)
-            _set(crowd, "u_base_color", (1.0, 1.0, 1.0, 1.0))
-            _set(crowd, "u_base", first)
-            self._render(vao, instances=count * eyes)
-            self.stats.vertices += verts * count * eyes
+        row0 = ORDER_ROWS if shadow_pass else 0
+        for d in draws:
+            vao = self._char_vaos[d.character][d.level][1 if shadow_pass else 0]
+            piece = self._char_pieces[d.character][d.level][d.piece]
+            if not shadow_pass:
+                (self._char_textures[d.character] or self._white).use(location=3)
+            _set(prog, "u_base", d.first)
+            _set(prog, "u_order_row", row0 + d.row)
+            self._render(vao, vertices=piece.indices, first=piece.first, instances=d.count * eyes)
+            self.stats.vertices += piece.vertices * d.count * eyes
 
-    def _groups(self, eyes: Sequence[EyeView]) -> list[tuple[int, int, int, int]]:
+    def _plan(self, lod: np.ndarray, *, shadow_pass: bool, agents: np.ndarray | None = None) -> list[Draw]:
+        """The draws of the crowd's ``agents`` (rows; all by default) at levels ``lod`` (one per
+        agent drawn); their instance order into the pass's rows."""
+        a = np.arange(self._n) if agents is None else agents
+        order, draws = draw_plan(self._drawn_char[a], lod, self._drawn_style[a], self._drawn_skirt[a],
+                                 self._char_pieces, always=ALWAYS, skirt_variant=SKIRT_VARIANT)
+        order = a[order].astype(np.int32)
+        row0 = ORDER_ROWS if shadow_pass else 0
+        self._order.write(order.tobytes(), viewport=(0, row0, order.shape[1], ORDER_ROWS))
+        return draws
+
+    def _view_draws(self, eyes: Sequence[EyeView], viewport_height: int) -> list[Draw]:
+        """The crowd's draws for ``eyes``: the agents that may show in one of them (crowd.in_views),
+        each at the level its distance from the eyes and the view's pixels per radian call for
+        (crowd.lod_levels)."""
         viewer = np.mean([e.position for e in eyes], axis=0)
-        lod = lod_levels(self._drawn_pos, np.array([viewer[0], viewer[2]]))
-        order, groups = draw_groups(self._drawn_char, lod, len(self.characters), 3)
-        self._order.write(order.tobytes(), viewport=(0, 0, len(order), 1))
-        return groups
+        ppr = pixels_per_radian(eyes[0].projection, viewport_height)
+        seen = np.flatnonzero(in_views(self._drawn_pos, self._drawn_scale, [e.view_projection for e in eyes]))
+        char = self._drawn_char[seen]
+        lod = np.zeros(len(seen), np.int64)
+        for c, errors in enumerate(self._lod_error):
+            mine = char == c
+            if mine.any():
+                lod[mine] = lod_levels(self._drawn_pos[seen[mine]], np.array([viewer[0], viewer[2]]),
+                                       pixels_per_radian=ppr, errors=errors)
+        levels = max(len(e) for e in self._lod_error)
+        self.stats.lod_agents = tuple(np.bincount(lod, minlength=levels).tolist())
+        return self._plan(lod, shadow_pass=False, agents=seen)
 
-    def _shadow_map(self, eyes: Sequence[EyeView], groups: list[tuple[int, int, int, int]]) -> None:
-        """Render the key light's depth around the first eye into the shadow map (once per update)."""
+    def _shadow_map(self, eyes: Sequence[EyeView]) -> None:
+        """Render the key light's depth around the first eye into the shadow map (once per update).
+
+        The crowd casts at each character's coarsest level within two of the map's texels
+        (crowd.shadow_level), depth only (``crowd_depth.glsl``), and only the agents inside the
+        light's box (crowd.in_views): one outside casts outside it."""
         ctx = self.ctx
         self._light_vp = light_view_projection(np.asarray(eyes[0].position) * np.array([1.0, 0.0, 1.0]),
                                                size=self._shadow_size)
@@ -493,8 +568,12 @@ class Renderer:
         if self._carried_count:
             self._render(self._carried_vao, vertices=self._carried_count)
         if self._n:
-            self._common(self.programs["crowd"], eyes, True, shadow_pass=True)
-            self._draw_crowd(groups, 1, shadow_pass=True)
+            texel = 2.0 * SHADOW_HALF_EXTENT / self._shadow_size
+            level = np.array([shadow_level(e, texel) for e in self._lod_error], np.int64)
+            lit = np.flatnonzero(in_views(self._drawn_pos, self._drawn_scale, [self._light_vp]))
+            draws = self._plan(level[self._drawn_char[lit]], shadow_pass=True, agents=lit)
+            _write(self.programs["crowd_depth"], "u_light_vp", self._light_vp.T.astype(np.float32).tobytes())
+            self._draw_crowd(draws, 1, shadow_pass=True)
         self._shadow_dirty = False
 
     def draw_scene(
@@ -514,11 +593,11 @@ class Renderer:
         if len(eyes) not in (1, 2):
             raise ValueError(f"{len(eyes)} eyes: expected 1 or 2")
         ctx = self.ctx
-        groups = self._groups(eyes) if self._n else []
         if self.shadows and self._shadow_dirty:
-            self._shadow_map(eyes, groups)
-        framebuffer.use()
+            self._shadow_map(eyes)
         vp = viewport or (0, 0, *framebuffer.size)
+        draws = self._view_draws(eyes, vp[3]) if self._n else []
+        framebuffer.use()
         framebuffer.viewport = vp
         if clear:
             sky = srgb_encode_rgb(SKY_LINEAR) if srgb_encode else SKY_LINEAR
@@ -562,7 +641,7 @@ class Renderer:
             _set(env, "u_emissive", (0.0, 0.0, 0.0))
         if self._n:
             self._common(self.programs["crowd"], eyes, srgb_encode)
-            self._draw_crowd(groups, k, shadow_pass=False)
+            self._draw_crowd(draws, k, shadow_pass=False)
             shadow = self.programs["shadow"]
             self._common(shadow, eyes, srgb_encode)
             _set(shadow, "u_discs", 4)
@@ -740,6 +819,20 @@ class Renderer:
         self._shadow_fbo.release()
         for prog in self.programs.values():
             prog.release()
+
+
+def _vertex_layout(prog: moderngl.Program) -> tuple[str, ...]:
+    """The character vertex buffer's format for ``prog``: the attributes it reads, padding over the
+    rest (a program's unused attributes are not in it, and moderngl binds only attributes that are)."""
+    fmt, names = [], []
+    fields = VERTEX_DTYPE.names or ()
+    for code, name, field in zip(VERTEX_FORMAT.split(), VERTEX_ATTRIBUTES, fields, strict=True):
+        if name in prog:
+            fmt.append(code)
+            names.append(name)
+        else:
+            fmt.append(f"{VERTEX_DTYPE.fields[field][0].itemsize}x")  # type: ignore[index]
+    return (" ".join(fmt), *names)
 
 
 def _write(prog: moderngl.Program, name: str, data: bytes) -> None:

@@ -274,9 +274,41 @@ def test_draw_calls_do_not_grow_with_the_crowd(renderer: Renderer) -> None:
         pos = np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=1)
         render(renderer, Snapshot.of_agents(pos=pos, heading=np.zeros(n)), [eye])
         counts.append(renderer.stats.draw_calls)
-    # floor and solids; per level of detail one crowd draw in the shadow map and one in the view;
-    # the solids' shadow; the contact shadows.
-    assert counts[0] == counts[1] == counts[2] == 2 + 2 * 3 + 1 + 1
+    # 64 pixels high, everyone is at the coarsest level (crowd.lod_levels). Floor and solids; in the
+    # view and in the shadow map one crowd draw per piece of the mesh worn (the body, each hair
+    # style, the skirt); the solids' shadow; the contact shadows.
+    assert renderer.stats.lod_agents == (0,) * (bm.LEVELS - 1) + (1000,)
+    assert counts[0] == counts[1] == counts[2] == 2 + 2 * (1 + len(bm.HAIR_STYLES) + 1) + 1 + 1
+
+
+def test_each_agent_runs_the_vertices_of_its_level_and_worn_pieces_only(renderer: Renderer) -> None:
+    """Crowd vertices per frame (issue 27): the view's level for the agent's distance and the view's
+    pixels, the shadow map's coarsest level, and in both only the hair style and skirt it wears."""
+    from pedvr.render.crowd import agent_looks, lod_levels, mesh_pieces, pixels_per_radian
+    from pedvr.render.figures import default_dims
+
+    mesh = bm.procedural_character()
+    w, h = 160, 720
+    eye = first_person_eye(pos=np.zeros(2), heading=0.0, aspect=w / h)
+    levels = []
+    for x in (1.5, 6.0, 14.0, 40.0):
+        snap = one_agent(x)
+        render(renderer, snap, [eye], size=(w, h))
+        level = int(lod_levels(np.array([[x, 0.0]]), np.zeros(2), pixels_per_radian=pixels_per_radian(
+            eye.projection, h), errors=bm.PROCEDURAL_LOD_ERROR)[0])
+        assert renderer.stats.lod_agents[level] == 1
+        levels.append(level)
+        looks = agent_looks(snap.ids, default_dims(snap.ids))
+        worn = {bm.ALWAYS, int(looks.hair_style[0])} | ({bm.SKIRT_VARIANT} if looks.skirt[0] else set())
+
+        def vertices(lod: bm.MeshLOD, worn: set[int] = worn) -> int:
+            return sum(p.vertices for p in mesh_pieces(lod.triangles, lod.vertices["variant"])[1] if p.variant in worn)
+
+        # The shadow map covers 16 m around the viewer (lighting.SHADOW_HALF_EXTENT): nobody at 40 m casts in it.
+        shadow = vertices(mesh.lods[-1]) if x < 16.0 else 0
+        assert renderer.stats.vertices == vertices(mesh.lods[level]) + shadow
+        assert vertices(mesh.lods[level]) < mesh.vertex_counts[level]  # not the styles it does not wear
+    assert levels[0] == 0 and levels[-1] == bm.LEVELS - 1 and levels == sorted(levels)
 
 
 def test_overhead_view_shows_the_user_in_blue_where_it_stands(
@@ -398,3 +430,27 @@ def test_multisampled_targets_smooth_edges_and_resolve_on_read(renderer: Rendere
     assert np.abs(plain - msaa).mean() < 4.0  # the same picture...
     edges = lambda img: len(np.unique(img.reshape(-1, 3), axis=0))  # noqa: E731
     assert edges(msaa) > 1.1 * edges(plain)  # ...with blended edge pixels (1.0 without multisampling)
+
+
+def test_agents_out_of_view_are_not_drawn_and_culling_changes_no_pixel(
+    renderer: Renderer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Frustum culling (issue 27, crowd.in_views): agents behind the user or far to the side run no
+    vertex in the view, and the pixels are the same as drawing everyone (walking bodies across
+    the view's edges, both eyes side by side)."""
+    import pedvr.render.renderer as rmod
+
+    w, h = 120, 96
+    rng = np.random.default_rng(7)
+    ang = np.concatenate([np.linspace(-math.pi, math.pi, 24, endpoint=False), rng.uniform(-0.9, 0.9, 24)])
+    rad = np.concatenate([np.full(24, 2.5), rng.uniform(0.8, 9.0, 24)])
+    pos = np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=1)
+    snap, _ = posed(pos, rng.uniform(-math.pi, math.pi, len(pos)), vel=rng.normal(0.0, 0.8, (len(pos), 2)))
+    eyes = list(desktop_stereo_eyes(pos=np.zeros(2), heading=0.0, eye_height=1.6, aspect=w / h))
+    culled = render(renderer, snap, eyes, size=(2 * w, h))
+    seen = sum(renderer.stats.lod_agents)
+    assert 10 < seen < len(pos) - 10
+    monkeypatch.setattr(rmod, "in_views", lambda p, s, m: np.ones(len(p), np.bool_))
+    everyone = render(renderer, snap, eyes, size=(2 * w, h))
+    assert sum(renderer.stats.lod_agents) == len(pos)
+    assert np.array_equal(culled, everyone)

@@ -86,4 +86,4 @@ def test_include_cycle_missing_file_and_missing_stage_are_clear(
 def test_expanded_source_keeps_line_numbers_with_line_directives() -> None:
     src = expand(SHADER_DIR / "crowd.glsl", stage="vertex")
     assert src.text.startswith("#version 330 core\n#define VERTEX_SHADER 1\n#line 1 0\n")
-    assert [p.name for p in src.files] == ["crowd.glsl", "common.glsl"]
+    assert [p.name for p in src.files] == ["crowd.glsl", "common.glsl", "skinning.glsl"]
