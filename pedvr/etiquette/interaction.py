@@ -40,7 +40,10 @@ blue routine, pipelined) and lets anyone coming through the other way out first;
 holder stays on the passage side of the leaf's edge (HOL walks on through; HOF steps round
 behind the leaf); holders walk at their own speed; HOL decided for a carrier (who cannot take a
 door over) or by a holder already through the doorway (a pusher holding from beyond it) is held
-as HOF, the hold the network was willing to give.
+as HOF, the hold the network was willing to give. Two more at a busy door (issue 26): a committed
+follower whose holder decided NH catches the door at its edge as the holder walks through, rather
+than letting it swing shut and opening it again from the BOP (:func:`_catch_nh`, App. B.2–B.3),
+and a single door with a queue on each side passes each side in batches (:func:`_batch_side`).
 
 Choices where the paper leaves room (it draws the key poses, Fig. 18, without measuring them):
 positions come from :class:`~pedvr.etiquette.regions.LeafFrame`; NH opens to the smallest angle
