@@ -37,7 +37,8 @@ def test_door_rush_passes_a_chain_of_followers(rush_runs: dict[int, dict[str, ob
     events = s["door_events"]
     assert isinstance(events, list)
     opens = sum(1 for e in events if e["event"] == "open")
-    passages = int(s["door_passages"])  # type: ignore[call-overload]
+    passages = s["door_passages"]
+    assert isinstance(passages, int)
     assert passages >= THROUGH_AT_LEAST, (seed, passages)
     assert passages >= PASSAGES_PER_OPENING * max(opens, 1), (seed, passages, opens)
     assert s["overlaps_over_1cm"] == 0
