@@ -89,6 +89,8 @@ class DoorState:
     leaves: list[int]
     mutex: dict[int, int] = field(default_factory=dict)  # leaf -> initiating walker
     holder: dict[int, int] = field(default_factory=dict)  # leaf -> holding walker
+    run_side: int = 0  # the side the latest passages came from (issue 26: batches)
+    run_len: int = 0  # how many passages in a row came from it
 
 
 class EtiquetteCore:

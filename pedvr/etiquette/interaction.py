@@ -40,7 +40,10 @@ blue routine, pipelined) and lets anyone coming through the other way out first;
 holder stays on the passage side of the leaf's edge (HOL walks on through; HOF steps round
 behind the leaf); holders walk at their own speed; HOL decided for a carrier (who cannot take a
 door over) or by a holder already through the doorway (a pusher holding from beyond it) is held
-as HOF, the hold the network was willing to give.
+as HOF, the hold the network was willing to give. Two more at a busy door (issue 26): a committed
+follower whose holder decided NH catches the door at its edge as the holder walks through, rather
+than letting it swing shut and opening it again from the BOP (:func:`_catch_nh`, App. B.2–B.3),
+and a single door with a queue on each side passes each side in batches (:func:`_batch_side`).
 
 Choices where the paper leaves room (it draws the key poses, Fig. 18, without measuring them):
 positions come from :class:`~pedvr.etiquette.regions.LeafFrame`; NH opens to the smallest angle
@@ -109,6 +112,10 @@ READY_NEAR = 0.4  # m from its close-up place at which a committed follower is r
 PULL_STAND = math.radians(5.0)  # a puller stands this far round from the leaf's edge, passage side
 QUEUE_GAP = 0.8  # m between a committed follower's place and the next in its queue (issue 26)
 QUEUE_ASIDE = 0.45  # m off the lane that next one waits, on the side it came from
+BATCH = 4  # passages in a row from one side of a busy single door (issue 26, _batch_side)
+BATCH_LOAD = 5  # waiting on each side at which a single door is busy
+BATCH_WAIT = 120.0  # s of waiting credited to the side that has the door within a batch: it goes first
+CATCH_RANGE = 4.0  # m from the doorway within which NH's follower catches the door (issue 26)
 
 
 def nh_angle(frame: LeafFrame, radius: float) -> float:
@@ -125,6 +132,7 @@ def decide_hinged(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: Crowd
     _update_waiting(et, walkers, crowd)
     _choose_helpers(et, walkers, crowd)
     # -- ordering ---------------------------------------------------------------------------
+    batch = _batch_side(et, k, walkers)
     cands = []
     for w in walkers:
         if w.role == PASSING or w.id not in et._row or (w.role == HOLDER and w.state == FINISH_DOOR):
@@ -143,7 +151,8 @@ def decide_hinged(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: Crowd
         # lies farther from the door's middle than the lane does)
         d_door = 0.0 if w.role == HOLDER else 0.05 if w.role == FOLLOWER else float(np.hypot(*rel))
         cands.append(Candidate(id=w.id, pos=(float(p[0]), float(p[1])), side=w.side, d_door=d_door,
-                               waited=w.waited, holder=w.role == HOLDER, follower=w.role == FOLLOWER,
+                               waited=w.waited + (BATCH_WAIT if w.side == batch else 0.0),
+                               holder=w.role == HOLDER, follower=w.role == FOLLOWER,
                                critical=w.role == HOLDER and w.state >= HOLDER_DEC,
                                leaf=ds.leaves.index(w.leaf) if w.leaf in ds.leaves else -1,
                                skip=frozenset(skip)))
@@ -176,6 +185,28 @@ def decide_hinged(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: Crowd
 
 
 # -- ordering helpers ----------------------------------------------------------------------------
+
+
+def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker]) -> int:
+    """The side whose queue keeps a busy single door for a batch (issue 26), or 0.
+
+    §6.1 observes groups arriving together interleave at the door, and pedvr's ordering merges the
+    two queues like a zipper (:mod:`.ordering`); at a door under load that alternates one by one,
+    and every change of direction is a take-over across the doorway (HOL) or a door let go. Real
+    people at a busy door pass in batches: a stream from one side goes on through the held door
+    while the other side waits its turn. pedvr's reading: when :data:`BATCH_LOAD` or more wait on
+    each side of a single door, the side the latest passages came from counts :data:`BATCH_WAIT`
+    s more waiting in the ordering (Alg. 1's ``E``), until :data:`BATCH` passages in a row came
+    from it; then the other side's turn comes by the ordering as before. Fewer waiting (the
+    paper's groups of four, §6.1) alternate as before."""
+    ds = et.dstate[k]
+    if et.doors[k].kind != "single" or ds.run_side == 0 or ds.run_len >= BATCH:
+        return 0
+    n = {1: 0, -1: 0}
+    for w in walkers:
+        if w.role in (APPROACH, FOLLOWER) and not w.is_user and w.side in n:
+            n[w.side] += 1
+    return ds.run_side if min(n.values()) >= BATCH_LOAD else 0
 
 
 def _update_waiting(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
@@ -814,7 +845,10 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
                 return
             _pass_first(et, w, h, crowd, fr, side_local)
             return
-        if h.action == "HOL":
+        if h.action == "HOL" or (h.action == "NH" and not carrier and _catch_nh(et, w, h, crowd)):
+            # NH at a busy door: the holder walks on through with its hand on the leaf, and the
+            # committed follower catches the door at its edge before it swings shut (App. B.2,
+            # module docstring) instead of letting it close and opening it again from the BOP
             et.set_state(w, REACH_EDGE)
         else:  # NH: the holder lets go; the follower opens the door itself (OpenerInit)
             _demote(w)
@@ -842,6 +876,21 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
             _demote(w)
             h.follower = NONE
         return
+
+
+def _catch_nh(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState) -> bool:
+    """Whether a committed follower whose holder decided NH catches the door behind it (issue 26).
+
+    App. B.3 has the follower of NH open the door itself once the holder has let go; App. B.2 lets
+    "the next holder interrupt the door closing procedure". pedvr reads the two together at a busy
+    door: a follower within :data:`CATCH_RANGE` of the doorway, whose holder (an agent, not the
+    user) still has its hand on the leaf, walks to the leaf's edge as a PL follower does and takes
+    the door as the holder lets it go, so the door does not swing shut between close followers.
+    Farther away, or behind a carrier (no free hand), it opens the door itself as App. B.3 has it."""
+    if h.is_user or h.arm < 0:
+        return False
+    ds = et.dstate[w.door]
+    return float(np.hypot(*(et.pos(crowd, w.id) - ds.centre))) <= CATCH_RANGE
 
 
 def _oncoming(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:

@@ -475,6 +475,9 @@ class DoorEtiquette(EtiquetteCore):
             leaf = ds.leaves[int(np.argmin(np.abs(along - at)))]
         self.passages += 1
         self.last_passage[k] = self.t
+        if not user:
+            ds.run_len = ds.run_len + 1 if side == ds.run_side else 1
+            ds.run_side = side
         self.wait_since_at.pop((agent, k), None)
         if w is not None and w.door == k:
             w.first_wait = math.nan  # its wait at this door is over
