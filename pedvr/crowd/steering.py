@@ -93,6 +93,8 @@ class Steering:
                 f"neighbor_dist = {params.neighbor_dist}: must be > 0")
         if params.max_neighbors < 0:
             raise SteeringInputError(f"max_neighbors = {params.max_neighbors}: must be >= 0")
+        if not _fp.DEPTH_RATIO <= params.depth_ratio <= 1.0:
+            raise SteeringInputError(f"depth_ratio = {params.depth_ratio}: must be in [{_fp.DEPTH_RATIO}, 1]")
         if params.time_horizon <= 0.0 or params.time_horizon_obst <= 0.0:
             raise SteeringInputError(
                 f"time_horizon = {params.time_horizon}, time_horizon_obst = "
@@ -111,6 +113,9 @@ class Steering:
         self._scratch_key: tuple[int, int, int] | None = None
         self._bounds = np.zeros(0, np.int64)  # chunk bounds of the last row count
         self._neighbors: tuple[np.ndarray, np.ndarray] | None = None
+        # Coupled: the walking body's turn (its ellipse along the heading, pedvr.crowd.footprint);
+        # decoupled: the paper's discs.
+        self.walk_turn = _fp.turn_for(params.depth_ratio) if self.coupled else 0.0
         # The late safety step toward the user (pedvr.crowd.encounter): ORCA's line toward
         # the user has this horizon; 0 switches it off.
         self.user_horizon = float(params.user_safety_horizon) if params.user_safety else 0.0
@@ -296,7 +301,7 @@ class Steering:
         if n:
             pos = np.ascontiguousarray(state.pos)
             wall = np.full(n, np.inf)
-            turned = np.flatnonzero(state.turn > 0.0)
+            turned = np.flatnonzero(state.turn > self.walk_turn)
             if turned.size and len(self._next):
                 og = self.obstacle_grid
                 _fp.wall_distance_kernel(pos, turned, np.ascontiguousarray(state.radius), self._verts,
@@ -304,8 +309,9 @@ class Steering:
                                          og.cell_start, og.cell_edges, og.edge_cells, wall)
             _fp.turn_kernel(pos, np.ascontiguousarray(state.vel),
                             np.ascontiguousarray(state.radius), np.ascontiguousarray(state.is_user),
-                            np.ascontiguousarray(state.turn), np.ascontiguousarray(state.torso), idx, cnt,
-                            short, room, wall, float(dt), turn, torso)
+                            np.ascontiguousarray(state.turn), np.ascontiguousarray(state.torso),
+                            np.ascontiguousarray(state.heading), self.walk_turn, idx, cnt, short, room, wall,
+                            float(dt), turn, torso)
             turn[state.length > 0.0] = 0.0  # a pram and its pusher: one rigid footprint, no shoulder turn
         return turn, torso
 
