@@ -254,6 +254,7 @@ class Simulation:
             self.etiquette.append(ids, profile=prof, is_user=is_user,
                                   female=self.body.state.dims[first:first + n, sk.DIM_SEX] == sk.SEX_FEMALE)
         self.crowd.append(rows)
+        self.steering.forget_neighbors()
         self.encounters.append(n)
         self.behavior.append(BehaviorState.rows(n))
         self.paths.extend(np.zeros((0, 2)) for _ in range(n))
@@ -469,7 +470,10 @@ class Simulation:
         body's limits; then shoulders turn where people squeeze past each other."""
         self.body.fill_limits(self.crowd, self.crowd.limits)
         crowd = self.crowd
-        pref = self.steering.unstick(crowd.vel, crowd.pref_vel, crowd.is_user, self.stuck_time, self.dt)
+        # coupled: no faster than keeps the time gap to whoever walks ahead (pedvr.crowd.headway);
+        # an agent that waits in a queue is waiting, not stuck (its preferred speed is 0)
+        pref = self.steering.headway(crowd, crowd.pref_vel)
+        pref = self.steering.unstick(crowd.vel, pref, crowd.is_user, self.stuck_time, self.dt)
         pref, short, to_user = self.encounters.steer(
             pos=crowd.pos, vel=crowd.vel, pref_vel=pref, radius=crowd.radius,
             responsibility=crowd.responsibility, is_user=crowd.is_user, dt=self.dt,
@@ -669,6 +673,7 @@ class Simulation:
             return
         keep = ~drop
         self.crowd.keep(keep)
+        self.steering.forget_neighbors()
         self.encounters.keep(keep)
         self.body.keep(keep)
         if self.etiquette is not None:

@@ -24,6 +24,7 @@ from numba import njit
 from pedvr.crowd import contact as _contact
 from pedvr.crowd import deadlock as _deadlock
 from pedvr.crowd import footprint as _fp
+from pedvr.crowd import headway as _hw
 from pedvr.crowd import neighbors as _nb
 from pedvr.crowd import orca as _orca
 from pedvr.crowd.state import N_LIMITS, CrowdState
@@ -93,6 +94,8 @@ class Steering:
                 f"neighbor_dist = {params.neighbor_dist}: must be > 0")
         if params.max_neighbors < 0:
             raise SteeringInputError(f"max_neighbors = {params.max_neighbors}: must be >= 0")
+        if params.time_gap < 0.0:
+            raise SteeringInputError(f"time_gap = {params.time_gap}: must be >= 0 s")
         if not _fp.DEPTH_RATIO <= params.depth_ratio <= 1.0:
             raise SteeringInputError(f"depth_ratio = {params.depth_ratio}: must be in [{_fp.DEPTH_RATIO}, 1]")
         if params.time_horizon <= 0.0 or params.time_horizon_obst <= 0.0:
@@ -276,6 +279,29 @@ class Steering:
             float(p.time_horizon), float(p.time_horizon_obst), self.user_horizon, float(dt), self.coupled,
             lines)
         return lines[:count].copy()
+
+    def headway(self, state: CrowdState, pref_vel: np.ndarray) -> np.ndarray:
+        """Preferred velocities ``(N, 2)`` whose speeds keep the time gap ``params.time_gap`` to
+        whoever walks ahead in each agent's lane and goes its way (:mod:`pedvr.crowd.headway`):
+        coupled mode only; decoupled (plain ORCA), or a time gap of 0, returns them unchanged.
+        Uses the neighbour lists of the last :meth:`compute_velocities` when they are of the
+        same rows (the simulation forgets them when rows come or go), else searches afresh."""
+        n = len(state)
+        pref_vel = _check("pref_vel", pref_vel, (n, 2), np.float64)
+        if n == 0 or not self.coupled or self.params.time_gap <= 0.0:
+            return pref_vel.copy()
+        fp = self._footprints(state)
+        if self._neighbors is None or self._neighbors[0].shape[0] != n:
+            self._neighbors = self.neighbors(np.ascontiguousarray(fp.centre))
+        idx, cnt = self._neighbors
+        out = np.empty((n, 2))
+        _hw.headway_kernel(fp.centre, pref_vel, fp.radius, fp.depth, fp.facing,
+                           np.ascontiguousarray(state.is_user), idx, cnt, float(self.params.time_gap), out)
+        return out
+
+    def forget_neighbors(self) -> None:
+        """Rows came or went: the last neighbour lists no longer name the same agents."""
+        self._neighbors = None
 
     # ------------------------------------------------------------------ footprints
 

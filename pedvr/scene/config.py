@@ -213,6 +213,9 @@ class SteeringParams:
     # Coupled mode (issue 26): a walking body's half depth front to back as a share of its
     # radius, the footprint an ellipse along its heading (1: the disc; pedvr.crowd.footprint)
     depth_ratio: float = 0.72
+    # Coupled mode (issue 26): the time gap (s) kept to whoever walks ahead in one's lane going
+    # one's way; the preferred speed is the free distance to them over it (pedvr.crowd.headway)
+    time_gap: float = 0.3
 
 
 @dataclass(frozen=True)
