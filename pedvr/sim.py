@@ -40,6 +40,7 @@ from pedvr.record import Metrics, Recording
 from pedvr.scene.config import (
     CONDITIONS,
     PRAM_MIN_RADIUS,
+    TURNED_DEPTH_RATIO,
     USER_WALKS,
     AgentProfile,
     SceneConfig,
@@ -184,6 +185,21 @@ class Simulation:
         key = round(radius, 4)
         if key not in self._navmeshes:
             self._navmeshes[key] = NavMesh.build(self.scene.world, clearance=key)
+        return self._navmeshes[key]
+
+    def path_mesh_for(self, radius: float) -> NavMesh:
+        """The mesh agents of ``radius`` plan their paths on: coupled, the navigation mesh with
+        the narrow passages a body turned to squeeze through fits (its half depth
+        ``TURNED_DEPTH_RATIO * radius``; :mod:`pedvr.world.navmesh`), which the full radius
+        closes (issue 26: real people pass a 0.5 m bottleneck); decoupled (the paper's discs),
+        :meth:`navmesh_for`. Spawns, sources and goals stay on :meth:`navmesh_for`: a disc must
+        fit where an agent stands."""
+        if not self.coupled:
+            return self.navmesh_for(radius)
+        key = -round(radius, 4)  # negative keys: the path meshes
+        if key not in self._navmeshes:
+            self._navmeshes[key] = NavMesh.build(self.scene.world, clearance=-key,
+                                                 narrow=-key * TURNED_DEPTH_RATIO)
         return self._navmeshes[key]
 
     def _scripted_user(self) -> UserInput:
@@ -391,7 +407,7 @@ class Simulation:
         if np.isnan(goal[0]):
             self.paths[row] = np.zeros((0, 2))
             return
-        mesh = self.navmesh_for(float(self.crowd.radius[row]))
+        mesh = self.path_mesh_for(float(self.crowd.radius[row]))
         try:
             self.paths[row] = mesh.find_path(tuple(self.crowd.pos[row]), (float(goal[0]), float(goal[1])))
         except NavigationError:

@@ -121,14 +121,16 @@ def _toward(torso, fx, fy, turn, dt):
 
 @njit(cache=True)  # O(N) and cheap: a parallel region would cost more than it saves (pedvr.kernels)
 def turn_kernel(pos, vel, radius, is_user, turn, torso, heading, walk_turn, nbr_idx, nbr_count,
-                short_of_room, room_dir, wall_dist, dt, out_turn, out_torso):
+                short_of_room, room_dir, narrow_dir, wall_dist, dt, out_turn, out_torso):
     """New ``τ`` and torso facing per row (compute, then the caller commits).
 
     ``short_of_room[i]`` (from the user encounter) makes the agent turn with its torso
     facing ``room_dir[i]`` (a unit vector across the passing line) even before it is
-    that close. A turned agent untwists only where its disc fits: no neighbour's disc
-    within ``SQUEEZE_GAP`` and no wall closer than its radius (``wall_dist[i]``, the
-    distance to the nearest obstacle edge); otherwise it holds its turn. It untwists to
+    that close; ``narrow_dir[i]`` (nonzero: :func:`narrow_kernel`), entering a passage
+    between walls narrower than its shoulders, likewise. A turned agent untwists only
+    where its disc fits: no neighbour's disc within ``SQUEEZE_GAP`` and no wall closer
+    than its radius (``wall_dist[i]``, the distance to the nearest obstacle edge);
+    otherwise it holds its turn. It untwists to
     ``walk_turn`` (coupled: the walking body's ellipse, its torso following ``heading``;
     0: the disc). User rows never turn.
     """
@@ -170,6 +172,11 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, heading, walk_turn, nbr_
             fx = nx
             fy = ny
             found = True
+        if not found and (narrow_dir[i, 0] != 0.0 or narrow_dir[i, 1] != 0.0):
+            fx = narrow_dir[i, 0]
+            fy = narrow_dir[i, 1]
+            found = True
+            crowded = True
         if not found and short_of_room[i]:
             fx = room_dir[i, 0]
             fy = room_dir[i, 1]
@@ -182,6 +189,84 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, heading, walk_turn, nbr_
         elif walk_turn > 0.0 and turn[i] <= walk_turn:
             # walking, not squeezing: the body's depth along its heading
             out_torso[i] = _toward(torso[i], math.cos(heading[i]), math.sin(heading[i]), turn[i], dt)
+
+
+NARROW_MARGIN = 0.05  # m: a passage narrower than the shoulders plus this is squeezed through turned
+NARROW_LOOKAHEAD = 0.5  # m: the passage is looked for this far ahead too (turning takes 0.4 s)
+
+
+@njit(cache=True, inline="always")
+def _passage(px, py, ex, ey, reach, vertices, nxt, n_static, origin, cell, nx, ny, cell_start,
+             cell_edges, edge_cells):
+    """``(left, right, inside)``: the distances from ``p`` to the nearest static obstacle edge on
+    each side of the way ``e`` (inf where none within ``reach``), and whether ``p`` lies inside
+    an obstacle (behind its nearest edge: RVO2's edges have the free side on their right)."""
+    left = math.inf
+    right = math.inf
+    nearest = math.inf
+    inside = False
+    inv = 1.0 / cell
+    qx0 = max(int(math.floor((px - reach - origin[0]) * inv)), 0)
+    qx1 = min(int(math.floor((px + reach - origin[0]) * inv)), nx - 1)
+    qy0 = max(int(math.floor((py - reach - origin[1]) * inv)), 0)
+    qy1 = min(int(math.floor((py + reach - origin[1]) * inv)), ny - 1)
+    for gy in range(qy0, qy1 + 1):
+        for gx in range(qx0, qx1 + 1):
+            c = gy * nx + gx
+            for q in range(cell_start[c], cell_start[c + 1]):
+                k = cell_edges[q]
+                if k >= n_static or gx != max(edge_cells[k, 0], qx0) or gy != max(edge_cells[k, 1], qy0):
+                    continue
+                ax = vertices[k, 0]
+                ay = vertices[k, 1]
+                bx = vertices[nxt[k], 0]
+                by = vertices[nxt[k], 1]
+                wx = bx - ax
+                wy = by - ay
+                ll = wx * wx + wy * wy
+                t = 0.0 if ll <= 0.0 else min(max(((px - ax) * wx + (py - ay) * wy) / ll, 0.0), 1.0)
+                dx = ax + t * wx - px
+                dy = ay + t * wy - py
+                d = math.sqrt(dx * dx + dy * dy)
+                if d >= reach:
+                    continue
+                if d < nearest:
+                    nearest = d
+                    inside = (ax - px) * wy - (ay - py) * wx > 0.0  # p left of a -> b
+                if ex * dy - ey * dx > 0.0:
+                    left = min(left, d)
+                else:
+                    right = min(right, d)
+    return left, right, inside
+
+
+@njit(cache=True)  # O(N) and cheap: a parallel region would cost more than it saves (pedvr.kernels)
+def narrow_kernel(pos, pref_vel, radius, is_user, vertices, nxt, n_static, origin, cell, nx, ny,
+                  cell_start, cell_edges, edge_cells, out_dir):
+    """``out_dir[i]``: a unit torso facing across the way (perpendicular to the preferred
+    velocity) where agent ``i`` is about to squeeze through a passage between walls narrower
+    than its shoulders plus ``NARROW_MARGIN``, at its position or ``NARROW_LOOKAHEAD`` ahead;
+    ``(0, 0)`` elsewhere (issue 26: real people pass 0.5 m, turned). A look-ahead point inside
+    an obstacle (the agent walks at a wall) does not count."""
+    for i in range(pos.shape[0]):
+        out_dir[i, 0] = 0.0
+        out_dir[i, 1] = 0.0
+        vx = pref_vel[i, 0]
+        vy = pref_vel[i, 1]
+        v = math.sqrt(vx * vx + vy * vy)
+        if is_user[i] or v < 1e-6:
+            continue
+        ex = vx / v
+        ey = vy / v
+        reach = radius[i] + NARROW_MARGIN
+        for ahead in (0.0, NARROW_LOOKAHEAD):
+            left, right, inside = _passage(pos[i, 0] + ahead * ex, pos[i, 1] + ahead * ey, ex, ey, reach,
+                                           vertices, nxt, n_static, origin, cell, nx, ny, cell_start,
+                                           cell_edges, edge_cells)
+            if not inside and left + right < 2.0 * reach:
+                out_dir[i, 0] = -ey
+                out_dir[i, 1] = ex
+                break
 
 
 @njit(cache=True)

@@ -333,11 +333,18 @@ class Steering:
                 _fp.wall_distance_kernel(pos, turned, np.ascontiguousarray(state.radius), self._verts,
                                          self._next, og.origin, og.cell, og.shape[0], og.shape[1],
                                          og.cell_start, og.cell_edges, og.edge_cells, wall)
-            _fp.turn_kernel(pos, np.ascontiguousarray(state.vel),
-                            np.ascontiguousarray(state.radius), np.ascontiguousarray(state.is_user),
+            radius = np.ascontiguousarray(state.radius)
+            is_user = np.ascontiguousarray(state.is_user)
+            narrow = np.zeros((n, 2))
+            if self.coupled and self._n_static:  # coupled: passages narrower than the shoulders
+                og = self.obstacle_grid
+                _fp.narrow_kernel(pos, np.ascontiguousarray(state.pref_vel), radius, is_user, self._verts,
+                                  self._next, self._n_static, og.origin, og.cell, og.shape[0], og.shape[1],
+                                  og.cell_start, og.cell_edges, og.edge_cells, narrow)
+            _fp.turn_kernel(pos, np.ascontiguousarray(state.vel), radius, is_user,
                             np.ascontiguousarray(state.turn), np.ascontiguousarray(state.torso),
-                            np.ascontiguousarray(state.heading), self.walk_turn, idx, cnt, short, room, wall,
-                            float(dt), turn, torso)
+                            np.ascontiguousarray(state.heading), self.walk_turn, idx, cnt, short, room,
+                            narrow, wall, float(dt), turn, torso)
             turn[state.length > 0.0] = 0.0  # a pram and its pusher: one rigid footprint, no shoulder turn
         return turn, torso
 

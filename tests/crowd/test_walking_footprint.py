@@ -56,3 +56,25 @@ def test_people_in_line_follow_closer_than_discs_only_when_coupled() -> None:
     """0.40 m apart is clear of two walking ellipses (2 b = 0.36 m) but inside two discs."""
     np.testing.assert_allclose(_follow(True), (1.0, 0.0), atol=1e-9)  # walks on behind
     assert _follow(False)[0] < 0.5  # discs overlap: the follower is pushed back hard
+
+
+def _slot_agent(pos: tuple[float, float], pref: tuple[float, float]) -> tuple[float, float]:
+    """One coupled agent at ``pos`` wanting ``pref`` by a wall at x 4.5..5.5 with a 0.5 m slot
+    at y 4.75..5.25: its turn and torso after a second of turn_shoulders."""
+    wall = ObstacleSet.from_polygons([np.array([[4.5, 0.0], [5.5, 0.0], [5.5, 4.75], [4.5, 4.75]]),
+                                      np.array([[4.5, 5.25], [5.5, 5.25], [5.5, 10.0], [4.5, 10.0]])])
+    state = crowd([pos], [pref], [pref], heading=[math.atan2(pref[1], pref[0])])
+    s = Steering(SteeringParams(), wall, coupled=True)
+    s.compute_velocities(state, 1 / 90)
+    for _ in range(90):
+        state.turn, state.torso = s.turn_shoulders(state, 1 / 90)
+    return float(state.turn[0]), float(state.torso[0])
+
+
+def test_a_body_turns_its_shoulders_to_pass_a_gap_narrower_than_them() -> None:
+    turn, torso = _slot_agent((4.2, 5.0), (1.0, 0.0))  # 0.3 m before a 0.5 m slot, heading in
+    assert turn == pytest.approx(1.0)
+    assert abs(math.remainder(torso - math.pi / 2, math.pi)) < 1e-9  # the chest faces the slot's walls
+    assert _slot_agent((4.2, 2.0), (1.0, 0.0))[0] < 1.0  # walking at the wall itself: no slot there
+    assert _slot_agent((2.0, 5.0), (1.0, 0.0))[0] < 1.0  # far from the slot
+    assert _slot_agent((4.2, 7.0), (0.0, 1.0))[0] < 1.0  # along the wall, one wall only

@@ -32,10 +32,7 @@ def test_there_are_validation_scenes() -> None:
 
 # Known defects of today's crowd model that these scenes expose (issue 26, item 3): strict, so the
 # fix turns them into failures to remove from this list.
-KNOWN = {
-    "bottleneck_050": "the navigation mesh, shrunk by the 0.25 m radius, closes the 0.5 m bottleneck: "
-                      "no agent has a path (real people pass it turning their shoulders)",
-}
+KNOWN: dict[str, str] = {}  # (bottleneck_050's closed navigation mesh was the last: issue 26's narrow passages)
 
 
 def _params() -> list[object]:
