@@ -13,9 +13,26 @@ measures them on ``--seeds`` seeds and prints one JSON line per observation:
   is side +1's right-hand leaf, leaf 1 side -1's);
 * ``revolving``: door_revolving: passages per minute from each side (§6.2);
 * ``deadlock``: door_opposing with ``n`` pedestrians per side for 60 s (6 + 6 and the paper's
-  12 + 14): runs with a deadlock (``door_deadlocks``), passages, and the 95th percentile wait.
+  12 + 14): runs with a deadlock (``door_deadlocks``: since issue 26 also a queue wait of 20 s
+  still going at the end) and runs with a stall (``door_stalls``: the door passed nobody, or
+  stood free, for 20 s while someone waited), passages, and the 95th percentile wait.
+
+* ``rush``: door_rush (issue 26): a single one-way door, 20 people from each side setting off
+  over 20 s: how many are through after 90 s (of 40), when the last one passed, the 95th
+  percentile wait at the door, ``door_deadlocks``; median and worst over the seeds;
+* ``double_queue``: door_double_queue (issue 26, §6.3): a queue of ten (and two the other way) at
+  a double door: each leaf's share of the passages (the less used one's is the figure), when the
+  last one passed; median and worst;
+* ``pram``: a perambulator pusher (§4.6) at the single door of door_assist and at the double door
+  of door_double (three walkers a side and the pram): its passages in 90 s, and the time of its
+  first, per seed (issue 24 item 4, issue 26: "no carrier left behind").
+
+Passages and waits in ``rush``, ``double_queue`` and ``pram`` are measured from positions
+(:class:`Crossings`), not from the etiquette's own events, so the figures mean the same before
+and after a change to the etiquette.
 
     python bench/door_observations.py --seeds 10
+    python bench/door_observations.py --seeds 6 --only rush double_queue pram
 """
 
 from __future__ import annotations
@@ -44,6 +61,163 @@ def _scene(name: str, counts: tuple[int, ...] = ()) -> SceneConfig:
         s = dataclasses.replace(s, spawns=tuple(dataclasses.replace(sp, count=c)
                                                 for sp, c in zip(s.spawns, counts, strict=True)))
     return s
+
+
+class Crossings:
+    """Passages through each door measured from positions, every ``every`` steps: a body passes a
+    door when the segment it moved along crosses the doorway (jamb to jamb) and it then stands
+    :data:`CONFIRM` m on the other side (a body that steps back before that has not passed).
+    ``waits[agent]``: seconds it stood (slower than 0.2 m/s) within :data:`NEAR` m of a door's
+    middle before passing it."""
+
+    CONFIRM = 0.4
+    NEAR = 4.0
+
+    def __init__(self, sim: Simulation) -> None:
+        doors = sim.scene.world.doors
+        self.p = np.array([d.span[0] for d in doors], np.float64).reshape(-1, 2)
+        self.q = np.array([d.span[1] for d in doors], np.float64).reshape(-1, 2)
+        self.c = 0.5 * (self.p + self.q)
+        u = self.q - self.p
+        u /= np.linalg.norm(u, axis=1)[:, None]
+        self.u = u
+        self.n = np.stack([-u[:, 1], u[:, 0]], axis=1)
+        self.prev: dict[int, np.ndarray] = {}
+        self.pending: dict[tuple[int, int], int] = {}  # (agent, door) -> the side it crossed from
+        self.events: list[dict[str, Any]] = []  # {"t", "agent", "door", "side", "leaf_side", "waited_s"}
+        self.waits: dict[int, float] = {}
+        self.last_t = 0.0
+
+    def update(self, sim: Simulation) -> None:
+        c = sim.crowd
+        dt = sim.t - self.last_t
+        self.last_t = sim.t
+        for r in range(len(c)):
+            a = int(c.ids[r])
+            pos = c.pos[r].copy()
+            prev = self.prev.get(a, pos)
+            self.prev[a] = pos
+            rel = pos - self.c
+            d_line = np.einsum("ij,ij->i", rel, self.n)
+            lat = np.einsum("ij,ij->i", rel, self.u)
+            if float(np.hypot(*c.vel[r])) < 0.2 and bool((np.hypot(*rel.T) < self.NEAR).any()):
+                self.waits[a] = self.waits.get(a, 0.0) + dt
+            for k in range(len(self.c)):
+                if _seg_cross(prev, pos, self.p[k], self.q[k]):
+                    side = 1 if float((prev - self.c[k]) @ self.n[k]) >= 0.0 else -1
+                    if (a, k) in self.pending and self.pending[(a, k)] != side:
+                        del self.pending[(a, k)]  # stepped back across: not a passage
+                    else:
+                        self.pending[(a, k)] = side
+                side = self.pending.get((a, k))
+                if side is not None and float(d_line[k]) * side < -self.CONFIRM:
+                    del self.pending[(a, k)]
+                    self.events.append({"t": round(sim.t, 3), "agent": a, "door": k, "side": side,
+                                        "lat": round(float(lat[k]), 3), "user": bool(c.is_user[r]),
+                                        "waited_s": round(self.waits.pop(a, 0.0), 3)})
+
+
+def _seg_cross(a: np.ndarray, b: np.ndarray, p: np.ndarray, q: np.ndarray) -> bool:
+    def orient(o: np.ndarray, x: np.ndarray, y: np.ndarray) -> float:
+        return float((x[0] - o[0]) * (y[1] - o[1]) - (x[1] - o[1]) * (y[0] - o[0]))
+
+    return (orient(a, b, p) * orient(a, b, q) <= 0.0 and orient(p, q, a) * orient(p, q, b) < 0.0)
+
+
+def _run_crossings(scene: SceneConfig, seed: int, seconds: float) -> tuple[Crossings, dict[str, Any]]:
+    sim = Simulation(scene, seed=seed)
+    cr = Crossings(sim)
+    while sim.t < seconds - 1e-9:
+        for _ in range(3):
+            sim.step()
+        cr.update(sim)
+    return cr, sim.summary()
+
+
+def _med_worst(xs: list[float], worst: str) -> dict[str, float]:
+    arr = np.asarray(xs, np.float64)
+    return {"median": round(float(np.median(arr)), 3),
+            "worst": round(float(arr.max() if worst == "max" else arr.min()), 3)}
+
+
+def rush(seeds: list[int], seconds: float = 90.0) -> dict[str, Any]:
+    """door_rush: 40 people through one single door (module docstring)."""
+    scene = _scene("door_rush")
+    n = sum(sp.count + len(sp.positions) for sp in scene.spawns)
+    through, last, p95, dead, rate, over = [], [], [], [], [], []
+    for s in seeds:
+        cr, summ = _run_crossings(scene, s, seconds)
+        agents = [e for e in cr.events if not e["user"]]
+        first = {}
+        for e in agents:
+            first.setdefault(e["agent"], e)
+        through.append(len(first))
+        t = sorted(e["t"] for e in first.values())
+        last.append(t[-1] if len(first) == n else float("inf"))
+        rate.append(60.0 * (len(t) - 1) / max(t[-1] - t[0], 1e-9) if len(t) > 1 else 0.0)
+        waits = [e["waited_s"] for e in first.values()]
+        p95.append(float(np.percentile(waits, 95)) if waits else 0.0)
+        dead.append(int(summ["door_deadlocks"]))
+        over.append(int(summ["overlaps_over_1cm"]))
+    return {"observation": "rush", "scene": "door_rush", "agents": n, "seconds": seconds, "seeds": len(seeds),
+            "through": _med_worst(through, "min"), "last_pass_s": _med_worst(last, "max"),
+            "passages_per_min": _med_worst(rate, "min"), "wait_s_p95": _med_worst(p95, "max"),
+            "door_deadlocks": _med_worst(dead, "max"), "overlaps_over_1cm": int(max(over)),
+            "per_seed_through": through}
+
+
+def double_queue(seeds: list[int], seconds: float = 60.0) -> dict[str, Any]:
+    """door_double_queue: both leaves of a double door carry a queue (module docstring)."""
+    scene = _scene("door_double_queue")
+    n = sum(sp.count + len(sp.positions) for sp in scene.spawns)
+    share, last, through = [], [], []
+    for s in seeds:
+        cr, _ = _run_crossings(scene, s, seconds)
+        first = {}
+        for e in cr.events:
+            if not e["user"]:
+                first.setdefault(e["agent"], e)
+        through.append(len(first))
+        west = [e for e in first.values() if e["side"] == 1]  # from the west, side +1 (the queue of ten)
+        on = [sum(1 for e in west if e["lat"] < 0.0), sum(1 for e in west if e["lat"] >= 0.0)]
+        share.append(min(on) / max(len(west), 1))
+        t = [e["t"] for e in first.values()]
+        last.append(max(t) if len(first) == n else float("inf"))
+    return {"observation": "double_queue", "scene": "door_double_queue", "agents": n, "seeds": len(seeds),
+            "queue_share_of_less_used_leaf": _med_worst(share, "min"), "last_pass_s": _med_worst(last, "max"),
+            "through": _med_worst(through, "min")}
+
+
+def _with_pram(name: str, counts: tuple[int, ...], at: tuple[float, float], state: str) -> SceneConfig:
+    s = _scene(name, counts)
+    if "pram" not in s.profiles:
+        w = s.profiles["walker"]
+        prof = dataclasses.replace(w, name="pram", radius=0.4, pref_speed=1.0, max_speed=1.4,
+                                   carrying="perambulator", sex="female")
+        s = dataclasses.replace(s, profiles={**s.profiles, "pram": prof})
+    pram = dataclasses.replace(s.spawns[0], profile="pram", state=state, positions=(at,), count=0,
+                               region=None)
+    return dataclasses.replace(s, spawns=(pram, *s.spawns))
+
+
+def pram(seeds: list[int], seconds: float = 90.0) -> dict[str, Any]:
+    """A perambulator pusher at a single and a double door: its passages (module docstring)."""
+    out: dict[str, Any] = {"observation": "pram", "seeds": len(seeds)}
+    cases = {"single": _scene("door_assist"),  # its own pram among a box carrier, helpers and friends
+             "double": _with_pram("door_double", (3, 3), (-5.0, -1.0), "east")}  # from its pull side
+    for case, scene in cases.items():
+        sim0 = Simulation(scene, seed=1)
+        pram_ids = [int(sim0.crowd.ids[r]) for r in range(len(sim0.crowd))
+                    if float(sim0.crowd.length[r]) > 0.0 and not bool(sim0.crowd.is_user[r])]
+        passes, first = [], []
+        for s in seeds:
+            cr, _ = _run_crossings(scene, s, seconds)
+            t = [e["t"] for e in cr.events if e["agent"] in pram_ids]
+            passes.append(len(t))
+            first.append(t[0] if t else float("inf"))
+        out[case] = {"pram_passages": _med_worst(passes, "min"), "first_pass_s": _med_worst(first, "max"),
+                     "per_seed_passages": passes}
+    return out
 
 
 def _run(scene: SceneConfig, seed: int, seconds: float) -> tuple[list[dict[str, Any]], dict[str, Any]]:
@@ -119,14 +293,16 @@ def revolving(seeds: list[int]) -> dict[str, Any]:
 
 
 def deadlock(seeds: list[int], west: int, east: int) -> dict[str, Any]:
-    dead, passages, p95 = 0, [], []
+    dead, stalled, passages, p95 = 0, 0, [], []
     for s in seeds:
         _, summ = _run(_scene("door_opposing", (west, east)), s, 60.0)
         dead += int(summ["door_deadlocks"]) > 0
+        stalled += int(summ.get("door_stalls", summ["door_deadlocks"])) > 0
         passages.append(summ["door_passages"])
         p95.append(summ["door_wait_s_p95"])
     return {"observation": "deadlock", "per_side": [west, east], "seeds": len(seeds), "runs_deadlocked": dead,
-            "passages_mean": float(np.mean(passages)), "wait_s_p95_mean": float(np.mean(p95))}
+            "runs_stalled": stalled, "passages_mean": float(np.mean(passages)),
+            "wait_s_p95_mean": float(np.mean(p95))}
 
 
 def main() -> int:
@@ -138,7 +314,8 @@ def main() -> int:
     jobs = {"interleave": lambda: interleave(seeds), "late_group": lambda: late_group(seeds),
             "hurried": lambda: hurried(seeds), "double": lambda: double(seeds),
             "revolving": lambda: revolving(seeds), "deadlock6": lambda: deadlock(seeds, 6, 6),
-            "deadlock12": lambda: deadlock(seeds, 12, 14)}
+            "deadlock12": lambda: deadlock(seeds, 12, 14), "rush": lambda: rush(seeds),
+            "double_queue": lambda: double_queue(seeds), "pram": lambda: pram(seeds)}
     for name, job in jobs.items():
         if a.only and name not in a.only:
             continue

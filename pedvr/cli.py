@@ -10,6 +10,7 @@
 ``pedvr sweep SPEC.toml``      many headless runs on Dask (:mod:`pedvr.sweep`)
 ``pedvr bench sim``            a whole simulation step with full bodies (``--load K`` beside it)
 ``pedvr bench doors``          a whole step of the 4-door building with door etiquette (16 and 64)
+``pedvr xr check``             the OpenXR runtime and headset: what a lab's methods section needs
 
 Errors a user can cause print as ``pedvr: error: ...`` lines and a non-zero
 exit code, never a traceback.
@@ -225,6 +226,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_sweep_parser(sub)
     add_bench_parser(bsub)
+    from pedvr.xr.check import add_xr_parser
+
+    add_xr_parser(sub)
     return p
 
 
@@ -247,6 +251,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             from pedvr.measure.cli import run_measure_command
 
             return run_measure_command(args)
+        if args.command == "xr":
+            from pedvr.xr.check import run_xr_command
+
+            return run_xr_command(args)
         return _bench(args)
     except PedvrError as exc:
         for line in str(exc).splitlines() or [type(exc).__name__]:

@@ -30,15 +30,16 @@ is reproducible.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
 from pedvr.behavior.goals import GoalContext, Walkable, selectors
+from pedvr.behavior.state import BehaviorState
 from pedvr.scene.config import BehaviorConfig, SequenceGoal, StateConfig
 
-NO_STATE = -1
+__all__ = ["BFSM", "BehaviorState", "Decision"]  # BehaviorState lives in pedvr.behavior.state
 
 
 @njit(cache=True)
@@ -69,53 +70,6 @@ def _candidates(state, frozen, goal, pos, arrive, idle_arrival, has_prob, seq_un
         flags[i, 3] = at or timer or tree_done[i] != 0 or (not has and idle_arrival[s]) or has_prob[s]
         tree_done[i] = 0
     return active
-
-
-@dataclass
-class BehaviorState:
-    """Per-row BFSM state; rows align with :class:`pedvr.crowd.state.CrowdState`.
-
-    ``state`` is -1 for the user row. ``goal`` is NaN where there is no goal.
-    """
-
-    state: np.ndarray  # (N,) int32 state id, index into BFSM.names
-    entered_at: np.ndarray  # (N,) float64 s
-    timer_end: np.ndarray  # (N,) float64 s, +inf when the state has no timer
-    goal: np.ndarray  # (N, 2) float64 m, NaN for none
-    speed_scale: np.ndarray  # (N,) float64
-    seq_index: np.ndarray  # (N,) int64 position in the goal sequence
-    seq_until: np.ndarray  # (N,) float64 s: an idle/flow sequence entry ends then
-    arrivals: np.ndarray  # (N,) int64 goals reached so far
-    # the behavior-tree layer (pedvr.behavior.scheduler, leaves):
-    face: np.ndarray  # (N,) float64 rad: preferred facing while standing, NaN for none (the Face action)
-    tree_state: np.ndarray  # (N,) int32: the state whose personal tree is running, -1 for none
-    tree_done: np.ndarray  # (N,) int8: the state's tree just ended: 1 success, 2 failure, 0 not
-    in_event: np.ndarray  # (N,) bool: claimed by a multi-actor event (its BFSM is frozen)
-
-    @classmethod
-    def rows(cls, n: int) -> BehaviorState:
-        return cls(
-            state=np.full(n, NO_STATE, np.int32),
-            entered_at=np.zeros(n),
-            timer_end=np.full(n, np.inf),
-            goal=np.full((n, 2), np.nan),
-            speed_scale=np.ones(n),
-            seq_index=np.zeros(n, np.int64),
-            seq_until=np.full(n, np.inf),
-            arrivals=np.zeros(n, np.int64),
-            face=np.full(n, np.nan),
-            tree_state=np.full(n, -1, np.int32),
-            tree_done=np.zeros(n, np.int8),
-            in_event=np.zeros(n, np.bool_),
-        )
-
-    def append(self, other: BehaviorState) -> None:
-        for f in fields(self):
-            setattr(self, f.name, np.concatenate([getattr(self, f.name), getattr(other, f.name)]))
-
-    def keep(self, mask: np.ndarray) -> None:
-        for f in fields(self):
-            setattr(self, f.name, np.ascontiguousarray(getattr(self, f.name)[mask]))
 
 
 @dataclass(frozen=True)

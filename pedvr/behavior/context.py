@@ -24,21 +24,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from pedvr.behavior.bfsm import BehaviorState
+from pedvr.behavior.state import EYE_HEIGHT, FOV_HALF, IDLE_SPEED, BehaviorState
 from pedvr.body.model import FullBody
 from pedvr.crowd.state import CrowdState
 from pedvr.scene.config import WorldConfig
 
-if TYPE_CHECKING:
-    from pedvr.behavior.objects import SmartObject
-
-FOV_HALF = math.radians(100.0)  # the gaze rule's field of view (pedvr.body.model.FOV_HALF)
-IDLE_SPEED = 0.2  # m/s: below this an agent stands
-EYE_HEIGHT = 1.6  # m: where a gaze at a ground point or an agent's place looks
+__all__ = ["EYE_HEIGHT", "FOV_HALF", "IDLE_SPEED", "Context", "Run"]  # the constants: pedvr.behavior.state
 
 
 class Run:
@@ -62,7 +57,7 @@ class Context:
 
     def __init__(self, *, crowd: CrowdState, behavior: BehaviorState, body: FullBody, visibility: Any,
                  walkable: Any, rng: np.random.Generator, goal_sets: dict[str, Any] | None = None,
-                 objects: dict[str, SmartObject] | None = None, user: int | None = None,
+                 objects: dict[str, Any] | None = None, user: int | None = None,
                  world: WorldConfig | None = None) -> None:
         self.t = 0.0
         self.wake = math.inf
@@ -73,7 +68,9 @@ class Context:
         self.visibility = visibility
         self.walkable = walkable
         self.goal_sets = goal_sets or {}
-        self.objects: dict[str, SmartObject] = objects or {}
+        # the scene's smart objects by name (pedvr.behavior.objects.SmartObject; typed loosely so that
+        # the context, the layer's vocabulary, imports nothing built on it: narrow with isinstance)
+        self.objects: dict[str, Any] = objects if objects is not None else {}
         self.user = user
         self.world = world  # the static world (obstacle heights, occluders): for planners that need 3D
         # Gaze events behaviors record, in the PedVR gaze rule's form ({"agent", "t", "event": "start" |

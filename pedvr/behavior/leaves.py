@@ -43,7 +43,8 @@ from collections.abc import Sequence as Seq
 
 import numpy as np
 
-from pedvr.behavior.context import EYE_HEIGHT, Context
+from pedvr.behavior.context import Context
+from pedvr.behavior.state import EYE_HEIGHT
 from pedvr.behavior.tree import (
     FAILURE,
     INVALID,

@@ -74,6 +74,11 @@ class SmartObject:
     def tick(self, ctx: Context) -> None:
         """Per-object state, once per decision tick before the trees."""
 
+    def figures(self) -> dict[str, float]:
+        """The object's own figures for the run's metrics (summed by name over the scene's objects
+        by :meth:`pedvr.behavior.scheduler.Scheduler.summary`); none by default."""
+        return {}
+
 
 object_kinds: Registry[type[SmartObject]] = Registry("smart object kind")
 

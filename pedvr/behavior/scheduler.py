@@ -26,7 +26,10 @@ terminates that event as a whole (its other agents return to autonomy at
 once). An event waits, claiming the agents it can, until all its agents are
 ready; after its ``patience`` it is dropped and they are released. The user
 may fill any observed role of any number of events: the user is never
-claimed.
+claimed. This holds however the event is started: from code
+(:meth:`Scheduler.start_event`) or by a scene's trigger, which may bind an
+agent a lower-priority event holds (:mod:`pedvr.behavior.triggers`). Each
+agent's hold is in ``BehaviorState.event_priority`` (0 when free).
 
 Personal trees belong to BFSM states (``tree = "name"`` in a state): the
 tree starts when an agent enters the state, stops when it leaves, and when
@@ -57,12 +60,12 @@ from pedvr.behavior.library import library_trees
 from pedvr.behavior.nodes import Bindings, build
 from pedvr.behavior.objects import SmartObject
 from pedvr.behavior.spec import EventDef, TreeDef
+from pedvr.behavior.state import FREE, TREE_FAILURE, TREE_SUCCESS
 from pedvr.behavior.tree import FAILURE, RUNNING, SUCCESS, Behaviour, Status
 from pedvr.behavior.triggers import Triggers
 from pedvr.errors import UsageError
 from pedvr.scene.config import BehaviorConfig
 
-TREE_SUCCESS, TREE_FAILURE = 1, 2  # BehaviorState.tree_done
 PENDING, ACTIVE, ENDED = "pending", "running", "ended"
 
 
@@ -141,7 +144,7 @@ class Scheduler:
         self.live: list[EventRun] = []  # pending and running events, in start order
         self.control: dict[int, EventRun] = {}
         self.suspended: dict[int, Suspension] = {}
-        self.triggers = Triggers(config.triggers, self)
+        self.triggers = Triggers(config.triggers, self, state_ids=bfsm.ids)
         self.log: list[dict[str, Any]] = []
         self.counts = {"events_started": 0, "events_succeeded": 0, "events_failed": 0,
                        "events_interrupted": 0, "events_dropped": 0}
@@ -174,6 +177,10 @@ class Scheduler:
         self.counts["events_started"] += 1
         self._claim(run)
         return run
+
+    def running_from(self, trigger: int) -> int:
+        """Events started by trigger ``trigger`` (its index) that are pending or running."""
+        return sum(1 for r in self.live if r.trigger == trigger)
 
     def cancel(self, run: EventRun) -> None:
         """End an event from code (a pending or running one): counted as interrupted."""
@@ -244,6 +251,11 @@ class Scheduler:
                 fails[f"{o.kind}.{why}"] = fails.get(f"{o.kind}.{why}", 0) + n
         out["affordance_uses"] = uses
         out["affordance_failures"] = fails
+        figures: dict[str, float] = {}
+        for o in self.objects.values():
+            for name, x in o.figures().items():
+                figures[name] = figures.get(name, 0) + x
+        out.update(figures)  # each kind's own (an exhibit's: demonstrations_unseen, ...)
         out["event_log"] = list(self.log)  # every ended event: name, agents, times, outcome, why
         out["object_log"] = [e for o in self.objects.values() for e in o.log]  # demonstrations, ...
         return out
@@ -427,6 +439,7 @@ class Scheduler:
                                                speed_scale=float(b.speed_scale[row]))
         self.control[agent] = run
         b.in_event[row] = True
+        b.event_priority[row] = run.priority
         ctx.body.go_to(agent, None)  # stand while the event gathers its actors
 
     def _try_start(self, run: EventRun) -> None:
@@ -489,4 +502,5 @@ class Scheduler:
         b.speed_scale[row] = sus.speed_scale
         b.face[row] = np.nan
         b.in_event[row] = False
+        b.event_priority[row] = FREE
         self._replan.append(agent)

@@ -22,7 +22,17 @@ Binding symbols besides these: ``midpoint`` (halfway between ``agent`` and
 ``other``, or the user, moved onto the walkable area), ``here`` (where
 ``agent`` stands). Eligible agents: not the user, not in an event, in one of
 ``states`` if given, and with ``idle``, standing on their feet with no goal
-(not merely stopped on the way somewhere, nor just spawned and about to go).
+(not merely stopped on the way somewhere, nor just spawned and about to go),
+and not held by an event of the trigger's event's priority or higher.
+
+Pre-emption (ADAPT §6.1.1, Event Priority; issue 24): an agent held by a
+lower-priority event (pending or running) is as eligible as a free one, so a
+scene's higher-priority trigger can take an agent out of a conversation: the
+event it starts claims the agent and the scheduler terminates the lower one
+as a whole (:meth:`pedvr.behavior.scheduler.Scheduler.start_event`). An agent
+held by an event of the same or a higher priority is never bound. Among
+eligible agents, binding does not prefer free ones: the nearest is taken, as
+for free agents alone.
 
 Every firing that passes ``cooldown`` and ``max_running`` draws once from
 the rng against ``chance``; a firing whose draw fails still starts the
@@ -32,18 +42,29 @@ cooldown (the pair met and did not stop to talk).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
-from pedvr.behavior.context import IDLE_SPEED
-from pedvr.behavior.spec import TriggerDef
+from pedvr.behavior.context import Context
+from pedvr.behavior.spec import EventDef, TriggerDef
+from pedvr.behavior.state import IDLE_SPEED
 from pedvr.behavior.tree import draw_seconds
 
-if TYPE_CHECKING:
-    from pedvr.behavior.scheduler import Scheduler
-
 BIND_SYMBOLS = ("agent", "other", "user", "midpoint", "here")
+
+
+class EventHost(Protocol):
+    """What triggers need of the scheduler (:class:`pedvr.behavior.scheduler.Scheduler` is one):
+    the tick context, the declared events, how many events a trigger has running, and a way to
+    start one. A protocol, so this module does not import the scheduler that imports it."""
+
+    ctx: Context
+    events: dict[str, EventDef]
+
+    def running_from(self, trigger: int) -> int: ...
+
+    def start_event(self, name: str, values: dict[str, Any], *, trigger: int | None = None) -> object: ...
 
 
 class _State:
@@ -59,10 +80,13 @@ class _State:
 
 
 class Triggers:
-    def __init__(self, decls: tuple[TriggerDef, ...], scheduler: Scheduler) -> None:
+    """The scene's triggers; ``state_ids`` maps BFSM state names to ids (``BFSM.ids``)."""
+
+    def __init__(self, decls: tuple[TriggerDef, ...], scheduler: EventHost, *,
+                 state_ids: dict[str, int]) -> None:
         self.scheduler = scheduler
         self.states = [_State(d, k) for k, d in enumerate(decls)]
-        self._state_ids = [np.asarray([scheduler.bfsm.ids[s] for s in d.states], np.int32) for d in decls]
+        self._state_ids = [np.asarray([state_ids[s] for s in d.states], np.int32) for d in decls]
         self.fired = [0] * len(decls)
 
     def user_action(self, name: str) -> None:
@@ -74,7 +98,10 @@ class Triggers:
         st = self.states[k]
         ctx = self.scheduler.ctx
         crowd, b = ctx.crowd, ctx.behavior
-        ok = ~crowd.is_user & ~b.in_event
+        ev = self.scheduler.events.get(st.decl.event)
+        priority = ev.priority if ev is not None else 0
+        # free agents, and those a lower-priority event holds: the new event pre-empts it
+        ok = ~crowd.is_user & (b.event_priority < priority)
         if st.decl.states:
             ok &= np.isin(b.state, self._state_ids[k])
         if st.decl.idle and ok.any():
@@ -190,7 +217,7 @@ class Triggers:
         decl = st.decl
         if t - st.last.get(key, -math.inf) < decl.cooldown:
             return
-        if sum(1 for r in sch.live if r.trigger == k) >= decl.max_running:
+        if sch.running_from(k) >= decl.max_running:
             return
         values = self._values(decl, found)
         if values is None:

@@ -13,7 +13,9 @@ previous one) makes it O(depth), which is what lets a 4000-agent antipodal
 circle jam settle below 1 cm within ``DEFAULT_ITERATIONS``. Per iteration,
 for every overlapping pair the overlap plus a small ``SLACK`` is split
 half/half between two virtual agents; against the user or an obstacle edge
-the agent takes all of it (the user never moves; walls never move). Pairs
+the agent takes all of it (the user never moves; walls never move). Two centres at
+one point part along their pair's own direction (:func:`pedvr.crowd.coincident.apart`:
+opposite for the two, so the result still does not depend on agent order). Pairs
 and edges use the bodies' footprints (:mod:`pedvr.crowd.footprint`): discs,
 or narrower ellipses for agents that turned their shoulders. The user's body
 wins over everything: after each iteration agents are projected out of the
@@ -31,7 +33,10 @@ outgoing edge; a two-vertex segment once, as an unoriented segment.
 Sharp edge: a disc whose *centre* is already behind an edge (inside an
 obstacle) is not pulled back out; the obstacle lines of ORCA and this pass
 keep centres outside in practice, and the edge nearest such a centre would
-be ambiguous for walls thinner than a disc.
+be ambiguous for walls thinner than a disc. So no iteration's step carries a
+centre through an edge: a step as long as the way to the nearest edge (the
+push out of a deep overlap, such as two bodies at one point) stops 1 mm short
+of any edge it would cross.
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ import time
 import numpy as np
 from numba import njit, prange
 
+from pedvr.crowd.coincident import COINCIDENT, apart
 from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import ObstacleGrid, build_agent_grid_arrays, edges_near
 from pedvr.crowd.overlap import pair_overlaps
@@ -56,16 +62,18 @@ SKIN = 0.1  # m: Verlet lists hold pairs and edges up to this far beyond touchin
 
 @njit(cache=True, fastmath={"nsz", "arcp", "contract"})
 def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
-    """Correction ``(cx, cy, depth)`` that moves a footprint off the edge a -> b (its disc
+    """Correction ``(cx, cy, depth, dist)`` that moves a footprint off the edge a -> b (its disc
     radius ``r``, or, turned, its support radius toward the edge: ``b`` front to back
-    along the facing ``(fx, fy)``)."""
+    along the facing ``(fx, fy)``); ``dist`` is how far the centre is from the edge on the
+    side it belongs (inf where another edge measures it, or the centre is behind this one)."""
+    inf = np.inf
     ex = bx - ax
     ey = by - ay
     ll = ex * ex + ey * ey
     t = ((px - ax) * ex + (py - ay) * ey) / ll
     if closed and t > 1.0:
         # The end vertex is the start of the next edge, which handles it.
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, inf
     tc = min(max(t, 0.0), 1.0)
     qx = ax + tc * ex
     qy = ay + tc * ey
@@ -79,13 +87,13 @@ def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
     if closed and t >= 0.0 and dx * nx + dy * ny < 0.0:
         # Centre behind this edge: inside the polygon, or past a wall thinner
         # than the disc, where the edges on the centre's own side act.
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, inf
     if d >= r:
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, d
     if b < r and d > 1e-12:
         r = support(r, b, fx, fy, dx / d, dy / d)
         if d >= r:
-            return 0.0, 0.0, 0.0
+            return 0.0, 0.0, 0.0, d
     depth = r - d
     if d > 1e-12:
         ux = dx / d
@@ -93,7 +101,28 @@ def _edge_push(px, py, r, b, fx, fy, ax, ay, bx, by, closed):
     else:
         ux = nx
         uy = ny
-    return (depth + SLACK) * ux, (depth + SLACK) * uy, depth
+    return (depth + SLACK) * ux, (depth + SLACK) * uy, depth, d
+
+
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"}, inline="always")
+def _crossing(px, py, sx, sy, ax, ay, bx, by, closed):
+    """Fraction of the move ``(px, py) -> (px + sx, py + sy)`` at which it meets the edge
+    a -> b (1.0 where it does not); a closed polygon's edge only when the move starts on the
+    side agents belong (its right)."""
+    ex = bx - ax
+    ey = by - ay
+    wx = ax - px
+    wy = ay - py
+    if closed and ex * wy - ey * wx <= 0.0:
+        return 1.0  # the centre starts behind the edge (or on it)
+    den = sx * ey - sy * ex
+    if den == 0.0:
+        return 1.0
+    t = (wx * ey - wy * ex) / den
+    u = (wx * sy - wy * sx) / den
+    if 0.0 <= t <= 1.0 and 0.0 <= u <= 1.0:
+        return t
+    return 1.0
 
 
 @njit(cache=True, inline="always")
@@ -175,6 +204,7 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
         sx = 0.0
         sy = 0.0
         worst = 0.0
+        together = False
         for q in range(nbr_start[i], nbr_start[i + 1]):
             j = nbr_idx[q]
             dx = px - cur[j, 0]
@@ -184,7 +214,10 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
             if dsq >= rr * rr:
                 continue
             d = np.sqrt(dsq)
-            if d > 1e-12 and (bi < ri or fp_depth[j] < radius[j]):
+            if d <= COINCIDENT:
+                together = True  # no line of centres: after this loop
+                continue
+            if bi < ri or fp_depth[j] < radius[j]:
                 rr = (support(ri, bi, fxi, fyi, -dx / d, -dy / d)
                       + support(radius[j], fp_depth[j], facing[j, 0], facing[j, 1], dx / d, dy / d))
                 if d >= rr:
@@ -192,19 +225,27 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
             ov = rr - d
             worst = max(worst, ov)
             share = 1.0 if fixed[j] else 0.5
-            if d > 1e-12:
-                ux = dx / d
-                uy = dy / d
-            elif j > i:
-                # Coincident centres: split along x by row order
-                # (the pair moves apart, symmetric and deterministic).
-                ux = -1.0
-                uy = 0.0
-            else:
-                ux = 1.0
-                uy = 0.0
+            ux = dx / d
+            uy = dy / d
             sx += share * (ov + SLACK) * ux
             sy += share * (ov + SLACK) * uy
+        if together:
+            # Coincident centres part along the pair's own direction (opposite for j, so the
+            # pushes cancel; pedvr.crowd.coincident). Out of the loop above, which it would slow.
+            for q in range(nbr_start[i], nbr_start[i + 1]):
+                j = nbr_idx[q]
+                dx = px - cur[j, 0]
+                dy = py - cur[j, 1]
+                d = np.sqrt(dx * dx + dy * dy)
+                if d > COINCIDENT:
+                    continue
+                ov = ri + radius[j] - d
+                worst = max(worst, ov)
+                share = 1.0 if fixed[j] else 0.5
+                ux, uy = apart(i, j)
+                sx += share * (ov + SLACK) * ux
+                sy += share * (ov + SLACK) * uy
+        near_edge = np.inf
         for q in range(edge_start[i], edge_start[i + 1]):
             e = edge_idx[q]
             e2 = nxt[e]
@@ -214,11 +255,12 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
             # Moving segments (door leaves) see the disc, as the door controller does, except a
             # rigid footprint (a pushed pram), which they see as it is.
             be = bi if e < n_static or rigid[i] else ri
-            ex, ey, dep = _edge_push(px, py, ri, be, fxi, fyi, vertices[e, 0], vertices[e, 1],
-                                     vertices[e2, 0], vertices[e2, 1], closed)
+            ex, ey, dep, dist = _edge_push(px, py, ri, be, fxi, fyi, vertices[e, 0], vertices[e, 1],
+                                           vertices[e2, 0], vertices[e2, 1], closed)
             sx += ex
             sy += ey
             worst = max(worst, dep)
+            near_edge = min(near_edge, dist)
         depth[i] = worst
         if fixed[i]:
             out_pos[i, 0] = px
@@ -227,10 +269,31 @@ def _iterate(cur, radius, fp_depth, facing, rigid, fixed, nbr_start, nbr_idx, ed
         # Heavy-ball Jacobi: the step keeps a share of the previous one, which
         # carries a push through a packed cluster in O(depth) instead of
         # O(depth^2) iterations (plain Jacobi diffuses).
-        step[i, 0] = momentum * step[i, 0] + sx
-        step[i, 1] = momentum * step[i, 1] + sy
-        out_pos[i, 0] = px + step[i, 0]
-        out_pos[i, 1] = py + step[i, 1]
+        stx = momentum * step[i, 0] + sx
+        sty = momentum * step[i, 1] + sy
+        ll = stx * stx + sty * sty
+        reach = ri + 0.5 * SKIN
+        if ll >= near_edge * near_edge or (ll > reach * reach and vertices.shape[0] > 0):
+            # A step as long as the way to an edge (the push of a deep overlap, bodies at one
+            # point): it never carries the centre through the edge, behind which no edge would
+            # push it back. It stops 1 mm short; and it is no longer than the edges left out of
+            # the lists are far (r + SKIN / 2: lists hold edges within r + SKIN of where they were
+            # built, and are rebuilt when someone has moved SKIN / 2).
+            step_len = np.sqrt(ll)
+            keep = min(1.0, reach / step_len)
+            for q in range(edge_start[i], edge_start[i + 1]):
+                e = edge_idx[q]
+                e2 = nxt[e]
+                f = _crossing(px, py, stx, sty, vertices[e, 0], vertices[e, 1], vertices[e2, 0],
+                              vertices[e2, 1], nxt[e] != prv[e])
+                if f < 1.0:
+                    keep = min(keep, max(f - 1e-3 / step_len, 0.0))
+            stx *= keep
+            sty *= keep
+        step[i, 0] = stx
+        step[i, 1] = sty
+        out_pos[i, 0] = px + stx
+        out_pos[i, 1] = py + sty
 
 
 _list_counts_par, _list_counts_ser = _list_counts.parallel, _list_counts.serial
@@ -314,6 +377,94 @@ def _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx, og
     return best, hit
 
 
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"}, inline="always")
+def _user_reach(i, user, radius, fp_depth, facing, nx, ny):
+    """Centre distance at which row ``i``'s footprint touches the user's along the unit ``(nx, ny)``
+    (from the user toward the agent): the user's support (its disc, or a pram's ellipse) plus the
+    agent's."""
+    ru = radius[user]
+    su = ru
+    if fp_depth[user] < ru:
+        su = support(ru, fp_depth[user], facing[user, 0], facing[user, 1], nx, ny)
+    return su + support(radius[i], fp_depth[i], facing[i, 0], facing[i, 1], -nx, -ny)
+
+
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"})
+def _leave_along(i, user, ux, uy, sx, sy, ex, ey, sign, radius, fp_depth, facing):
+    """How far (signed, m) to move from ``(sx, sy)`` along the unit ``(ex, ey)`` to where row
+    ``i``'s footprint just clears the user's (``SLACK`` beyond touching): the root of
+    ``|s + τ e - u| = reach`` on the side of ``sign`` (the nearer root where ``sign`` is 0). The
+    reach depends on the direction (turned footprints), so it is solved again, with the reach
+    where the last root landed, until that reach is no longer than the one solved for."""
+    px = sx - ux
+    py = sy - uy
+    d = np.sqrt(px * px + py * py)
+    if d > COINCIDENT:
+        nx = px / d
+        ny = py / d
+    else:
+        nx, ny = apart(i, user)
+    reach = _user_reach(i, user, radius, fp_depth, facing, nx, ny) + SLACK
+    tau = 0.0
+    for _ in range(8):
+        b = px * ex + py * ey
+        c = px * px + py * py - reach * reach
+        disc = b * b - c
+        if disc < 0.0:  # s is outside the reach (no root on the line): nothing to do
+            return tau
+        root = np.sqrt(disc)
+        up = -b + root
+        down = -b - root
+        if sign > 0.0 or (sign == 0.0 and abs(up) <= abs(down)):
+            tau = up
+        else:
+            tau = down
+        qx = px + tau * ex
+        qy = py + tau * ey
+        q = np.sqrt(qx * qx + qy * qy)
+        if q <= COINCIDENT:
+            break
+        there = _user_reach(i, user, radius, fp_depth, facing, qx / q, qy / q) + SLACK
+        if there <= reach:
+            break  # clear of the user's footprint there
+        reach = there
+    return tau
+
+
+MAX_SLIDES = 4  # walls a push out of the user slides along before it gives up on staying inside them
+
+
+@njit(cache=True, fastmath={"nsz", "arcp", "contract"})
+def _slide_out(i, user, ux, uy, x0, y0, x1, y1, first, radius, fp_depth, facing, vertices, nxt, og_origin,
+               og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch):
+    """From ``(x0, y0)`` toward the point ``(x1, y1)`` on the user's outline without crossing a
+    wall: where the way meets one, stop 1 mm short and slide along it to where its line leaves
+    the outline, the way the push leans (``first`` > 0 or < 0 overrides that for the first wall),
+    and so on round corners, up to ``MAX_SLIDES`` walls. Returns ``(found, x, y)``."""
+    for k in range(MAX_SLIDES):
+        frac, e = _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx, og_ny,
+                                  og_cell_start, og_cell_edges, og_edge_cells, scratch)
+        if e < 0:
+            return True, x1, y1
+        stop = max(frac - 1e-3 / max(np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2), 1e-12), 0.0)
+        sx = x0 + stop * (x1 - x0)
+        sy = y0 + stop * (y1 - y0)
+        ex = vertices[nxt[e], 0] - vertices[e, 0]
+        ey = vertices[nxt[e], 1] - vertices[e, 1]
+        el = np.sqrt(ex * ex + ey * ey)
+        ex /= el
+        ey /= el
+        lean = (x1 - sx) * ex + (y1 - sy) * ey
+        if k == 0 and first != 0.0:
+            lean = first
+        tau = _leave_along(i, user, ux, uy, sx, sy, ex, ey, lean, radius, fp_depth, facing)
+        x0 = sx
+        y0 = sy
+        x1 = sx + tau * ex
+        y1 = sy + tau * ey
+    return False, x0, y0
+
+
 @njit(cache=True, fastmath={"nsz", "arcp", "contract"})
 def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt, og_origin,
                  og_cell, og_nx, og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch):
@@ -322,10 +473,14 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
     walls and other agents); their heavy-ball momentum is dropped so the next iteration does
     not carry them back in.
 
-    A push never carries an agent's centre through a wall: it stops at the wall and
-    slides along it; where not even that frees the user (the user walked into a corner
-    someone stands in), the agent stays where it can and the overlap is left for the
-    metrics to report.
+    Each agent is moved onto the user's outline (``SLACK`` beyond touching) without its centre
+    crossing a wall: straight out from the user's centre, or, where that way meets a wall,
+    stopped 1 mm short and slid along the wall to where the wall's line leaves the outline (the
+    way the push leans; a turned agent's reach is solved for where it lands), round corners
+    too (:func:`_slide_out`). Cornered that way (the user walked into a corner someone stands
+    in), it slides along the first wall the other way, past the user; and where not even that
+    frees the user, the user's body still wins: the agent goes straight out, through the wall,
+    and the metrics report the wall overlap.
     """
     ux = cur[user, 0]
     uy = cur[user, 1]
@@ -337,16 +492,12 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
         d = np.sqrt(dx * dx + dy * dy)
         if d >= ru + radius[i]:
             continue
-        if d > 1e-12:
+        if d > COINCIDENT:
             nx = dx / d
             ny = dy / d
-        else:
-            nx = 1.0
-            ny = 0.0
-        su = ru  # the user's reach toward the agent: its radius, or a pram's ellipse's support
-        if fp_depth[user] < ru:
-            su = support(ru, fp_depth[user], facing[user, 0], facing[user, 1], nx, ny)
-        rr = su + support(radius[i], fp_depth[i], facing[i, 0], facing[i, 1], -nx, -ny)
+        else:  # on the user's centre: out along the pair's own direction (pedvr.crowd.coincident)
+            nx, ny = apart(i, user)
+        rr = _user_reach(i, user, radius, fp_depth, facing, nx, ny)
         if d >= rr:
             continue
         x0 = cur[i, 0]
@@ -354,28 +505,23 @@ def _out_of_user(cur, radius, fp_depth, facing, user, near, step, vertices, nxt,
         x1 = ux + (rr + SLACK) * nx
         y1 = uy + (rr + SLACK) * ny
         if vertices.shape[0] > 0:
-            frac, e = _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx,
-                                      og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch)
-            if e >= 0:
-                # Stop 1 mm before the wall, then slide the rest of the push along it.
-                stop = max(frac - 1e-3 / max(np.sqrt((x1 - x0) ** 2 + (y1 - y0) ** 2), 1e-12), 0.0)
+            found, x, y = _slide_out(i, user, ux, uy, x0, y0, x1, y1, 0.0, radius, fp_depth, facing, vertices,
+                                     nxt, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
+                                     og_edge_cells, scratch)
+            if not found:
+                # Cornered: the first wall's other way, past the user.
+                frac, e = _first_crossing(x0, y0, x1, y1, vertices, nxt, og_origin, og_cell, og_nx, og_ny,
+                                          og_cell_start, og_cell_edges, og_edge_cells, scratch)
                 ex = vertices[nxt[e], 0] - vertices[e, 0]
                 ey = vertices[nxt[e], 1] - vertices[e, 1]
-                el = np.sqrt(ex * ex + ey * ey)
-                ex /= el
-                ey /= el
-                sx = x0 + stop * (x1 - x0)
-                sy = y0 + stop * (y1 - y0)
-                along = ((x1 - sx) * ex + (y1 - sy) * ey)
-                tx = sx + along * ex
-                ty = sy + along * ey
-                frac2, e2 = _first_crossing(sx, sy, tx, ty, vertices, nxt, og_origin, og_cell,
-                                            og_nx, og_ny, og_cell_start, og_cell_edges,
-                                            og_edge_cells, scratch)
-                if e2 >= 0:
-                    frac2 = max(frac2 - 1e-3 / max(abs(along), 1e-12), 0.0)
-                x1 = sx + frac2 * (tx - sx)
-                y1 = sy + frac2 * (ty - sy)
+                lean = (x1 - x0) * ex + (y1 - y0) * ey
+                found, x, y = _slide_out(i, user, ux, uy, x0, y0, x1, y1, -1.0 if lean >= 0.0 else 1.0,
+                                         radius, fp_depth, facing, vertices, nxt, og_origin, og_cell, og_nx,
+                                         og_ny, og_cell_start, og_cell_edges, og_edge_cells, scratch)
+            if found:
+                x1 = x
+                y1 = y
+            # else: no way out inside the walls; the user's body wins (straight out, through the wall)
         cur[i, 0] = x1
         cur[i, 1] = y1
         step[i, 0] = 0.0
@@ -558,7 +704,7 @@ def max_obstacle_penetration(pos, radius, vertices, nxt, prv):
         for e in range(m):
             e2 = nxt[e]
             closed = nxt[e] != prv[e]
-            _, _, dep = _edge_push(pos[i, 0], pos[i, 1], radius[i], radius[i], 1.0, 0.0,
+            _, _, dep, _ = _edge_push(pos[i, 0], pos[i, 1], radius[i], radius[i], 1.0, 0.0,
                                    vertices[e, 0], vertices[e, 1], vertices[e2, 0],
                                    vertices[e2, 1], closed)
             worst = max(worst, dep)

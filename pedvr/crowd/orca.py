@@ -24,9 +24,13 @@ Responsibility (DESIGN.md "crowd")
     User rows are never steered: their output velocity is their input one.
 
 Footprints
-    Combined radii are the bodies' support radii along the line of centres
-    (:mod:`pedvr.crowd.footprint`): discs, except for agents that turned their
-    shoulders to squeeze past someone.
+    Bodies are discs (:mod:`pedvr.crowd.footprint`), except agents that turned their
+    shoulders to squeeze past someone and pram pushers. Between agents, a pair's combined
+    radius is the two bodies' support radii along the line of centres. Toward the user (the
+    late safety step, which the agent alone must meet) a pair that is not two discs gets the
+    velocity obstacle of the two footprints' Minkowski sum instead: each line is a support
+    line of it (:func:`shaped_agent_line`), in contact the support along the line of
+    centres, as the contact pass measures.
 
 Coupled mode (PedVR §4.1: the body's motion limits in the same program)
     With ``coupled`` the hard prefix of the program holds, after the obstacle
@@ -89,6 +93,7 @@ import math
 import numpy as np
 from numba import prange
 
+from pedvr.crowd.coincident import COINCIDENT, apart
 from pedvr.crowd.footprint import support
 from pedvr.crowd.neighbors import obstacle_neighbors_of
 from pedvr.crowd.state import (
@@ -102,6 +107,7 @@ from pedvr.crowd.state import (
 from pedvr.kernels import parallel_kernel, row_njit
 
 RVO_EPSILON = 1e-5  # RVO2's RVO_EPSILON
+DEGENERATE_W = 1e-9  # m/s: in collision, a relative velocity this near the cut-off centre has no direction
 STOPPED_SPEED = 0.05  # m/s: below this the motion direction is the heading
 ACCEL_POLYGON_SIDES = 16
 SIDEWAYS_SLOPE = math.tan(math.radians(30.0))
@@ -517,8 +523,14 @@ def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, rigid, 
 
 @row_njit(fastmath=_FM)
 def agent_line(lines, n, px, py, vx, vy, radius, qx, qy, wvx, wvy, other_radius, inv_th,
-               inv_dt, share):
-    """Append the ORCA line induced by one neighbour; ``share`` is i's part of ``u``."""
+               inv_dt, share, i, j):
+    """Append the ORCA line induced by neighbour row ``j`` on row ``i``; ``share`` is i's part of ``u``.
+
+    In collision, ``u`` leaves the cut-off circle of time ``dt`` along ``w``, the relative
+    velocity from that circle's centre; where ``w`` vanishes (the relative velocity is exactly
+    the one that closes the gap in ``dt``, e.g. two bodies at one point standing still), RVO2
+    divides by zero. Here ``u`` then points from ``j`` to ``i`` (each moves away from the other),
+    and for coincident centres along :func:`pedvr.crowd.coincident.apart` (issue 24)."""
     rpx = qx - px
     rpy = qy - py
     rvx = vx - wvx
@@ -559,9 +571,123 @@ def agent_line(lines, n, px, py, vx, vy, radius, qx, qy, wvx, wvy, other_radius,
         # Collision. Project on cut-off circle of time timeStep.
         wx = rvx - inv_dt * rpx
         wy = rvy - inv_dt * rpy
-        w_len = math.sqrt(wx * wx + wy * wy)
-        uwx = wx / w_len
-        uwy = wy / w_len
+        w_len_sq = wx * wx + wy * wy
+        if w_len_sq > DEGENERATE_W * DEGENERATE_W:
+            w_len = math.sqrt(w_len_sq)
+            uwx = wx / w_len
+            uwy = wy / w_len
+        else:
+            # At the cut-off centre: no direction out; away from the neighbour.
+            w_len = 0.0
+            if dist_sq > COINCIDENT * COINCIDENT:
+                dist = math.sqrt(dist_sq)
+                uwx = -rpx / dist
+                uwy = -rpy / dist
+            else:
+                uwx, uwy = apart(i, j)
+        dx = uwy
+        dy = -uwx
+        ux = (combined * inv_dt - w_len) * uwx
+        uy = (combined * inv_dt - w_len) * uwy
+    lines[n, 0] = vx + share * ux
+    lines[n, 1] = vy + share * uy
+    lines[n, 2] = dx
+    lines[n, 3] = dy
+    return n + 1
+
+
+@row_njit(fastmath=_FM, inline="always")
+def _pair_support(ai, bi, fxi, fyi, aj, bj, fxj, fyj, nx, ny):
+    """Support of the pair's Minkowski sum (both footprints, :mod:`pedvr.crowd.footprint`) along
+    the unit ``(nx, ny)``: how far from ``j``'s centre ``i``'s centre is when the two touch with
+    ``(nx, ny)`` normal to the line that separates them."""
+    return support(ai, bi, fxi, fyi, nx, ny) + support(aj, bj, fxj, fyj, nx, ny)
+
+
+@row_njit(fastmath=_FM)
+def shaped_agent_line(lines, n, px, py, vx, vy, qx, qy, wvx, wvy, ai, bi, fxi, fyi, aj, bj, fxj, fyj,
+                      inv_th, inv_dt, share, i, j):
+    """:func:`agent_line` for a pair of which one footprint is not a disc (a turned body, a pram;
+    :func:`agent_lines` uses it for the line toward the user): the velocity obstacle of the two
+    footprints' Minkowski sum ``M``, whose support ``h(n)`` is the sum of theirs, in place of a
+    disc.
+
+    A disc of one radius cannot stand for ``M``: as wide as ``M`` along the line of centres, it
+    makes a person who turned sideways against a wall as wide as their shoulders to someone
+    coming up from behind, and ORCA chases them ahead (issue 24, item 10). So each of ORCA's
+    lines is the support line of ``M``'s (truncated) velocity obstacle that RVO2's case picks:
+
+    * collision: ``h`` along the line of centres, as the contact pass measures overlaps;
+    * the cut-off circle: the support line of ``(rp + M) / τ`` normal to ``w`` (``h(ŵ) / τ``
+      from its centre);
+    * a leg: the line through the origin tangent to ``rp + M``: at angle ``φ`` to ``rp`` with
+      ``|rp| sin φ = h(m)``, ``m`` its normal, solved by a few fixed-point steps (it may reach
+      90°: beside a long body the obstacle is nearly a half-plane).
+
+    For discs every ``h`` is ``r_i + r_j`` and this is :func:`agent_line`; two rows of a pair
+    would build mirrored lines (``h`` is symmetric)."""
+    rpx = qx - px
+    rpy = qy - py
+    rvx = vx - wvx
+    rvy = vy - wvy
+    dist_sq = rpx * rpx + rpy * rpy
+    dist = math.sqrt(dist_sq)
+    if dist > COINCIDENT:
+        cx = rpx / dist
+        cy = rpy / dist
+    else:
+        cx, cy = apart(j, i)
+    combined = _pair_support(ai, bi, fxi, fyi, aj, bj, fxj, fyj, cx, cy)
+    if dist > combined:
+        # No collision. Vector from cut-off centre to relative velocity.
+        wx = rvx - inv_th * rpx
+        wy = rvy - inv_th * rpy
+        w_len_sq = wx * wx + wy * wy
+        dot = wx * rpx + wy * rpy
+        cut = combined
+        if w_len_sq > 0.0:
+            w_len = math.sqrt(w_len_sq)
+            cut = _pair_support(ai, bi, fxi, fyi, aj, bj, fxj, fyj, wx / w_len, wy / w_len)
+        if dot < 0.0 and dot * dot > cut * cut * w_len_sq:
+            # Project on cut-off circle (the support line of the cut-off normal to w).
+            w_len = math.sqrt(w_len_sq)
+            uwx = wx / w_len
+            uwy = wy / w_len
+            dx = uwy
+            dy = -uwx
+            ux = (cut * inv_th - w_len) * uwx
+            uy = (cut * inv_th - w_len) * uwy
+        else:
+            # Project on legs: the tangent from the origin to rp + M on w's side.
+            side = 1.0 if _det(rpx, rpy, wx, wy) > 0.0 else -1.0
+            sn = min(combined / dist, 1.0)
+            for _ in range(4):
+                cs = math.sqrt(max(1.0 - sn * sn, 0.0))
+                # m: the leg's normal toward rp + M, rp turned by side * (phi - 90 deg).
+                mx = cx * sn + side * cy * cs
+                my = cy * sn - side * cx * cs
+                sn = min(_pair_support(ai, bi, fxi, fyi, aj, bj, fxj, fyj, mx, my) / dist, 1.0)
+            cs = math.sqrt(max(1.0 - sn * sn, 0.0))
+            # The leg: rp turned by side * phi.
+            dx = side * (cx * cs - side * cy * sn)
+            dy = side * (cy * cs + side * cx * sn)
+            dot2 = rvx * dx + rvy * dy
+            ux = dot2 * dx - rvx
+            uy = dot2 * dy - rvy
+    else:
+        # Collision. Project on cut-off circle of time timeStep.
+        wx = rvx - inv_dt * rpx
+        wy = rvy - inv_dt * rpy
+        w_len_sq = wx * wx + wy * wy
+        if w_len_sq > DEGENERATE_W * DEGENERATE_W:
+            w_len = math.sqrt(w_len_sq)
+            uwx = wx / w_len
+            uwy = wy / w_len
+        else:
+            # At the cut-off centre: no direction out; away from the neighbour.
+            w_len = 0.0
+            uwx = -cx
+            uwy = -cy
         dx = uwy
         dy = -uwx
         ux = (combined * inv_dt - w_len) * uwx
@@ -765,16 +891,27 @@ def agent_lines(i, pos, vel, radius, depth, facing, rigid, is_user, heading, pre
             inv = inv_th
         qx = pos[j, 0]
         qy = pos[j, 1]
+        if is_user[j] and (b < r or depth[j] < radius[j]):
+            # The safety step toward the user, with a footprint that is not a disc: the obstacle of
+            # the two footprints themselves (a disc as wide as the pair along the line of centres
+            # makes an agent turned against a wall as wide as its shoulders to a user coming up
+            # behind it, and a line of share 1 then chases it ahead, into a dead end: issue 24).
+            n = shaped_agent_line(lines, n, px, py, vx, vy, qx, qy, vel[j, 0], vel[j, 1], r, b, fx, fy,
+                                  radius[j], depth[j], facing[j, 0], facing[j, 1], inv, inv_dt, share, i, j)
+            continue
         ri = r
         rj = radius[j]
         dx = qx - px
         dy = qy - py
         d = math.sqrt(dx * dx + dy * dy)
         if d > 1e-9 and (b < r or depth[j] < rj):
+            # Between agents: a disc of the two supports along the line of centres. Wider than the
+            # pair where they pass side by side, but both yield and the contact pass holds the
+            # rest; the exact obstacle here would change how crowds squeeze past each other.
             ri = support(r, b, fx, fy, dx / d, dy / d)
             rj = support(rj, depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d)
         n = agent_line(lines, n, px, py, vx, vy, ri, qx, qy, vel[j, 0], vel[j, 1], rj, inv,
-                       inv_dt, share)
+                       inv_dt, share, i, j)
     return n, num_obst, num_vel_lim, num_hard
 
 

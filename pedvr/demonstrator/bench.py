@@ -14,6 +14,10 @@ part by part:
 ``hand``    the action's hand trajectory with §6's obstacle avoidance;
 ``plan``    all three: the whole plan of one demonstration (the paper: 100–400 ms; goal 20 ms).
 
+``placed`` counts the queries with a placement, ``placed_widened`` those of them the model
+pass could not serve (the wide pass found one), ``placed_fallback`` those placed off the
+model (:class:`~pedvr.demonstrator.placement.PlacementSearch`).
+
 In a simulation the search is spread over behavior ticks
 (:data:`pedvr.demonstrator.demonstration.PLAN_BUDGET` orientations a tick):
 ``slice`` is the time of one such tick's share, the most a decision tick
@@ -85,7 +89,7 @@ def run_place_bench(scene_name: str, *, queries: int = 200, seconds: float = 30.
     rng = np.random.default_rng(seed)
     qs = _queries(scene, stage, queries, rng)
     parts: dict[str, list[float]] = {"search": [], "path": [], "hand": [], "plan": [], "slice": []}
-    found = 0
+    found = widened = fallback = 0
     candidates = valid = 0
     for k, (ex, obs, start) in enumerate([qs[0], *qs]):  # the first query again untimed: warm-up
         height = float(ex.params.get("height", 0.0)) or None
@@ -115,6 +119,8 @@ def run_place_bench(scene_name: str, *, queries: int = 200, seconds: float = 30.
         if k == 0:
             continue
         found += best is not None
+        widened += best is not None and search.plan.widened and not search.plan.fallback
+        fallback += best is not None and search.plan.fallback
         candidates += search.plan.candidates
         valid += len(search.plan.ranked)
         parts["search"].append((t1 - t0) * 1e3)
@@ -123,6 +129,7 @@ def run_place_bench(scene_name: str, *, queries: int = 200, seconds: float = 30.
         parts["plan"].append((t3 - t0) * 1e3)
         parts["slice"] += [x * 1e3 for x in slices]
     out: dict[str, Any] = {"bench": "place", "scene": scene_name, "queries": len(qs), "placed": found,
+                           "placed_widened": widened, "placed_fallback": fallback,
                            "valid_per_query": round(valid / max(len(qs), 1), 2),
                            "candidates_per_query": round(candidates / max(len(qs), 1), 2)}
     for name, ms in parts.items():

@@ -32,34 +32,53 @@ demonstrator through PLACE:
    every :data:`REPLAN_EVERY` s the node checks the observer; once it has
    moved :data:`REPLAN_MOVE` m or more from where the placement was planned
    for and has settled (walks slower than :data:`SETTLED`, unless the
-   current placement no longer works for it), a new search runs (across
-   ticks) and the demonstrator moves only if
-   the new best placement is clearly better (:data:`HYSTERESIS` cost units
-   below the current placement re-scored for the observer's new place, and
-   :data:`MIN_MOVE` m away), or if the current one became invalid (the
-   observer stands too close, or cannot be seen), and not within
-   :data:`DWELL` s of arriving: the demonstrator never dances. A reposition
+   current placement no longer works for it), or :data:`REPLAN_STILL` m
+   while the current placement no longer works for it (hidden, too close,
+   beyond eye contact: a small step behind a pillar is enough; then not within
+   :data:`DWELL` s of arriving, but as soon as that is over), a new search runs
+   (across ticks; it widens and falls back as
+   :class:`~pedvr.demonstrator.placement.PlacementSearch` says when the model
+   gives no valid placement). The demonstrator moves only if the new best
+   placement is clearly better (:data:`HYSTERESIS` cost units below the current
+   placement re-scored for the observer's new place, and :data:`MIN_MOVE` m
+   away) and it has stood :data:`DWELL` s, or if the current one became
+   invalid: the demonstrator never dances. A placement off the model (a fallback) never
+   replaces one that still works, and a valid one always replaces a
+   fallback. A search that finds nothing is not repeated until the observer
+   moves again. A reposition
    is a short walk at reduced speed (within :data:`SIDESTEP` m side or back steps
    that keep facing the new θ: 2–4 steps up to about 0.6 m, §5's short range, as
    tests/body/test_short_reposition.py checks; longer ones take more), with the
    arm retracted on the way and pointing again on arrival; the talk goes on
    for the time that was left.
 
-The node succeeds when the talk is done and the arm is back, or early when
+The node succeeds when the talk is done, the arm is back and the observer
+could see the demonstrator when the talk ended, or early when
 the observer walks away (farther than :data:`LEAVE_DIST` from the exhibit for
 :data:`LEAVE_AFTER` s: a guide does not go on talking to nobody; logged with
 outcome ``left``; the node succeeds, so an event ends normally, but the
 exhibit does not count a use); it fails (and
 the exhibit counts the reason) with ``no observer``, ``no placement`` (no
-valid candidate), ``blocked`` (every ranked placement unreachable when
-walked to) or ``timeout``. Stopped, it ends everything it started. While it
-runs for the user, the user-encounter model leaves the demonstrator alone
-(``ctx.engaged``), as it does for events in which the user has a role.
+placement from which the observer can be seen, even widened and off the
+model), ``observer hidden`` (the talk ended with obstacles between the
+demonstrator's eyes and the observer's: nowhere better was found; never
+logged a success, issue 24), ``blocked`` (every ranked placement
+unreachable when walked to) or ``timeout``. Stopped, it ends everything it
+started. While it runs for the user, the user-encounter model leaves the
+demonstrator alone (``ctx.engaged``), as it does for events in which the
+user has a role.
 
 Every demonstration is logged on its exhibit (``object_log`` in the run's
 metrics): placement, times of the action start, feet stop, strokes and end,
 the planned window and how the swing was matched, the eye-contact error at
-each stroke, re-plans and repositions.
+each stroke, re-plans and repositions; and whether the observer could see:
+``placement_origins`` (the search pass of each placement: ``model``,
+``wide``, ``fallback``), ``widened`` (searches that found no valid placement
+from the model), ``fallbacks`` (placements taken off the model), ``hidden_s``
+(seconds the observer was hidden while the demonstrator talked, sampled at each
+re-plan check) and ``seen`` (True or False when the talk ended or no placement
+was found, else None). The run's metrics sum them over exhibits
+(:data:`FIGURES`: ``demonstrations_unseen`` and the others).
 """
 
 from __future__ import annotations
@@ -84,7 +103,7 @@ from pedvr.crowd.state import LIMIT_TURN_STANDING
 from pedvr.demonstrator import coordination as co
 from pedvr.demonstrator import engagement as en
 from pedvr.demonstrator.arm import ACTIONS, Action, hand_path, min_jerk_times, preferred_distance
-from pedvr.demonstrator.placement import Observer, Placement, PlacementSearch, score
+from pedvr.demonstrator.placement import VIS_DISCARD, Observer, Placement, PlacementSearch, score
 from pedvr.demonstrator.stage import Figure, Stage
 from pedvr.errors import UsageError
 
@@ -103,6 +122,7 @@ T_RETRACT = 0.8  # s to bring the hand back
 T_RETRACT_FAST = 0.5  # s, before a reposition
 REPLAN_EVERY = 0.5  # s between checks of the observer while holding
 REPLAN_MOVE = 0.5  # m the observer must move from where the plan was made before a re-plan
+REPLAN_STILL = 0.25  # m: ... or this much while the placement no longer works for the observer
 WALK_REPLAN_MOVE = 1.5  # m, while walking to the placement
 HYSTERESIS = 20.0  # cost units (20° of neck rotation) a new placement must gain to be worth a move
 MIN_MOVE = 0.3  # m: closer placements are not worth a step
@@ -117,6 +137,15 @@ LEAVE_AFTER = 1.5  # s: ... when it stays away this long; the demonstration ends
 TRANSITION = co.TRANSITION
 
 PLAN, WALK, SETTLE, STAND, RETREAT = "plan", "walk", "settle", "stand", "retreat"
+# The run's metrics (Exhibit.figures, summed over the scene's exhibits), from the demonstrations that ended:
+FIGURES = {
+    "demonstrations": "demonstrations that ended (any outcome)",
+    "demonstrations_unseen": "ended without a placement the observer could see: no placement at all, or "
+                             "the observer hidden from the demonstrator when the talk ended",
+    "demonstrations_widened": "a search found no valid placement from the model and widened",
+    "demonstrations_fallback": "the demonstrator took a placement off the model (none valid even widened)",
+    "demonstration_hidden_s": "seconds the observer was hidden from the demonstrator while it talked",
+}
 
 
 def _action_kind(v: object) -> str | None:
@@ -173,6 +202,15 @@ class Exhibit(SmartObject):
             return Demonstrate(agent, self, observer=None)
         return None
 
+    def figures(self) -> dict[str, float]:
+        """For the run's metrics, over the demonstrations that ended here (:data:`FIGURES`)."""
+        log = self.log
+        return {"demonstrations": len(log),
+                "demonstrations_unseen": sum(1 for e in log if e["seen"] is False),
+                "demonstrations_widened": sum(1 for e in log if e["widened"]),
+                "demonstrations_fallback": sum(1 for e in log if e["fallbacks"]),
+                "demonstration_hidden_s": round(sum(e["hidden_s"] for e in log), 6)}
+
 
 def repeats_of(ctx: Context, agent: int) -> int:
     """Demonstrations ``agent`` completed before, at any exhibit (for declining gaze durations, §8)."""
@@ -224,6 +262,8 @@ class Demonstrate(Behaviour):
         self.entry: dict[str, Any] = {}
         self.away_since = math.inf
         self.demo_id = -1  # numbered once it starts (ctx.events)
+        self.t_watch = math.nan  # the last visibility check while holding, and what it found
+        self.was_hidden = False
 
     # -- set-up ---------------------------------------------------------------------------------
 
@@ -237,7 +277,8 @@ class Demonstrate(Behaviour):
                       "t_start": round(ctx.t, 6), "outcome": "", "why": "", "replans": 0, "repositions": 0,
                       "placements": [], "t_action": [], "window_planned": [], "swing": [],
                       "t_stop_predicted": [], "t_feet_stop": [], "head_limit_deg": [],
-                      "t_stroke": [], "eye_contact_deg": [], "t_end": None}
+                      "t_stroke": [], "eye_contact_deg": [], "t_end": None,
+                      "placement_origins": [], "widened": 0, "fallbacks": 0, "hidden_s": 0.0, "seen": None}
         if self.observer is None or ctx.find(self.observer) is None:
             self.why = "no observer"
             return
@@ -303,8 +344,10 @@ class Demonstrate(Behaviour):
             assert self.search is not None
             if not self.search.advance(PLAN_BUDGET):
                 return RUNNING
+            self.entry["widened"] += int(self.search.plan.widened)
             best = self.search.plan.best
             if best is None:
+                self.entry["seen"] = False  # nowhere the observer could be shown to
                 return self._fail("no placement")
             self._go(ctx, best, short=False)
         if self.phase == WALK:
@@ -350,6 +393,8 @@ class Demonstrate(Behaviour):
         self.exhibit.active[self.agent] = (p.pos[0], p.pos[1], self.figure.radius if self.figure else 0.25)
         self.entry["placements"].append([round(p.pos[0], 4), round(p.pos[1], 4),
                                          round(math.degrees(p.heading), 2)])
+        self.entry["placement_origins"].append(p.origin)
+        self.entry["fallbacks"] += int(p.fallback)
         self.entry["head_limit_deg"].append(round(p.head_limit, 3))
         here = ctx.pos(self.agent)
         self.pre = None
@@ -433,9 +478,15 @@ class Demonstrate(Behaviour):
             self.entry["replans"] += 1
         if self.pending is not None and self.pending.advance(PLAN_BUDGET):
             best = self.pending.plan.best
-            self.search, self.pending = self.pending, None
+            self.entry["widened"] += int(self.pending.plan.widened)
             p = self.placement
-            if best is not None and p is not None and math.dist(best.pos, p.pos) > MIN_MOVE:
+            if best is None or p is None:
+                self.pending = None  # nowhere better: keep walking, the check while holding follows
+                return
+            self.search, self.pending = self.pending, None
+            if best.fallback and not p.fallback and math.isfinite(self._score(ctx, p, p.pos)):
+                return  # a placement off the model never replaces one that still works
+            if math.dist(best.pos, p.pos) > MIN_MOVE:
                 self._go(ctx, best, short=False)
 
     def _remaining(self, ctx: Context) -> float:
@@ -571,6 +622,8 @@ class Demonstrate(Behaviour):
             self._gaze(ctx, who, self._target3())
         if t >= self.t_hold_end - 1e-9:
             self.talk_left = 0.0
+            self.entry["seen"] = not self._watch(ctx)
+            self.t_watch = math.nan
             self._retract(ctx, T_RETRACT)
             self._gaze(ctx, "observer")
             return False
@@ -586,6 +639,7 @@ class Demonstrate(Behaviour):
 
     def _stroke(self, ctx: Context) -> None:
         self._event(ctx, "stroke")
+        self._watch(ctx)  # the hold starts: from here on, hidden time counts
         self.entry["t_stroke"].append(round(ctx.t, 6))
         self.entry["eye_contact_deg"].append(round(self.eye_contact_error(ctx), 3))
         self.t_hold_end = ctx.t + self.talk_left
@@ -629,6 +683,13 @@ class Demonstrate(Behaviour):
     # -- re-planning while standing -------------------------------------------------------------
 
     def _replan(self, ctx: Context) -> None:
+        """Every :data:`REPLAN_EVERY` s while holding: watch whether the observer can see, and search
+        again when it has moved :data:`REPLAN_MOVE` m from where the plan was made (and settled), or
+        :data:`REPLAN_STILL` m while the placement no longer works for it (hidden, too close, beyond
+        eye contact): a search that finds nothing is not repeated for an observer standing still.
+        Within :data:`DWELL` s of arriving a placement that still works is kept even if a better one
+        is found (that search's observer place becomes the reference), and one that no longer works
+        is searched for once the dwell is over (the reference is kept, so the check comes back)."""
         if self.retracting or math.isnan(self.t_hold_end):
             return
         t = ctx.t
@@ -636,25 +697,37 @@ class Demonstrate(Behaviour):
             if t < self.next_check - 1e-9:
                 return
             self.next_check = t + REPLAN_EVERY
+            self._watch(ctx)
             assert self.observer is not None
-            if math.dist(ctx.pos(self.observer), self.obs_ref) < REPLAN_MOVE:
+            moved = math.dist(ctx.pos(self.observer), self.obs_ref)
+            works = math.isfinite(self._current_score(ctx))
+            if moved < (REPLAN_MOVE if works else REPLAN_STILL):
                 return
-            if ctx.speed(self.observer) > SETTLED and math.isfinite(self._current_score(ctx)):
+            if ctx.speed(self.observer) > SETTLED and works:
                 return  # the observer is still on the move and can still be shown to: wait
+            if not works and t - self.t_feet_stop < DWELL:
+                return  # it must move, but not yet: the reference is kept, so the check comes back
             self.pending = self._search(ctx)
             self.entry["replans"] += 1
         self.wake = 0.0
         if not self.pending.advance(PLAN_BUDGET):
             return
+        self.entry["widened"] += int(self.pending.plan.widened)
         best = self.pending.plan.best
         p = self.placement
-        assert p is not None and self.stage is not None and self.figure is not None
-        assert self.action is not None
+        assert p is not None
         now = self._current_score(ctx)
-        move = best is not None and math.dist(best.pos, ctx.pos(self.agent)) >= MIN_MOVE and (
-            not math.isfinite(now) or best.cost < now - HYSTERESIS)
-        if move and ctx.t - self.t_feet_stop >= DWELL:
-            assert best is not None
+        # a valid placement beats one off the model; one off the model replaces only a placement
+        # that no longer works, or another off the model
+        better = best is not None and (
+            not math.isfinite(now) or (p.fallback and not best.fallback)
+            or (best.cost < now - HYSTERESIS and (p.fallback or not best.fallback)))
+        if best is not None and better and math.dist(best.pos, ctx.pos(self.agent)) >= MIN_MOVE:
+            if t - self.t_feet_stop < DWELL:  # only better, the current one still works: not worth a dance
+                self.pending = None
+                return
+            self._watch(ctx)
+            self.t_watch = math.nan  # walking, not holding: hidden time counts again once back
             self.entry["repositions"] += 1
             self.talk_left = max(self.t_hold_end - t, 0.0)
             self.t_hold_end = math.nan
@@ -663,20 +736,39 @@ class Demonstrate(Behaviour):
             self._gaze(ctx, "floor", self._floor_point(ctx))
             ctx.body.gaze_limit(self.agent, None)
             self.phase = RETREAT
-            self.search = self.pending  # kept for the placement's fallbacks; pending is consumed below
-            return
-        if move:
-            self.pending = None  # too soon after arriving: look again at the next check
+            self.search = self.pending  # kept for the placement's alternatives; pending is consumed below
             return
         self.search, self.pending = self.pending, None  # kept: the observer's new place is the reference
 
     def _current_score(self, ctx: Context) -> float:
         """The current placement's cost for where the observer is now (inf: no longer valid)."""
-        p = self.placement
-        assert p is not None and self.stage is not None and self.figure is not None
-        assert self.action is not None
-        return score(self.stage, self.figure, self.action, self._observer(ctx), pos=ctx.pos(self.agent),
-                     heading=p.heading, head_limit=p.head_limit)
+        assert self.placement is not None
+        return self._score(ctx, self.placement, ctx.pos(self.agent))
+
+    def _score(self, ctx: Context, p: Placement, pos: tuple[float, float]) -> float:
+        assert self.stage is not None and self.figure is not None and self.action is not None
+        return score(self.stage, self.figure, self.action, self._observer(ctx), pos=pos, heading=p.heading,
+                     head_limit=p.head_limit)
+
+    def hidden(self, ctx: Context) -> bool:
+        """Whether obstacles hide the observer's head from the demonstrator's eyes where it stands
+        (more than :data:`pedvr.demonstrator.placement.VIS_DISCARD` of the sight line, as the
+        planner discards)."""
+        assert self.stage is not None and self.figure is not None
+        obs = self._observer(ctx)
+        e = self.stage.occluded(np.asarray([ctx.pos(self.agent)]), self.figure.eye_height,
+                                np.asarray([obs.pos]), obs.eye_height)
+        return bool(e[0] > VIS_DISCARD)
+
+    def _watch(self, ctx: Context) -> bool:
+        """Sample visibility while holding; the time since the last sample counts as hidden when that
+        sample was (``hidden_s`` in the log). Returns whether the observer is hidden now."""
+        now = self.hidden(ctx)
+        if self.was_hidden and math.isfinite(self.t_watch):
+            self.entry["hidden_s"] = round(self.entry["hidden_s"] + ctx.t - self.t_watch, 6)
+        self.t_watch = ctx.t
+        self.was_hidden = now
+        return now
 
     def _floor_point(self, ctx: Context) -> tuple[float, float, float]:
         x, y = ctx.pos(self.agent)
@@ -686,6 +778,8 @@ class Demonstrate(Behaviour):
     # -- the end ----------------------------------------------------------------------------------
 
     def _succeed(self, ctx: Context) -> Status:
+        if self.entry.get("seen") is False:
+            return self._fail("observer hidden")  # never a success the observer could not see
         self.exhibit.count("demonstrate")
         return SUCCESS
 
@@ -713,6 +807,9 @@ class Demonstrate(Behaviour):
         self.gazing = ""
         ctx.engaged.discard(a)
         self.exhibit.active.pop(a, None)
+        if self.entry and self.was_hidden and math.isfinite(self.t_watch):  # stopped mid-talk, hidden
+            self.entry["hidden_s"] = round(self.entry["hidden_s"] + ctx.t - self.t_watch, 6)
+        self.t_watch = math.nan
         outcome = ("left" if self.why == "observer left" else
                    {SUCCESS: "success", FAILURE: "failure", INVALID: "stopped"}[new_status])
         if self.entry and self.demo_id >= 0:

@@ -12,6 +12,16 @@ a perturbed distance and orientation. The valid placements are ranked by
 and the sorted list is kept (:class:`Plan`): when motion synthesis fails
 later, the next one is used.
 
+When the model's candidates give no valid placement (§4 perturbs only
+colliding candidates, and only slightly: an observer standing behind a pillar
+can leave none at ``d_pref`` while there are many a metre farther out), the
+search widens: every failing candidate, hidden ones included, is tried over a
+wider range of distances and orientations; if that still finds none, it falls
+back to placements off the model (facing the observer, farther out) that keep
+every hard constraint, visibility first. Only when nothing is visible at all is
+the list empty. Which pass found the list is on the :class:`Plan` and on each
+:class:`Placement` (``origin``); see :class:`PlacementSearch` (issue 24).
+
 Validity of a candidate (§4; each failure is counted by reason in :class:`Plan`):
 
 ``collision``   the demonstrator's disc off the walkable mesh (it would overlap an
@@ -57,7 +67,7 @@ import numpy as np
 
 from pedvr.demonstrator import kernels as kn
 from pedvr.demonstrator.arm import Action, stroke_points
-from pedvr.demonstrator.model import global_heading, local_angle, placement_model_array
+from pedvr.demonstrator.model import global_heading, local_angle, placement_model_array, wrap_deg
 from pedvr.demonstrator.stage import Figure, Stage
 
 STEP_DEG = 5.0  # rotation increment of the frame around the target (§4: "five degrees in both directions")
@@ -73,6 +83,16 @@ VIEW_GAP = 0.05  # m: the body keeps out of the observer's sight line to the tar
 # Perturbations of a colliding candidate: (distance factor, orientation offset deg), tried in order.
 PERTURB = ((0.85, 0.0), (1.15, 0.0), (0.7, 10.0), (1.3, -10.0), (0.7, -10.0), (1.3, 10.0))
 REASONS = ("collision", "unreachable", "action", "visibility", "eye_contact")
+PASSES = ("model", "wide", "fallback")  # see PlacementSearch
+# The wide pass (no valid placement from the model): distances as factors of d_pref, nearest it
+# first, and body orientations about θ (deg); every combination of each orientation is tried.
+WIDE_FACTORS = (1.0, 0.85, 1.15, 0.7, 1.3, 1.5, 1.75, 2.0)
+WIDE_TURNS = (0.0, 10.0, -10.0, 20.0, -20.0)
+# The fallback (none even so): the body faces the observer turned by these (deg), and rings every
+# FALLBACK_RING m beyond the wide pass's out to FALLBACK_FAR m from the target.
+FALLBACK_TURNS = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0)
+FALLBACK_RING, FALLBACK_FAR = 0.5, 5.0
+WIDE_SHARE = 4  # a wide or fallback orientation costs about this many of the model pass's
 
 
 @dataclass(frozen=True)
@@ -111,6 +131,12 @@ class Placement:
     eyes: float
     head_limit: float
     stroke: tuple[float, float, float]
+    origin: str = "model"  # the pass that found it (PASSES): "fallback" is off the placement model
+
+    @property
+    def fallback(self) -> bool:
+        """Off the placement model: no valid placement existed (:class:`PlacementSearch`)."""
+        return self.origin == "fallback"
 
 
 @dataclass(frozen=True)
@@ -122,18 +148,26 @@ class Weights:
 
 @dataclass
 class Plan:
-    """The sorted valid placements (best first) and how many candidates failed, by reason."""
+    """The sorted valid placements (best first) and how many candidates failed, by reason.
+
+    ``rejected`` and ``candidates`` count the model pass's frame orientations (§4);
+    ``widened`` says the model gave no valid placement and the wide pass ran, ``fallback``
+    that it gave none either and the list holds fallback placements (or is empty: nowhere
+    the observer could be shown to). See :class:`PlacementSearch`.
+    """
 
     ranked: list[Placement] = field(default_factory=list)
     rejected: dict[str, int] = field(default_factory=lambda: dict.fromkeys(REASONS, 0))
     candidates: int = 0
+    widened: bool = False
+    fallback: bool = False
 
     @property
     def best(self) -> Placement | None:
         return self.ranked[0] if self.ranked else None
 
     def after(self, p: Placement) -> Placement | None:
-        """The next placement in the list after ``p`` (the fallback when motion synthesis fails, §4)."""
+        """The next placement in the list after ``p`` (the alternative when motion synthesis fails, §4)."""
         for k, q in enumerate(self.ranked):
             if q is p:
                 return self.ranked[k + 1] if k + 1 < len(self.ranked) else None
@@ -169,11 +203,36 @@ class PlacementSearch:
     """An exhaustive, resumable placement search (§4), spread over ticks by a work budget.
 
     ``advance(budget)`` evaluates the next ``budget`` frame orientations (each
-    with its perturbations) and returns True once all :data:`N_DIRECTIONS`
-    are done; :attr:`plan` is then sorted. A budget in units of work, not
-    time, keeps runs deterministic. ``start`` is where the demonstrator
-    stands (for reachability); ``keep_clear`` discs ``(x, y, r)`` other
-    demonstrators stand on.
+    with its variants) and returns True once the search is complete;
+    :attr:`plan` is then sorted. A budget in units of work, not time, keeps
+    runs deterministic. ``start`` is where the demonstrator stands (for
+    reachability); ``keep_clear`` discs ``(x, y, r)`` other demonstrators
+    stand on.
+
+    Three passes over the :data:`N_DIRECTIONS` frame orientations, each run
+    only when the ones before found no valid placement (issue 24: a re-plan
+    for an observer behind a pillar found none at ``d_pref`` while there were
+    many farther out):
+
+    ``model``     §4 as written: the model's candidate, perturbed (:data:`PERTURB`) only when
+                  it collides; a direction keeps its first valid variant.
+    ``wide``      pedvr's widening: every candidate that fails for any reason, hidden ones
+                  included, is tried at distances ``d_pref`` × :data:`WIDE_FACTORS` and body
+                  orientations θ + :data:`WIDE_TURNS`; a direction keeps its cheapest valid
+                  variant. §4 allows that "any other desired factor could be added"; the
+                  placements are valid by the same tests, only farther from ``d_pref``
+                  (``e_action`` ranks them).
+    ``fallback``  off the model: the body faces the observer turned by up to ±90°
+                  (:data:`FALLBACK_TURNS`) toward the target instead of θ, the head may turn
+                  :data:`HEAD_MAX` instead of φ's allowance, and the distance goes out to
+                  :data:`FALLBACK_FAR` m. Collision, reachability, the action, visibility and eye
+                  contact are still required: what is given up is the model's comfort, never
+                  that the observer sees the demonstrator. :attr:`Plan.fallback` is then True
+                  and every placement in the list has ``fallback`` set.
+
+    A wide or fallback orientation carries several times the model pass's
+    candidates, so a budget buys :data:`WIDE_SHARE` times fewer of them (at
+    least one).
     """
 
     def __init__(self, stage: Stage, figure: Figure, action: Action, observer: Observer, *,
@@ -195,6 +254,7 @@ class PlacementSearch:
                 ks.append(-k)
         self._zetas = self.zeta0 + np.radians(STEP_DEG * np.asarray(ks, np.float64))
         self._next = 0
+        self._pass = 0  # index into PASSES
         tri = stage.mesh.locate(np.asarray([start], np.float64))[0]
         if tri < 0:
             snapped = stage.mesh.nearest_walkable(start)
@@ -202,52 +262,64 @@ class PlacementSearch:
         self._component = int(stage.mesh.components[tri]) if tri >= 0 else -1
         self.plan = Plan()
         self._found: list[Placement] = []
+        self._done = False
 
     @property
     def done(self) -> bool:
-        return self._next >= len(self._zetas)
+        return self._done
 
     def advance(self, budget: int = N_DIRECTIONS) -> bool:
         """Evaluate up to ``budget`` more frame orientations; True when the search is complete."""
-        if self.done:
+        if self._done:
             return True
-        chunk = self._zetas[self._next:self._next + max(1, int(budget))]
+        n = max(1, int(budget)) if self._pass == 0 else max(1, int(budget) // WIDE_SHARE)
+        chunk = self._zetas[self._next:self._next + n]
         self._next += len(chunk)
-        self._evaluate(chunk)
-        if self.done:
-            self._found.sort(key=lambda p: (p.cost, p.pos[0], p.pos[1]))
-            self.plan.ranked = self._found
-        return self.done
+        if self._pass == 0:
+            self.plan.candidates += len(chunk)
+            self._evaluate_model(chunk)
+        else:
+            self._evaluate_relaxed(chunk, fallback=self._pass == 2)
+        if self._next >= len(self._zetas):
+            if self._found or self._pass == len(PASSES) - 1:
+                self._found.sort(key=lambda p: (p.cost, p.pos[0], p.pos[1]))
+                self.plan.ranked = self._found
+                self._done = True
+            else:  # nothing valid: the next, wider pass over the same orientations
+                self._pass += 1
+                self._next = 0
+                self.plan.widened = True
+                self.plan.fallback = self._pass == 2
+        return self._done
 
     def run(self) -> Plan:
         """The whole search at once."""
-        self.advance(len(self._zetas))
+        while not self.advance(len(self._zetas) * WIDE_SHARE):
+            pass
         return self.plan
 
     # -- evaluation ---------------------------------------------------------------------------
 
-    def _evaluate(self, zetas: np.ndarray) -> None:
-        act, obs = self.action, self.observer
-        tx, ty = act.target
-        alpha = np.asarray(local_angle(zetas, math.atan2(obs.pos[1] - ty, obs.pos[0] - tx)))
-        beta, theta, phi = placement_model_array(np.asarray(alpha))
-        k = len(zetas)
-        variants = [(1.0, 0.0), *PERTURB]
-        v = len(variants)
-        factor = np.asarray([f for f, _ in variants])
-        turn = np.asarray([o for _, o in variants])
-        # (k, v) candidates: variant 0 is the model's own; the others are tried when it collides.
-        dist = act.d_pref * np.repeat(factor[None, :], k, 0)
-        pos_dir = (zetas + math.pi)[:, None] - np.radians(beta)[:, None] + np.zeros((1, v))
-        pos = np.stack([tx + dist * np.cos(pos_dir), ty + dist * np.sin(pos_dir)], -1).reshape(-1, 2)
-        th = (theta[:, None] + turn[None, :]).reshape(-1)
-        ph = np.repeat(phi, v)
-        zz = np.repeat(zetas, v)
-        heading = global_heading(zz, th)
-        n = k * v
-        self.plan.candidates += k
-        reason = np.full(n, -1, np.int64)  # -1 valid, else index into REASONS
-        # collision (static: the mesh of the demonstrator's clearance; dynamic: observer, others)
+    def _validity(self, pos: np.ndarray, heading: np.ndarray, limit: np.ndarray) -> tuple[
+            np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The checks of §4 over candidates ``pos (n, 2)`` facing ``heading (n,)`` whose head may
+        turn ``limit (n,)`` deg: ``(reason, e_vis, stroke, need)``; ``reason`` -1 where valid,
+        else the index into :data:`REASONS` of the first check failed (they run in that order);
+        ``need`` the signed rotation (deg, + toward pedvr's CCW) from the body to the observer."""
+        n = len(pos)
+        reason = self._placeable(pos)
+        stroke = np.full((n, 3), np.nan)
+        self._act(pos, heading, reason, stroke)
+        e_vis = np.full(n, np.nan)
+        self._visible(pos, reason, e_vis)
+        need = self._eye_contact(pos, heading, limit, reason)
+        return reason, e_vis, stroke, need
+
+    def _placeable(self, pos: np.ndarray) -> np.ndarray:
+        """``reason (n,)``: -1, or collision (static: off the mesh of the demonstrator's clearance;
+        dynamic: the observer's personal space, other demonstrators), or unreachable."""
+        obs = self.observer
+        reason = np.full(len(pos), -1, np.int64)
         tri = self.stage.mesh.locate(pos)
         hit = tri < 0
         gap = np.hypot(pos[:, 0] - obs.pos[0], pos[:, 1] - obs.pos[1]) - self.figure.radius - obs.radius
@@ -255,42 +327,101 @@ class PlacementSearch:
         for cx, cy, cr in self.keep_clear:
             hit |= np.hypot(pos[:, 0] - cx, pos[:, 1] - cy) < self.figure.radius + cr + KEEP_CLEAR_GAP
         reason[hit] = 0
-        ok = reason < 0
         comp = np.where(tri >= 0, self.stage.mesh.components[np.maximum(tri, 0)], -2)
-        unreach = ok & (comp != self._component)
-        reason[unreach] = 1
-        ok = reason < 0
-        # the action from there (arm IK reach / pointing, hand clear of obstacles)
-        stroke = np.full((n, 3), np.nan)
-        if ok.any():
-            idx = np.flatnonzero(ok)
-            feasible, pts = stroke_points(self.stage, self.figure, act, pos[idx], heading[idx])
+        reason[(reason < 0) & (comp != self._component)] = 1
+        return reason
+
+    def _act(self, pos: np.ndarray, heading: np.ndarray, reason: np.ndarray, stroke: np.ndarray) -> None:
+        """The action from the candidates still valid (arm IK reach / pointing, hand clear of
+        obstacles): fills ``stroke``, marks failures in ``reason``."""
+        idx = np.flatnonzero(reason < 0)
+        if idx.size:
+            feasible, pts = stroke_points(self.stage, self.figure, self.action, pos[idx], heading[idx])
             stroke[idx] = pts
             reason[idx[~feasible]] = 2
-            ok = reason < 0
-        # visibility: head to head, and the body out of the observer's view of the target
-        e_vis = np.full(n, np.nan)
-        if ok.any():
-            idx = np.flatnonzero(ok)
-            e = self.stage.occluded(pos[idx], self.figure.eye_height, np.repeat([obs.pos], len(idx), 0),
-                                    obs.eye_height)
-            e_vis[idx] = e
-            seg_d = np.empty(len(idx))
-            n_i = len(idx)
-            kn.segment_distance_kernel(np.repeat([obs.pos], n_i, 0), np.repeat([act.target], n_i, 0),
-                                       np.ascontiguousarray(pos[idx]), seg_d)
-            bad = (e > VIS_DISCARD) | (seg_d < self.figure.radius + VIEW_GAP)
-            reason[idx[bad]] = 3
-            ok = reason < 0
-        # eye contact within the head's allowance (phi) plus the eyes
+
+    def _visible(self, pos: np.ndarray, reason: np.ndarray, e_vis: np.ndarray) -> None:
+        """Head to head visibility, and the body out of the observer's view of the target, for the
+        candidates still valid: fills ``e_vis``, marks failures in ``reason``."""
+        idx = np.flatnonzero(reason < 0)
+        if idx.size == 0:
+            return
+        obs = self.observer
+        e = self.stage.occluded(pos[idx], self.figure.eye_height, np.repeat([obs.pos], len(idx), 0),
+                                obs.eye_height)
+        e_vis[idx] = e
+        m = len(idx)
+        seg_d = np.empty(m)
+        kn.segment_distance_kernel(np.repeat([obs.pos], m, 0), np.repeat([self.action.target], m, 0),
+                                   np.ascontiguousarray(pos[idx]), seg_d)
+        reason[idx[(e > VIS_DISCARD) | (seg_d < self.figure.radius + VIEW_GAP)]] = 3
+
+    def _eye_contact(self, pos: np.ndarray, heading: np.ndarray, limit: np.ndarray,
+                     reason: np.ndarray) -> np.ndarray:
+        """Eye contact within the head's allowance plus the eyes: marks failures in ``reason``;
+        returns ``need``, the signed rotation (deg, + toward pedvr's CCW) to the observer."""
+        obs = self.observer
         to_obs = np.arctan2(obs.pos[1] - pos[:, 1], obs.pos[0] - pos[:, 0])
-        need = np.degrees((to_obs - heading + np.pi) % (2 * np.pi) - np.pi)  # + toward pedvr's CCW
-        limit = np.clip(np.abs((ph - th + 180.0) % 360.0 - 180.0), HEAD_MIN, HEAD_MAX)
-        reason[ok & (np.abs(need) > limit + EYE_LIMIT)] = 4
-        # each direction keeps its first valid variant; a direction's model candidate is only
-        # perturbed when it collides (§4)
-        r = reason.reshape(k, v)
+        need = np.degrees((to_obs - heading + np.pi) % (2 * np.pi) - np.pi)
+        reason[(reason < 0) & (np.abs(need) > limit + EYE_LIMIT)] = 4
+        return need
+
+    def _emit(self, cs: list[int], rows: list[int], *, pos: np.ndarray, heading: np.ndarray, zz: np.ndarray,
+              alpha: np.ndarray, beta: np.ndarray, th: np.ndarray, ph: np.ndarray, e_vis: np.ndarray,
+              stroke: np.ndarray, need: np.ndarray, limit: np.ndarray, origin: str) -> None:
+        """Keep candidates ``cs`` (of frame orientations ``rows``) as placements, with their costs."""
+        if not cs:
+            return
+        c = np.asarray(cs)
+        tx, ty = self.action.target
+        d = np.hypot(pos[c, 0] - tx, pos[c, 1] - ty)
+        e_action = np.abs(self.action.d_pref - d)
+        e_neck = np.abs(need[c])
+        head = np.copysign(np.minimum(e_neck, limit[c]), need[c])
         w = self.weights
+        cost = w.vis * e_vis[c] + w.neck * e_neck + w.action * e_action
+        r = np.asarray(rows)
+        columns = (pos[c, 0], pos[c, 1], heading[c], zz[c], alpha[r], beta[r], th[c], ph[c], d, e_vis[c],
+                   e_neck, e_action, cost, head, need[c] - head, limit[c], *stroke[c].T)
+        for px, py, hd, z, a, b, t, f, dd, ev, en, ea, co, he, ey, li, sx, sy, sz in zip(
+                *(x.tolist() for x in columns), strict=True):
+            self._found.append(Placement(
+                pos=(px, py), heading=hd, zeta=z, alpha=a, beta=b, theta=t, phi=f, distance=dd, e_vis=ev,
+                e_neck=en, e_action=ea, cost=co, head=he, eyes=ey, head_limit=li, stroke=(sx, sy, sz),
+                origin=origin))
+
+    def _model_angles(self, zetas: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        tx, ty = self.action.target
+        obs = self.observer
+        alpha = np.asarray(local_angle(zetas, math.atan2(obs.pos[1] - ty, obs.pos[0] - tx)))
+        beta, theta, phi = placement_model_array(alpha)
+        return alpha, beta, theta, phi
+
+    def _ring(self, zetas: np.ndarray, beta: np.ndarray, dist: np.ndarray) -> np.ndarray:
+        """Positions ``(k, v, 2)``: for each frame orientation (along −Z turned by β) at each distance."""
+        tx, ty = self.action.target
+        d = (zetas + math.pi - np.radians(beta))[:, None]
+        return np.stack([tx + dist[None, :] * np.cos(d), ty + dist[None, :] * np.sin(d)], -1)
+
+    def _evaluate_model(self, zetas: np.ndarray) -> None:
+        """§4's pass: the model's candidate per orientation, perturbed only when it collides."""
+        alpha, beta, theta, phi = self._model_angles(zetas)
+        k = len(zetas)
+        variants = [(1.0, 0.0), *PERTURB]
+        v = len(variants)
+        factor = np.asarray([f for f, _ in variants])
+        turn = np.asarray([o for _, o in variants])
+        # (k, v) candidates: variant 0 is the model's own; the others are tried when it collides.
+        pos = self._ring(zetas, beta, self.action.d_pref * factor).reshape(-1, 2)
+        th = (theta[:, None] + turn[None, :]).reshape(-1)
+        ph = np.repeat(phi, v)
+        zz = np.repeat(zetas, v)
+        heading = global_heading(zz, th)
+        limit = np.clip(np.abs((ph - th + 180.0) % 360.0 - 180.0), HEAD_MIN, HEAD_MAX)
+        reason, e_vis, stroke, need = self._validity(pos, heading, limit)
+        r = reason.reshape(k, v)
+        cs: list[int] = []
+        rows: list[int] = []
         for i in range(k):
             row = r[i]
             choice = 0 if row[0] < 0 else -1
@@ -303,19 +434,68 @@ class PlacementSearch:
                 # the furthest check any variant got to (checks run in the order of REASONS)
                 self.plan.rejected[REASONS[int(row.max()) if row[0] == 0 else int(row[0])]] += 1
                 continue
-            c = i * v + choice
-            d = float(np.hypot(pos[c, 0] - tx, pos[c, 1] - ty))
-            e_action = abs(act.d_pref - d)
-            e_neck = abs(float(need[c]))
-            head = math.copysign(min(e_neck, float(limit[c])), float(need[c]))
-            eyes = float(need[c]) - head
-            cost = w.vis * float(e_vis[c]) + w.neck * e_neck + w.action * e_action
-            self._found.append(Placement(
-                pos=(float(pos[c, 0]), float(pos[c, 1])), heading=float(heading[c]), zeta=float(zz[c]),
-                alpha=float(alpha[i]), beta=float(beta[i]), theta=float(th[c]), phi=float(ph[c]), distance=d,
-                e_vis=float(e_vis[c]), e_neck=e_neck, e_action=e_action, cost=cost, head=head, eyes=eyes,
-                head_limit=float(limit[c]),
-                stroke=(float(stroke[c, 0]), float(stroke[c, 1]), float(stroke[c, 2]))))
+            cs.append(i * v + choice)
+            rows.append(i)
+        self._emit(cs, rows, pos=pos, heading=heading, zz=zz, alpha=alpha, beta=beta, th=th, ph=ph,
+                   e_vis=e_vis, stroke=stroke, need=need, limit=limit, origin=PASSES[0])
+
+    def _evaluate_relaxed(self, zetas: np.ndarray, *, fallback: bool) -> None:
+        """The wide pass (model orientations, every failing candidate perturbed) or the fallback
+        (the body facing the observer, farther rings); each orientation keeps its cheapest valid
+        candidate."""
+        alpha, beta, theta, phi = self._model_angles(zetas)
+        k = len(zetas)
+        d_pref = self.action.d_pref
+        dists = d_pref * np.asarray(WIDE_FACTORS)
+        if fallback:
+            far = np.arange(math.ceil(dists.max() / FALLBACK_RING) * FALLBACK_RING, FALLBACK_FAR + 1e-9,
+                            FALLBACK_RING)
+            dists = np.concatenate([dists, far[far > dists.max() + 1e-9]])
+            turns = np.asarray(FALLBACK_TURNS)
+        else:
+            turns = np.asarray(WIDE_TURNS)
+        nd, nt = len(dists), len(turns)
+        v = nd * nt
+        # where the body stands decides collision, reachability and visibility (the cheap checks,
+        # here first: the valid set is the same); how it faces, the action and eye contact
+        ring = np.ascontiguousarray(self._ring(zetas, beta, dists).reshape(-1, 2))  # (k, nd) order
+        where = self._placeable(ring)
+        e_ring = np.full(len(ring), np.nan)
+        self._visible(ring, where, e_ring)
+        pos = np.repeat(ring, nt, axis=0)  # (k, nd, nt) order
+        zz = np.repeat(zetas, v)
+        if fallback:
+            obs = self.observer.pos
+            to_obs = np.arctan2(obs[1] - pos[:, 1], obs[0] - pos[:, 0])
+            heading = to_obs + np.radians(np.tile(turns, k * nd))
+            th = np.degrees(zz - heading)  # the body's local angle from Z (module convention)
+            limit = np.full(k * v, HEAD_MAX)
+        else:
+            th = (theta[:, None, None] + np.zeros((1, nd, 1)) + turns[None, None, :]).reshape(-1)
+            heading = global_heading(zz, th)
+            ph = np.repeat(phi, v)
+            limit = np.clip(np.abs((ph - th + 180.0) % 360.0 - 180.0), HEAD_MIN, HEAD_MAX)
+        reason = np.repeat(where, nt)
+        e_vis = np.repeat(e_ring, nt)
+        stroke = np.full((k * v, 3), np.nan)
+        self._act(pos, heading, reason, stroke)
+        need = self._eye_contact(pos, heading, limit, reason)
+        w = self.weights
+        tx, ty = self.action.target
+        cost = (w.vis * e_vis + w.neck * np.abs(need)
+                + w.action * np.abs(d_pref - np.hypot(pos[:, 0] - tx, pos[:, 1] - ty)))
+        cost = np.where(reason < 0, cost, np.inf).reshape(k, v)
+        cs: list[int] = []
+        rows: list[int] = []
+        for i in range(k):
+            j = int(np.argmin(cost[i]))  # the first of equal costs: nearest d_pref, then the model's θ
+            if not math.isfinite(cost[i, j]):
+                continue
+            cs.append(i * v + j)
+            rows.append(i)
+        self._emit(cs, rows, pos=pos, heading=heading, zz=zz, alpha=alpha, beta=beta,
+                   th=np.asarray(wrap_deg(th)), ph=np.repeat(phi, v), e_vis=e_vis, stroke=stroke, need=need,
+                   limit=limit, origin=PASSES[2] if fallback else PASSES[1])
 
 
 def plan_placement(stage: Stage, figure: Figure, action: Action, observer: Observer, *,

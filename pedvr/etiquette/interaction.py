@@ -4,7 +4,7 @@ One decision tick of one single or double door: the doorway ordering (Alg. 1, or
 for a double door, :mod:`.ordering`), the doorway behavior of Alg. 2 with the waiting regions
 of Table 1, and then the interaction states of Fig. 7 and App. B for every holder and follower:
 
-Holder: ``OpenerInit`` (walk to the BOP, App. C steps) → ``ReachDoor`` (face the handle or bar,
+Holder: ``OpenerInit`` (walk to the BOP) → ``ReachDoor`` (face the handle or bar,
 reach with the right hand to pull, the left to push, eyes on the hand) → ``OpenDoor`` (the
 automatic opening; the door leads the hand, ``f_pabs``; pulling, the holder steps round outside
 the swing; pushing, it walks into the doorway) → ``HolderDec`` (the critical motion phase: the
@@ -18,6 +18,29 @@ Follower: ``FollowerInit`` (committed: close up behind, or to the opposing side'
 the door, and become the holder in ``HolderDec``, the red routine of Fig. 7; after NH: open the
 door itself once the holder lets go). A HOF holder whose follower has passed is back in
 ``HolderDec`` for the next one (the blue routine).
+
+Motion between key poses (App. C; issue 24 item 7). Every key-pose move of App. B walks along
+App. C's generated steps (:meth:`~pedvr.etiquette.core.EtiquetteCore.set_plan` /
+``walk_to``): to the BOP, pushing into the doorway, stepping aside to hold (HOF, facing the door
+as it steps) or into the doorway (HOL), closing up behind the holder or to the Opposing Goal,
+reaching the leaf's edge to take it over, passing first, and the holder passing through
+(FinishDoor); a move that must go round an open leaf's edge is one sequence of legs. Two moves
+are walked straight, re-aimed at 30 Hz, because their target moves while it is walked to and
+App. C.2 generates steps to a fixed target: a puller stepping round outside the swing with the
+leaf's edge as the door opens, and (in :mod:`.revolving`) a pedestrian catching a turning
+compartment. Waiting and queueing before the interaction begins is doorway locomotion, not the
+procedural model (App. B.1: OpenerInit is where the holder switches to it).
+
+Under load (issue 26; §7 leaves "the efficiency of the flow" as dense crowds' future work):
+a committed follower's decision waits until it has closed up (App. B.3), and followers from the
+other side wait at the Opposing Goal beside the doorway's mouth, off the lane, where whoever
+comes through the other way passes them; the next in a queue waits :data:`QUEUE_GAP` behind a
+committed follower's place; a PF follower frees its holder for the next as it sets off (the
+blue routine, pipelined) and lets anyone coming through the other way out first; a pulling
+holder stays on the passage side of the leaf's edge (HOL walks on through; HOF steps round
+behind the leaf); holders walk at their own speed; HOL decided for a carrier (who cannot take a
+door over) or by a holder already through the doorway (a pusher holding from beyond it) is held
+as HOF, the hold the network was willing to give.
 
 Choices where the paper leaves room (it draws the key poses, Fig. 18, without measuring them):
 positions come from :class:`~pedvr.etiquette.regions.LeafFrame`; NH opens to the smallest angle
@@ -36,18 +59,17 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pedvr.body.steps import LEFT, RIGHT
-from pedvr.etiquette.ordering import NONE, Candidate, DoubleDoor, choose_side, leaders
+from pedvr.etiquette.ordering import Candidate, DoubleDoor, choose_side, leaders
 from pedvr.etiquette.regions import (
     BOP_PULL_POLAR,
     HOLD_ANGLE,
-    HOLD_BEYOND,
     LANE_AT,
     PULL_HAND_AT,
     PUSH_HAND_AT,
     LeafFrame,
     waiting_radii,
 )
-from pedvr.etiquette.system import (
+from pedvr.etiquette.vocab import (
     APPROACH,
     CARRIER_PATIENCE,
     CATCH_UP,
@@ -63,6 +85,7 @@ from pedvr.etiquette.system import (
     HOLD_TIMEOUT,
     HOLDER,
     HOLDER_DEC,
+    NONE,
     OPEN_DOOR,
     OPENER_INIT,
     OPENER_RANGE,
@@ -72,17 +95,20 @@ from pedvr.etiquette.system import (
     REACH_TIME,
     STATE_TIMEOUT,
     THANK_RANGE,
-    DoorEtiquette,
-    Walker,
 )
 
 if TYPE_CHECKING:
     from pedvr.crowd.state import CrowdState
+    from pedvr.etiquette.core import EtiquetteCore, Walker
 
 TICK = 1.0 / 30.0
 READY_AFTER = 2.5  # s: the longest a holder waits for its committed follower to close up
 PULL_OPEN_SPEED = 0.9  # rad/s: a pulled leaf opens no faster than the puller steps round with it
 PUSH_OPEN_SPEED = 2.0  # rad/s: a pushed one, as the pusher walks in
+READY_NEAR = 0.4  # m from its close-up place at which a committed follower is ready
+PULL_STAND = math.radians(5.0)  # a puller stands this far round from the leaf's edge, passage side
+QUEUE_GAP = 0.8  # m between a committed follower's place and the next in its queue (issue 26)
+QUEUE_ASIDE = 0.45  # m off the lane that next one waits, on the side it came from
 
 
 def nh_angle(frame: LeafFrame, radius: float) -> float:
@@ -91,7 +117,7 @@ def nh_angle(frame: LeafFrame, radius: float) -> float:
     return min(max(a, math.radians(45.0)), math.radians(85.0))
 
 
-def decide_hinged(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: CrowdState) -> None:
+def decide_hinged(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdState) -> None:
     """One decision tick of hinged door ``k`` (module docstring)."""
     ds = et.dstate[k]
     door = et.doors[k]
@@ -152,7 +178,7 @@ def decide_hinged(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: Crowd
 # -- ordering helpers ----------------------------------------------------------------------------
 
 
-def _update_waiting(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState) -> None:
+def _update_waiting(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
     for w in walkers:
         if w.is_user or w.id not in et._row:
             continue
@@ -166,7 +192,7 @@ def _update_waiting(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState)
             w.wait_from = math.nan
 
 
-def _choose_helpers(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState) -> None:
+def _choose_helpers(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
     """§4.6: a pedestrian who sees someone carrying a box or pushing a perambulator ahead of it
     overtakes to open the door for them (walking as if Rush = 1 meanwhile)."""
     carriers = [w for w in walkers if w.role in (APPROACH, FOLLOWER) and w.id in et._row
@@ -190,7 +216,7 @@ def _choose_helpers(et: DoorEtiquette, walkers: list[Walker], crowd: CrowdState)
                 break
 
 
-def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[Candidate],
+def _double_sides(et: EtiquetteCore, k: int, walkers: list[Walker], cands: list[Candidate],
                   crowd: CrowdState) -> None:
     """Alg. 3–4 pick each pedestrian's leaf; holders and followers keep theirs."""
     ds = et.dstate[k]
@@ -209,7 +235,9 @@ def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[
     pull_r, push_r, _ = waiting_radii("double")
     leaf_rows = (l0, l1)
     index = {c.id: c for c in cands}
-    for w in walkers:
+    # the farthest first: a queue's later arrivers move to the less congested leaf (§6.3), and
+    # each choice counts in the load the next one sees
+    for w in sorted(walkers, key=lambda w: (-index[w.id].d_door, w.id) if w.id in index else (0.0, w.id)):
         c = index.get(w.id)
         if c is None:
             continue
@@ -227,6 +255,10 @@ def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[
             side = index[leader].leaf
         side = 0 if side < 0 else side
         c.leaf = side
+        if w.role != PASSING and w.leaf != leaf_rows[side]:
+            if w.leaf in leaf_rows:
+                load[leaf_rows.index(w.leaf)] -= 1
+            load[side] += 1
         w.leaf = leaf_rows[side]
     del crowd
 
@@ -234,7 +266,7 @@ def _double_sides(et: DoorEtiquette, k: int, walkers: list[Walker], cands: list[
 # -- Alg. 2: doorway behavior --------------------------------------------------------------------
 
 
-def _regions(et: DoorEtiquette, w: Walker, holder: Walker | None, leader: Walker | None,
+def _regions(et: EtiquetteCore, w: Walker, holder: Walker | None, leader: Walker | None,
              crowd: CrowdState) -> list[tuple[np.ndarray, float]]:
     """The waiting regions ``w`` stops at (§4.2, Fig. 4, Table 1)."""
     door = et.doors[w.door]
@@ -266,14 +298,14 @@ def _regions(et: DoorEtiquette, w: Walker, holder: Walker | None, leader: Walker
     return out
 
 
-def _holder_of(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker]) -> Walker | None:
+def _holder_of(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker]) -> Walker | None:
     ds = et.dstate[w.door]
     leaf = w.leaf if w.leaf >= 0 else ds.leaves[0]
     h = ds.holder.get(leaf, ds.mutex.get(leaf))
     return by_id.get(h) if h is not None else None
 
 
-def _doorway_behavior(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     """Alg. 2 for a pedestrian not yet holder or follower."""
     ds = et.dstate[w.door]
     p = et.pos(crowd, w.id)
@@ -283,6 +315,13 @@ def _doorway_behavior(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], cr
     holder = _holder_of(et, w, by_id)
     leader = by_id.get(w.leader) if w.leader != NONE else None
     face_door = math.atan2(*(ds.centre - p)[::-1])
+    for lf in ds.leaves:  # caught in the pocket behind an open leaf: out round its edge first
+        fr_lf = et.frame(lf, w.side)
+        out = fr_lf.lane(fr_lf.side_of(p) * (radius + 1.1))
+        way = _via(et, fr_lf, lf, p, radius, out)
+        if way.shape[0] > 1:
+            et.walk_to(w, crowd, way, facing=face_door, speed=float(crowd.pref_speed[r]))
+            return
     if leader is not None and leader.role == HOLDER and leader.state >= HOLDER_DEC \
             and leader.follower == NONE and _accepts(leader):
         # The leader is a holder in the critical phase: commit as its follower.
@@ -292,6 +331,21 @@ def _doorway_behavior(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], cr
         w.plan = None
         et.set_state(w, FOLLOWER_INIT)
         return
+    if leader is not None and leader.role == FOLLOWER and leader.side == w.side:
+        lh = by_id.get(leader.holder)
+        if lh is not None and lh.frame is not None:
+            # Next after a committed follower on its side: queue behind that follower's place,
+            # QUEUE_GAP back, a little off the lane that people coming through walk along.
+            fr = lh.frame
+            side_local = 1 if w.side == _pull_side_world(et, lh) else -1
+            back = _behind(fr, radius, side_local) + fr.m * side_local * QUEUE_GAP
+            off = 1.0 if float((p - back) @ fr.e) >= 0.0 or side_local > 0 else -1.0  # pull side: latch way
+            spot = back + fr.e * off * QUEUE_ASIDE
+            if float(np.hypot(*(p - spot))) > 0.25:
+                et.go_direct(w, spot, facing=_toward(spot, fr.lane(0.0)), speed=float(crowd.pref_speed[r]))
+            else:
+                et.stand(w, _toward(p, fr.lane(0.0)))
+            return
     if leader is not None or holder is not None:
         if any(float(np.hypot(*(p - c))) <= rad for c, rad in _regions(et, w, holder, leader, crowd)):
             et.stand(w, face_door)  # stop on entering the waiting region (§4.2)
@@ -308,9 +362,14 @@ def _doorway_behavior(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], cr
         if float(np.hypot(*(p - bop))) <= OPENER_RANGE + 1.0 or helper_coming:
             if math.isnan(w.alone_since):
                 w.alone_since = et.t
-            if pull and not helper_coming and et.t - w.alone_since >= CARRIER_PATIENCE:
-                et.carrier_forced += 1
-                et.log("carrier_frees_hand", w)
+            # alone, it frees a hand after CARRIER_PATIENCE; a helper who does not come within
+            # twice that is no help (no carrier is left waiting for ever)
+            patience = CARRIER_PATIENCE * (2.0 if helper_coming else 1.0)
+            if et.t - w.alone_since >= patience:
+                if not w.freed_hand:
+                    w.freed_hand = True
+                    et.carrier_forced += 1
+                    et.log("carrier_frees_hand", w)
             else:
                 et.stand(w, face_door)
                 return
@@ -321,7 +380,7 @@ def _doorway_behavior(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], cr
         # no free hand: it pushes the door open with its body (the leaves yield to it)
         w.role = PASSING
         w.state = -1
-        et.go_direct(w, fr.lane(radius + CLEAR + 0.3), facing=fr.heading(0.0, 1.0),
+        et.walk_to(w, crowd, fr.lane(radius + CLEAR + 0.3), facing=fr.heading(0.0, 1.0),
                      speed=float(crowd.pref_speed[r]))
         et.log("push_through", w)
         return
@@ -335,7 +394,7 @@ def _doorway_behavior(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], cr
         w.frame = fr
         w.waiting = False
         target, facing = fr.bop_pull(radius) if pull else fr.bop_push(radius)
-        et.set_plan(w, crowd, target, facing=facing, lock=False)
+        et.set_plan(w, crowd, _via(et, fr, leaf, p, radius, target), facing=facing, lock=False)
         et.set_state(w, OPENER_INIT)
         return
     et.approach(w)  # along its own path
@@ -350,7 +409,7 @@ def _accepts(holder: Walker) -> bool:
 # -- the holder -----------------------------------------------------------------------------------
 
 
-def _holder(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     ds = et.dstate[w.door]
     r = et._row[w.id]
     radius = float(crowd.radius[r])
@@ -386,14 +445,17 @@ def _holder(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Crowd
         a = et.leaf_open(leaf, fr)
         target_a = w.want
         if pull:
-            # Pulling: the holder steps round outside the swing with the leaf's edge; to hold it wide
-            # it ends just beyond the edge (the HOF pose), to go through it stays on the passage side.
-            lead = HOLD_BEYOND if target_a >= HOLD_ANGLE - 1e-6 else -math.radians(20.0)
-            phi = max(BOP_PULL_POLAR, min(a + lead + math.radians(20.0), target_a + lead))
-            _arc(et, w, fr, radius, p, phi, facing=_toward(p, fr.handle(a, PULL_HAND_AT)), speed=1.2)
+            # Pulling: the holder steps round outside the swing with the leaf's edge, on the passage
+            # side of it (whatever it decides next: HOL walks on through, HOF steps round behind
+            # the leaf while the follower comes, App. B.3).
+            phi = max(BOP_PULL_POLAR, min(a - math.radians(5.0), target_a - PULL_STAND))
+            _arc(et, w, fr, radius, p, phi, facing=_toward(p, fr.handle(a, PULL_HAND_AT)), speed=1.5)
+            lx, ly = fr.local(p)
+            kept_up = math.atan2(ly, lx) >= target_a - PULL_STAND - math.radians(12.0)  # at its place
         else:
-            et.go_direct(w, fr.lane(0.0), facing=fr.heading(0.0, 1.0), speed=0.55, lock=True)
-        if a >= target_a - math.radians(4.0) or age > 4.0:
+            et.walk_to(w, crowd, fr.lane(0.0), facing=fr.heading(0.0, 1.0), speed=0.55, lock=True)
+            kept_up = True
+        if (a >= target_a - math.radians(4.0) and kept_up) or age > 5.0:
             et.set_state(w, HOLDER_DEC)
             ds.mutex.pop(leaf, None)
             w.action = ""
@@ -410,12 +472,27 @@ def _holder(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Crowd
             return
         if not _ready(et, f, crowd):
             return  # App. B.3: the committed follower moves close behind; then the holder commits
-        action = et.decide_hold(w, f, crowd)
+        network = et.decide_hold(w, f, crowd)
+        action = network
+        f_row = et._row.get(f.id)
+        if network == "HOL" and ((not f.is_user and f_row is not None and bool(et.carrying[f_row]))
+                                 or _past(et, w, crowd)):
+            # Nobody is left to take the door over: a carrier cannot (§4.6), and a holder already on
+            # its far side (a pusher holding beyond the leaf's edge) has nothing to pass first. It
+            # was willing to hold: it holds for the follower to pass (module docstring).
+            action = "HOF"
+        elif network == "HOF" and not f.is_user and f.side != w.side and not _past(et, w, crowd) \
+                and not (f_row is not None and bool(et.carrying[f_row])):
+            # §6.1: those who reach the door first pass first; a holder still to pass does not
+            # send someone from the other side ahead of itself: it holds the door for them to take
+            # over after it has passed (HOL)
+            action = "HOL"
         w.action = action
         et.holds[action] += 1
-        dist = float(np.hypot(*(et.pos(crowd, w.id) - et.pos(crowd, f.id))))  # Effort's distance (§5)
+        dist = et.effort_distance(w, f, crowd)  # Effort's distance (§5.1.1)
+        extra = {} if action == network else {"network": network}
         et.log("hold", w, follower=f.id, action=action, for_user=f.is_user, case="pull" if pull else "push",
-               distance_m=round(dist, 3))
+               distance_m=round(dist, 3), **extra)
         if action == "NH":
             _finish(et, w, crowd)
             return
@@ -477,32 +554,82 @@ def _holder(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Crowd
         return
 
 
-def _ready(et: DoorEtiquette, f: Walker, crowd: CrowdState) -> bool:
+def _close_up(et: EtiquetteCore, w: Walker, h: Walker, fr: LeafFrame, radius: float,
+              side_local: int) -> np.ndarray:
+    """Where a committed follower goes before the holder decides (App. B.3): closely behind the
+    holder on the lane when it comes from the holder's side; from the other side, to the Opposing
+    Goal (Fig. 4), which pedvr puts beside the doorway's mouth and off the lane, so that whoever
+    comes through the other way (the holder passing first, HOL, or an earlier follower) walks past
+    it: on the pull side beyond the latch jamb (the open leaf fills the hinge side), on the push
+    side at the hinge jamb. A double door's leaves are half a doorway wide and meet in its middle:
+    there both wait on the lane."""
+    if w.side == h.side or et.doors[w.door].kind != "single":
+        return _behind(fr, radius, side_local)
+    if side_local > 0:
+        return fr.world(fr.w + radius + 0.1, radius + 0.45)
+    return fr.world(-0.2 * radius, -(radius + 0.7))
+
+
+def _past(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
+    """Whether ``w`` stands beyond the doorway line on its far side already."""
+    ds = et.dstate[w.door]
+    return float((et.pos(crowd, w.id) - ds.centre) @ ds.n) * w.side < -et.radius(crowd, w.id)
+
+
+def _behind(fr: LeafFrame, radius: float, side_local: int) -> np.ndarray:
+    """Where a follower closes up behind its holder, on the lane: on the push side 1.1 m out; on
+    the pull side 1.75 m out, clear of the puller, who stands outside the leaf's swing just on the
+    lane's side of its edge."""
+    if side_local > 0:
+        return fr.lane(radius + 1.75)
+    return fr.lane(-(radius + 1.1))
+
+
+def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: float,
+         target: np.ndarray) -> np.ndarray:
+    """``(K, 2)`` waypoints from ``p`` to ``target``: straight, unless ``p`` is in the pocket
+    between an open leaf and the wall (the pull side, behind the leaf, inside its swing) and the
+    target is not; then out to the swing's edge and round the leaf's free edge first."""
+    a = et.leaf_open(leaf, fr)
+    lx, ly = fr.local(p)
+    rho = fr.outer(radius)
+    behind = ly > 0.0 and math.hypot(lx, ly) < rho and math.atan2(ly, lx) > a + math.radians(3.0)
+    tx, ty = fr.local(target)
+    target_behind = ty > 0.0 and math.hypot(tx, ty) < rho and math.atan2(ty, tx) > a
+    if a < math.radians(20.0) or not behind or target_behind:
+        return np.asarray(target, np.float64).reshape(1, 2)
+    phi = math.atan2(ly, lx)
+    return np.stack([fr.polar(rho, phi), fr.polar(rho, a + math.radians(10.0)),
+                     fr.polar(rho, a - math.radians(20.0)), np.asarray(target, np.float64)])
+
+
+def _ready(et: EtiquetteCore, f: Walker, crowd: CrowdState) -> bool:
     """A committed follower is ready for the holder's decision (App. B.3) once it has closed up
-    behind the holder (or stopped, or :data:`READY_AFTER` has passed since it committed); the
-    user, whom nothing drives, at once."""
+    (within :data:`READY_NEAR` of its place; or, blocked, it has stood still a second; or
+    :data:`READY_AFTER` has passed since it committed); the user, whom nothing drives, at once.
+    Effort (§5.1.1) is then read at the distance the follower waits at, as App. B.3 has it."""
     if f.is_user or f.state != FOLLOWER_INIT:
         return True
     if et.t - f.since >= READY_AFTER:
         return True
-    if f.plan is not None and float(np.hypot(*(et.pos(crowd, f.id) - f.plan[-1]))) < 0.4:
+    if f.plan is not None and float(np.hypot(*(et.pos(crowd, f.id) - f.plan[-1]))) < READY_NEAR:
         return True
-    return et.t - f.since > 0.3 and float(np.hypot(*crowd.vel[et._row[f.id]])) < 0.1
+    return et.t - f.since > 1.0 and float(np.hypot(*crowd.vel[et._row[f.id]])) < 0.1
 
 
-def _on_pull(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+def _on_pull(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
     """Whether the holder started on the leaf's pull side (the case it handles, App. B.2)."""
     assert w.frame is not None
     return w.side == _pull_side_world(et, w)
 
 
-def _pull_side_world(et: DoorEtiquette, w: Walker) -> int:
+def _pull_side_world(et: EtiquetteCore, w: Walker) -> int:
     assert w.frame is not None
     ds = et.dstate[w.door]
     return 1 if float(w.frame.m @ ds.n) > 0 else -1
 
 
-def _arc(et: DoorEtiquette, w: Walker, fr: LeafFrame, radius: float, p: np.ndarray, phi: float, *,
+def _arc(et: EtiquetteCore, w: Walker, fr: LeafFrame, radius: float, p: np.ndarray, phi: float, *,
          facing: float, speed: float, lock: bool = True) -> None:
     """Walk round the leaf's swing circle (outside it, where no leaf angle reaches) to polar ``phi``."""
     rho = fr.outer(radius)
@@ -524,7 +651,7 @@ def _toward(p: np.ndarray, q: np.ndarray) -> float:
     return math.atan2(q[1] - p[1], q[0] - p[0])
 
 
-def _followers_in_sight(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> bool:
+def _followers_in_sight(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> bool:
     """Someone who may follow: a walker at this door, not passing, within 6 m."""
     p = et.pos(crowd, w.id)
     for o in by_id.values():
@@ -535,7 +662,7 @@ def _followers_in_sight(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], 
     return False
 
 
-def _look_back(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
+def _look_back(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     """§4.4: a considerate holder turns its head back to check for a follower."""
     if et.t - w.since < TICK * 1.5:
         ds = et.dstate[w.door]
@@ -543,7 +670,7 @@ def _look_back(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
         et.body.gaze_at(w.id, (float(back[0]), 1.6, float(back[1])))
 
 
-def _hold_pose(et: DoorEtiquette, w: Walker, crowd: CrowdState, action: str, pull: bool) -> None:
+def _hold_pose(et: EtiquetteCore, w: Walker, crowd: CrowdState, action: str, pull: bool) -> None:
     """Where the holder stands while holding (HoldDoor): HOF beyond the open leaf's edge, HOL in
     (pulling) or just through (pushing) the doorway; the hand keeps the leaf at the held angle."""
     fr = w.frame
@@ -561,19 +688,19 @@ def _hold_pose(et: DoorEtiquette, w: Walker, crowd: CrowdState, action: str, pul
         elif (math.atan2(ly, lx) < HOLD_ANGLE - math.radians(20.0)
               and math.hypot(lx, ly) < fr.outer(radius) - 0.1):
             target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # out round the swing first
-        et.go_direct(w, target, facing=facing, speed=0.7, lock=True)
+        et.walk_to(w, crowd, target, facing=facing, speed=0.7, lock=True)
     else:  # HOL: into (pull) or just through (push) the doorway, holding the leaf behind
         y = -0.05 if pull else radius + 0.15
         target = fr.world(0.42 * fr.w, y)
         facing = fr.heading(0.0, -1.0) if pull else fr.heading(0.0, 1.0)
         w.p_rel = 0.45 * fr.w
         lx, ly = fr.local(p)
-        if pull and math.atan2(ly, lx) > HOLD_ANGLE - math.radians(15.0):
-            target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # round the edge first
-        et.go_direct(w, target, facing=facing, speed=0.7, lock=False)
+        if pull and ly > 0.0 and math.atan2(ly, lx) > et.leaf_open(w.leaf, fr) - math.radians(3.0):
+            target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # behind it: round the edge
+        et.walk_to(w, crowd, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
 
 
-def _finish(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
+def _finish(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     """NH, or done holding: pass through with the hand on the leaf, then let go (FinishDoor)."""
     if w.event is not None:
         et.end_hold(w, "passed")
@@ -583,7 +710,7 @@ def _finish(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
     _finishing(et, w, crowd)
 
 
-def _finishing(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
+def _finishing(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     fr = w.frame
     assert fr is not None
     r = et._row[w.id]
@@ -596,12 +723,12 @@ def _finishing(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
     holding = w.arm >= 0
     if pull:
         # from the pull side through to the push side
-        if ly > 0.0 and math.atan2(ly, lx) > a - math.radians(8.0):
-            target = fr.polar(fr.outer(radius), max(a - math.radians(25.0), math.radians(10.0)))
-        elif ly > -0.2:
-            target = fr.lane(-(radius + CLEAR + 0.3))
+        out = fr.lane(-(radius + CLEAR + 0.5))
+        if ly > 0.0 and math.atan2(ly, lx) > a - math.radians(3.0):  # behind the edge: round it first
+            edge = fr.polar(fr.outer(radius), max(a - math.radians(25.0), math.radians(10.0)))
+            target = np.stack([edge, out])
         else:
-            target = fr.lane(-(radius + CLEAR + 0.5))
+            target = out
         if holding:
             w.want = max(a, math.radians(45.0))
             w.p_rel = min(max(math.hypot(lx, ly) - 0.1, 0.3 * fr.w), 0.95 * fr.w)
@@ -627,10 +754,10 @@ def _finishing(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> None:
             et.let_go(w)
         et.finish(w, crowd)
         return
-    et.go_direct(w, target, facing=facing, speed=min(0.9, float(crowd.pref_speed[r])), lock=False)
+    et.walk_to(w, crowd, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
 
 
-def _give_up(et: DoorEtiquette, w: Walker, crowd: CrowdState, *, why: str) -> None:
+def _give_up(et: EtiquetteCore, w: Walker, crowd: CrowdState, *, why: str) -> None:
     et.log("give_up", w, why=why)
     if w.arm >= 0:
         et.let_go(w)
@@ -657,7 +784,7 @@ def _demote(w: Walker) -> None:
 # -- the follower ---------------------------------------------------------------------------------
 
 
-def _follower(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     h = by_id.get(w.holder) if w.holder != NONE else None
     r = et._row[w.id]
     radius = float(crowd.radius[r])
@@ -671,10 +798,9 @@ def _follower(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Cro
     carrier = bool(et.carrying[r])
     if w.state == FOLLOWER_INIT:
         if h.action == "" or h.state < HOLDER_DEC:
-            # close up: to the waiting place just before the lane on its side
-            spot = fr.lane(side_local * (radius + 1.1))
+            spot = _close_up(et, w, h, fr, radius, side_local)
             far = float(np.hypot(*(p - et.pos(crowd, h.id)))) > CATCH_UP_AT
-            et.go_direct(w, spot, facing=_toward(spot, fr.lane(0.0)),
+            et.walk_to(w, crowd, _via(et, fr, h.leaf, p, radius, spot), facing=_toward(spot, fr.lane(0.0)),
                          speed=float(crowd.pref_speed[r]) * (CATCH_UP if far else 1.0))
             if age > STATE_TIMEOUT + 6.0:
                 _demote(w)
@@ -683,6 +809,9 @@ def _follower(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Cro
         et.set_state(w, FOLLOWER_DEC)
     if w.state == FOLLOWER_DEC:
         if h.action == "HOF" or (carrier and h.action == "HOL"):
+            if _oncoming(et, w, crowd):
+                et.stand(w, _toward(p, fr.lane(0.0)))  # one coming through the other way first
+                return
             _pass_first(et, w, h, crowd, fr, side_local)
             return
         if h.action == "HOL":
@@ -693,14 +822,21 @@ def _follower(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Cro
             return
     if w.state == REACH_EDGE:
         a = et.leaf_open(h.leaf, fr)
-        if side_local > 0:
-            target, facing = fr.hold_beyond_tip(max(a, math.radians(60.0)), radius)
+        if side_local > 0:  # at the leaf's edge on the passage side, where the holder stood
+            target = fr.polar(fr.outer(radius), max(a, math.radians(60.0)) - PULL_STAND)
+            facing = _toward(target, fr.handle(a, 0.92))
             arm, at = RIGHT, 0.92
-        else:
-            target, facing = fr.world(0.45 * fr.w, -(radius + 0.08)), fr.heading(0.0, 1.0)
+        else:  # from the push side: at the hinge jamb, beside the lane the holder comes through on
+            target, facing = fr.world(0.6 * radius, -(radius + 0.1)), fr.heading(0.0, 1.0)
             arm, at = LEFT, 0.35
-        et.go_direct(w, target, facing=facing, speed=float(crowd.pref_speed[r]))
-        if float(np.hypot(*(p - target))) < 0.3 or age > 6.0:
+        et.walk_to(w, crowd, _via(et, fr, h.leaf, p, radius, target), facing=facing,
+                     speed=float(crowd.pref_speed[r]))
+        # HOL across the door: the holder passes first, so the follower takes the door over once
+        # the holder is in or through the doorway (not while it is still on its own side)
+        ds = et.dstate[w.door]
+        h_there = h.is_user or h.side == w.side or \
+            float((et.pos(crowd, h.id) - ds.centre) @ ds.n) * h.side < 0.0
+        if (float(np.hypot(*(p - target))) < 0.3 and h_there) or age > 6.0:
             _take_over(et, w, h, crowd, arm=arm, at=at)
         elif age > STATE_TIMEOUT:
             _demote(w)
@@ -708,22 +844,43 @@ def _follower(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Cro
         return
 
 
-def _pass_first(et: DoorEtiquette, w: Walker, h: Walker, crowd: CrowdState, fr: LeafFrame,
+def _oncoming(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
+    """Whether someone passing this door the other way is still in the doorway or coming out of it
+    on ``w``'s side (a PF follower waits for it: the doorway takes one way at a time)."""
+    ds = et.dstate[w.door]
+    for o in et.walkers.values():
+        if o.door != w.door or o.side == w.side or o.role != PASSING or o.id not in et._row:
+            continue
+        rel = float((et.pos(crowd, o.id) - ds.centre) @ ds.n) * o.side  # > 0: still on its own side
+        if rel > -(et.radius(crowd, o.id) + 0.35):
+            return True
+    return False
+
+
+def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: LeafFrame,
                 side_local: int) -> None:
     """PF: walk through the held door, thanking the holder on the way."""
     r = et._row[w.id]
     radius = float(crowd.radius[r])
     w.role = PASSING
     w.state = -1
-    w.plan = np.stack([fr.lane(side_local * (radius + 0.35)), fr.lane(0.0),
-                       fr.lane(-side_local * (radius + CLEAR + 0.35))])
-    w.plan_i = 0
-    w.face = fr.heading(0.0, -float(side_local))
-    w.lock = False
-    w.speed = float(crowd.pref_speed[r])
+    if h.follower == w.id:
+        # On its way: the holder is free for its next follower (the blue routine of Fig. 7), who
+        # closes up while this one walks through (pipelined, module docstring).
+        h.follower = NONE
+    pts = _pf_points(fr, side_local, radius)
+    via = _via(et, fr, h.leaf, et.pos(crowd, w.id), radius, pts[0])
+    et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=fr.heading(0.0, -float(side_local)),
+                speed=float(crowd.pref_speed[r]))
 
 
-def _take_over(et: DoorEtiquette, w: Walker, h: Walker, crowd: CrowdState, *, arm: int, at: float) -> None:
+def _pf_points(fr: LeafFrame, side_local: int, radius: float) -> np.ndarray:
+    """PF's way through the held door: into the lane on its side, the doorway, out beyond it."""
+    return np.stack([fr.lane(side_local * (radius + 0.35)), fr.lane(0.0),
+                     fr.lane(-side_local * (radius + CLEAR + 0.35))])
+
+
+def _take_over(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, *, arm: int, at: float) -> None:
     """PL: the follower takes the door (ReachEdge → ReleaseDoor) and is its holder now (red routine)."""
     leaf = h.leaf
     ds = et.dstate[w.door]
@@ -752,7 +909,7 @@ def _take_over(et: DoorEtiquette, w: Walker, h: Walker, crowd: CrowdState, *, ar
     w.follower = NONE
 
 
-def _thank(et: DoorEtiquette, w: Walker, h: Walker) -> None:
+def _thank(et: EtiquetteCore, w: Walker, h: Walker) -> None:
     """A follower thanks its holder: eyes on the holder, then a nod (a short dip of the gaze) or a
     small wave, drawn from the etiquette's generator."""
     if w.thanked or w.is_user or w.id not in et._row:
@@ -785,7 +942,7 @@ def sk_head() -> int:
     return sk.HEAD
 
 
-def _passing(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     p = et.pos(crowd, w.id)
     ds = et.dstate[w.door]
     h = by_id.get(w.holder) if w.holder != NONE else None
@@ -794,21 +951,30 @@ def _passing(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: Crow
             _thank(et, w, h)
     rel = float((p - ds.centre) @ ds.n) * w.side
     r = et._row[w.id]
+    fr = h.frame if h is not None and h.frame is not None else (
+        et.frame(w.leaf, w.side) if w.leaf in ds.leaves else None)
+    if fr is not None and w.plan is not None and w.leaf in ds.leaves:
+        # pushed into the pocket behind the open leaf on its way: out round the leaf's edge first
+        side_local = 1 if w.side == (1 if float(fr.m @ ds.n) > 0 else -1) else -1
+        pts = _pf_points(fr, side_local, float(crowd.radius[r]))
+        via = _via(et, fr, w.leaf, p, float(crowd.radius[r]), pts[0])
+        if via.shape[0] > 1 and w.gait_legs != via.shape[0] + 2:
+            et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=w.face, speed=w.speed)
     if rel < -(float(crowd.radius[r]) + CLEAR) or (w.plan is not None and et.arrived(w, crowd, 0.3)):
         if h is not None and h.follower == w.id:
             h.follower = NONE
         et.finish(w, crowd)
-    elif et.t - w.since > STATE_TIMEOUT + 10.0 and w.state == -1 and w.plan is None:
-        et.finish(w, crowd, passed=False)
+    elif et.t - w.since > STATE_TIMEOUT + 10.0 and w.state == -1:
+        et.finish(w, crowd)  # it could not get through: the door is given up (no passage counted)
 
 
-def _through(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+def _through(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
     ds = et.dstate[w.door]
     rel = float((et.pos(crowd, w.id) - ds.centre) @ ds.n) * w.side
     return rel < -(0.25 + CLEAR)
 
 
-def _at_doorway(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+def _at_doorway(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
     ds = et.dstate[w.door]
     rel = et.pos(crowd, w.id) - ds.centre
     return abs(float(rel @ ds.n)) < 0.7 and abs(float(rel @ ds.u)) < 0.5 * et.doors[w.door].width + 0.2
@@ -817,7 +983,7 @@ def _at_doorway(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
 # -- the user ------------------------------------------------------------------------------------
 
 
-def _user_walker(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
+def _user_walker(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> None:
     """The user is observed: a follower of an agent holder (who decides for the user), or a
     holder whose followers respond PF (the user stays on the approach side) or PL (the user is in
     or through the doorway: they take the door over)."""
@@ -841,8 +1007,10 @@ def _user_walker(et: DoorEtiquette, w: Walker, by_id: dict[int, Walker], crowd: 
         return
     # as a follower: an agent holder in the critical phase whose ordering puts the user next
     leader = by_id.get(w.leader) if w.leader != NONE else None
+    ds = et.dstate[w.door]
+    crossed = float((et.pos(crowd, w.id) - ds.centre) @ ds.n) * w.side < 0.0  # through: nobody to hold for
     if w.role == APPROACH and leader is not None and leader.role == HOLDER and not leader.is_user \
-            and leader.state >= HOLDER_DEC and leader.follower == NONE and _accepts(leader):
+            and leader.state >= HOLDER_DEC and leader.follower == NONE and _accepts(leader) and not crossed:
         w.role = FOLLOWER
         w.holder = leader.id
         leader.follower = w.id

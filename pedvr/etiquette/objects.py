@@ -32,7 +32,7 @@ from pedvr.behavior.tree import INVALID, RUNNING, SUCCESS, Behaviour, Sequence, 
 
 if TYPE_CHECKING:
     from pedvr.behavior.context import Context
-    from pedvr.etiquette.system import DoorEtiquette
+    from pedvr.etiquette.core import EtiquetteCore
 
 DOOR_HOLD_EVENT = EventDef(name="door_hold", tree="door_hold", priority=1, patience=5.0)
 
@@ -49,13 +49,13 @@ class DoorObject(SmartObject):
 
     AFFORDANCES = ("pass", "hold")
 
-    def __init__(self, decl: ObjectDef, etiquette: DoorEtiquette, door: int) -> None:
+    def __init__(self, decl: ObjectDef, etiquette: EtiquetteCore, door: int) -> None:
         super().__init__(decl)
         self.etiquette = etiquette
         self.door = door
 
     @classmethod
-    def of(cls, et: DoorEtiquette, k: int) -> DoorObject:
+    def of(cls, et: EtiquetteCore, k: int) -> DoorObject:
         ds = et.dstate[k]
         decl = ObjectDef(name=et.doors[k].name, kind="door", at=(float(ds.centre[0]), float(ds.centre[1])),
                          facing=math.atan2(float(ds.n[1]), float(ds.n[0])))

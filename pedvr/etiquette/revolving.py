@@ -15,7 +15,9 @@ compartment may be entered from side ``s`` while its middle is within :data:`ENT
 that opening, and its rider steps out once its middle is :data:`EXIT_BEFORE` short of the far
 opening. The best entry phase for a side is the compartment whose window the pedestrian can
 reach first given the door's angle and speed (:func:`best_entry`): it speeds up, up to its
-maximum speed, to catch one that is leaving, or waits at the opening for the next one.
+maximum speed, to catch one that is leaving, or waits at the opening for the next one. Catching
+a compartment is walked straight at its middle, re-aimed at 30 Hz (the target turns with the
+door; App. C's steps are generated to a fixed target).
 
 Riders are carried: their velocity is the compartment's (``omega x r``, plus a pull toward the
 compartment's middle), set after ORCA, and the door turns at the speed its riders push it
@@ -29,12 +31,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pedvr.etiquette.ordering import NONE
 from pedvr.etiquette.regions import waiting_radii
-from pedvr.etiquette.system import APPROACH, ENTRANT, EXITING, RIDER, DoorEtiquette, Walker
+from pedvr.etiquette.vocab import APPROACH, ENTRANT, EXITING, NONE, RIDER
 
 if TYPE_CHECKING:
     from pedvr.crowd.state import CrowdState
+    from pedvr.etiquette.core import EtiquetteCore, Walker
 
 RIDE_AT = 0.55  # fraction of the radius at which a rider stands
 V_PUSH = 0.5  # m/s: riders push the door round at this speed (at the compartment's middle)
@@ -45,6 +47,8 @@ CARRY_GAIN = 3.0  # 1/s: a rider's pull toward its compartment's middle
 QUARTER = 0.5 * math.pi
 USER_CLAIM = 1.0  # m outside the drum: the user approaching claims the compartment in front of it
 USER_CLAIM_ANGLE = math.radians(20.0)  # and a compartment this close to the user's bearing
+SLOW = 0.2  # rad/s: a door turning slower than this is (nearly) standing for whoever enters it
+ENTRANT_PUSH = 0.25  # m beyond touching the drum at which an entrant's hand pushes the panel
 SIDE_OFFSET = math.radians(25.0)  # riders step out through an opening's first half, others in at its second
 
 
@@ -52,26 +56,26 @@ def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def _rev(et: DoorEtiquette, k: int) -> int:
+def _rev(et: EtiquetteCore, k: int) -> int:
     return int(np.flatnonzero(et.leaves.revolvers.door == k)[0])
 
 
-def psi_of(et: DoorEtiquette, r: int, world: float) -> float:
+def psi_of(et: EtiquetteCore, r: int, world: float) -> float:
     rv = et.leaves.revolvers
     return float(rv.sense[r]) * (world - float(rv.base[r]))
 
 
-def compartment_psi(et: DoorEtiquette, r: int, c: int) -> float:
+def compartment_psi(et: EtiquetteCore, r: int, c: int) -> float:
     rv = et.leaves.revolvers
     return float(rv.sense[r]) * float(rv.rotation[r]) + (c + 0.5) * QUARTER
 
 
-def opening_psi(et: DoorEtiquette, r: int, side: int) -> float:
+def opening_psi(et: EtiquetteCore, r: int, side: int) -> float:
     rv = et.leaves.revolvers
     return float(rv.sense[r]) * side * QUARTER
 
 
-def world_of(et: DoorEtiquette, r: int, psi: float) -> float:
+def world_of(et: EtiquetteCore, r: int, psi: float) -> float:
     rv = et.leaves.revolvers
     return float(rv.base[r]) + psi / float(rv.sense[r])
 
@@ -103,7 +107,7 @@ def best_entry(psi: list[float], opening: float, omega: float, eta: float,
     return best
 
 
-def decide_revolving(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: CrowdState) -> None:
+def decide_revolving(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdState) -> None:
     """One decision tick of revolving door ``k`` (module docstring)."""
     r = _rev(et, k)
     rv = et.leaves.revolvers
@@ -113,19 +117,13 @@ def decide_revolving(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: Cr
     omega = max(0.0, float(rv.omega[r]) * float(rv.sense[r]))
     psi = [compartment_psi(et, r, c) for c in range(4)]
     taken = {w.compartment for w in walkers if w.role in (ENTRANT, RIDER) and w.compartment >= 0}
-    user_row = None if et.user_id is None else et._row.get(et.user_id)
-    if user_row is not None:  # the user's compartment is taken, and the one the user walks into
-        up = crowd.pos[user_row] - centre
-        if float(np.hypot(*up)) < radius + USER_CLAIM:
-            up_psi = psi_of(et, r, math.atan2(up[1], up[0]))
-            mine = {c for c, p in enumerate(psi) if abs(_wrap(up_psi - p)) < QUARTER / 2 + USER_CLAIM_ANGLE}
-            taken |= mine
-            for w in walkers:  # an agent about to enter it with the user waits for the next one
-                if w.role == ENTRANT and w.compartment in mine:
-                    w.role = APPROACH
-                    w.compartment = -1
-                    et.approach(w)
-                    et.log("missed", w, compartment=-1, why="user")
+    claimed = _user_claim(et, r, crowd, psi)
+    taken |= claimed
+    for w in walkers:  # an agent about to enter the user's compartment takes the next one
+        if w.role == ENTRANT and w.compartment in claimed and not _inside(et, r, w, crowd):
+            et.log("missed", w, compartment=w.compartment, why="user")
+            w.compartment = -1
+            w.catching = False
     occupants = sum(1 for w in walkers if w.role in (ENTRANT, RIDER))
     _, _, agent_r = waiting_radii("revolving")
     wr = waiting_radii("revolving")[0]
@@ -146,7 +144,7 @@ def decide_revolving(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: Cr
             if may_enter:
                 spot = centre + (radius + float(crowd.radius[row]) + 0.3) * _dir(
                     world_of(et, r, opening + SIDE_OFFSET))
-                eta = float(np.hypot(*(p - spot))) / max(float(crowd.pref_speed[row]), 0.1)
+                eta = _eta_in(p, spot, centre, radius, float(crowd.pref_speed[row]))
                 c, t_from, t_close = best_entry(psi, opening, omega, eta, taken)
                 if c >= 0:
                     w.role = ENTRANT
@@ -157,7 +155,6 @@ def decide_revolving(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: Cr
                     occupants += 1
                     entrant = True
                     et.log("enter", w, compartment=c, catch=bool(t_close < math.inf))
-                    _entrant(et, r, w, crowd)
                     prev = w
                     continue
             # wait: stop on entering the waiting region, or behind the leader
@@ -177,7 +174,7 @@ def decide_revolving(et: DoorEtiquette, k: int, walkers: list[Walker], crowd: Cr
             prev = w
     for w in walkers:
         if w.role == ENTRANT:
-            _entrant(et, r, w, crowd)
+            _entrant(et, r, w, crowd, claimed)
         elif w.role == RIDER:
             p_c = compartment_psi(et, r, w.compartment)
             exit_open = opening_psi(et, r, -w.side)
@@ -204,7 +201,7 @@ def _dir(a: float) -> np.ndarray:
     return np.array([math.cos(a), math.sin(a)])
 
 
-def _containing(et: DoorEtiquette, r: int, p: np.ndarray) -> int:
+def _containing(et: EtiquetteCore, r: int, p: np.ndarray) -> int:
     """The compartment whose quarter ``p`` (inside the drum) lies in."""
     rv = et.leaves.revolvers
     rel = p - rv.centre[r]
@@ -212,9 +209,54 @@ def _containing(et: DoorEtiquette, r: int, p: np.ndarray) -> int:
     return int((psi % (2.0 * math.pi)) // QUARTER) % 4
 
 
-def _entrant(et: DoorEtiquette, r: int, w: Walker, crowd: CrowdState) -> None:
-    """Walk into the best compartment for its side, catching it (faster, up to the maximum speed)
-    or waiting at the opening for the next one; inside, ride the compartment it is in."""
+def _eta_in(p: np.ndarray, spot: np.ndarray, centre: np.ndarray, radius: float, speed: float) -> float:
+    """Seconds until a pedestrian at ``p`` can be inside a compartment from ``spot`` (its place
+    at the opening): the walk to the spot, then in to the compartment's middle. The best entry
+    phase is the first compartment it can be inside before that compartment goes by, so that the
+    one it chooses is one it can catch (issue 24 item 5)."""
+    v = max(speed, 0.1)
+    inward = float(np.hypot(*(spot - centre))) - RIDE_AT * radius
+    return float(np.hypot(*(p - spot))) / v + inward / v
+
+
+def _user_claim(et: EtiquetteCore, r: int, crowd: CrowdState, psi: list[float]) -> set[int]:
+    """The compartments the user is in or walks into (within :data:`USER_CLAIM` of the drum)."""
+    user_row = None if et.user_id is None else et._row.get(et.user_id)
+    if user_row is None:
+        return set()
+    rv = et.leaves.revolvers
+    up = crowd.pos[user_row] - rv.centre[r]
+    if float(np.hypot(*up)) >= float(rv.radius[r]) + USER_CLAIM:
+        return set()
+    up_psi = psi_of(et, r, math.atan2(up[1], up[0]))
+    return {c for c, p in enumerate(psi) if abs(_wrap(up_psi - p)) < QUARTER / 2 + USER_CLAIM_ANGLE}
+
+
+def _inside(et: EtiquetteCore, r: int, w: Walker, crowd: CrowdState) -> bool:
+    rv = et.leaves.revolvers
+    return float(np.hypot(*(et.pos(crowd, w.id) - rv.centre[r]))) < float(rv.radius[r]) - 0.05
+
+
+def _in_window(d: float, omega: float) -> bool:
+    """Whether a compartment whose middle is ``d`` past the opening may be walked into now: in its
+    entry window, or anywhere in front of the opening while the door (nearly) stands."""
+    lo, hi = ENTRY_WINDOW
+    return lo - math.radians(5.0) <= d <= hi or (omega < SLOW and abs(d) <= math.radians(45.0))
+
+
+def _gone_by(d: float, omega: float) -> bool:
+    """Whether a compartment being caught, its middle ``d`` past the opening, has gone by."""
+    return d > max(ENTRY_WINDOW[1], math.radians(45.0) if omega < SLOW else 0.0) + math.radians(5.0)
+
+
+def _entrant(et: EtiquetteCore, r: int, w: Walker, crowd: CrowdState, claimed: set[int]) -> None:
+    """Walk into the compartment chosen for it, catching it (faster, up to the maximum speed) or
+    waiting at the opening for it; inside, ride the compartment it is in.
+
+    The choice is kept (issue 24 item 5: entering should succeed at the first try): the best
+    entry phase is found once, when the pedestrian starts to enter, and again only when something
+    new blocks it: the compartment is taken (the user walks into it, or another pedestrian), or
+    it goes by before the pedestrian reaches it (a ``missed`` event, then the next one)."""
     rv = et.leaves.revolvers
     centre = rv.centre[r]
     radius = float(rv.radius[r])
@@ -223,7 +265,7 @@ def _entrant(et: DoorEtiquette, r: int, w: Walker, crowd: CrowdState) -> None:
     rad = float(crowd.radius[row])
     omega = max(0.0, float(rv.omega[r]) * float(rv.sense[r]))
     opening = opening_psi(et, r, w.side)
-    if float(np.hypot(*(p - centre))) < radius - 0.05:
+    if _inside(et, r, w, crowd):
         w.compartment = _containing(et, r, p)
         w.catching = True
         p_c = compartment_psi(et, r, w.compartment)
@@ -235,18 +277,24 @@ def _entrant(et: DoorEtiquette, r: int, w: Walker, crowd: CrowdState) -> None:
         return
     taken = {o.compartment for o in et.walkers.values()
              if o.door == w.door and o.id != w.id and o.role in (ENTRANT, RIDER) and o.compartment >= 0}
+    taken |= claimed
     spot = centre + (radius + rad + 0.3) * _dir(world_of(et, r, opening + SIDE_OFFSET))
-    eta = float(np.hypot(*(p - spot))) / max(float(crowd.pref_speed[row]), 0.1)
     psi = [compartment_psi(et, r, c) for c in range(4)]
-    c, t_from, t_close = best_entry(psi, opening, omega, eta if not w.catching else 0.0, taken)
-    if c != w.compartment and w.catching:
-        et.log("missed", w, compartment=w.compartment)  # it could not catch that one: the next one
-        w.catching = False
+    c = w.compartment
+    if c >= 0 and (c in taken or (w.catching and _gone_by(_wrap(psi[c] - opening), omega))):
+        et.log("missed", w, compartment=c, why="taken" if c in taken else "gone by")
+        c = -1
+    elif c >= 0 and omega < 1e-3 and abs(_wrap(psi[c] - opening)) > math.radians(45.0):
+        c = -1  # the door has stopped with it elsewhere: nothing will bring it (no miss: choose again)
+    if c < 0:
+        eta = _eta_in(p, spot, centre, radius, float(crowd.pref_speed[row]))
+        c, _, _ = best_entry(psi, opening, omega, eta, taken)
     w.compartment = c
     lo, hi = ENTRY_WINDOW
+    w.catching = False  # until it is in the window
     if c >= 0:
         d = _wrap(psi[c] - opening)
-        if lo - math.radians(5.0) <= d <= hi or (omega < 1e-3 and abs(d) <= math.radians(45.0)):
+        if _in_window(d, omega):
             w.catching = True
             middle = centre + RIDE_AT * radius * _dir(world_of(et, r, psi[c] + omega * 0.3))
             dist = float(np.hypot(*(p - middle)))
@@ -261,7 +309,7 @@ def _entrant(et: DoorEtiquette, r: int, w: Walker, crowd: CrowdState) -> None:
     et.go_direct(w, spot, facing=face, speed=float(crowd.pref_speed[row]))
 
 
-def carry_riders(et: DoorEtiquette, new_vel: np.ndarray, crowd: CrowdState) -> None:
+def carry_riders(et: EtiquetteCore, new_vel: np.ndarray, crowd: CrowdState) -> None:
     """Whoever is inside a revolving door moves with its compartment (riders, and entrants and
     exiters while inside the drum, stepping in or out as they go); the door turns while someone
     rides (pushes) it."""
@@ -270,7 +318,18 @@ def carry_riders(et: DoorEtiquette, new_vel: np.ndarray, crowd: CrowdState) -> N
         return
     push = np.zeros(len(rv))
     for w in et.walkers.values():
-        if w.is_user or not carried(et, w, crowd):
+        if w.is_user:
+            continue
+        if not carried(et, w, crowd):
+            if w.role == ENTRANT and w.catching and w.id in et._row:
+                # at the drum catching its compartment: a hand on the panel pushes the door round
+                # (§4.5.1, push and pass), so a door that stopped with a panel across the way
+                # turns the compartment in
+                r = _rev(et, w.door)
+                row = et._row[w.id]
+                reach = float(rv.radius[r]) + float(crowd.radius[row]) + ENTRANT_PUSH
+                if float(np.hypot(*(crowd.pos[row] - rv.centre[r]))) < reach:
+                    push[r] = V_PUSH / (RIDE_AT * float(rv.radius[r]))
             continue
         row = et._row[w.id]
         r = _rev(et, w.door)
@@ -293,7 +352,7 @@ def carry_riders(et: DoorEtiquette, new_vel: np.ndarray, crowd: CrowdState) -> N
     rv.push[:] = push
 
 
-def carried(et: DoorEtiquette, w: Walker, crowd: CrowdState) -> bool:
+def carried(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
     """Whether ``w`` moves with a revolving door's compartment now."""
     if w.role == RIDER:
         return w.id in et._row

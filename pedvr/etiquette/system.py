@@ -23,217 +23,68 @@ follower thanks) comes from the etiquette's own generator, a child spawned from 
 simulation's (so scenes without doors draw exactly what they drew before).
 """
 
+
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numba import njit
 
 from pedvr.body import skeleton as sk
-from pedvr.body.steps import LEFT, RIGHT, generate_steps
-from pedvr.etiquette import decision as bn
-from pedvr.etiquette.doors import OPEN, DoorLeaves, hand_angle, hand_point
-from pedvr.etiquette.ordering import NONE
-from pedvr.etiquette.regions import HAND_HEIGHT, HOLD_ANGLE, LeafFrame
-from pedvr.scene.config import Door, EtiquetteConfig, SceneConfig
+from pedvr.body.steps import RIGHT
+from pedvr.etiquette.core import DoorState, EtiquetteCore, Walker
+from pedvr.etiquette.doors import OPEN, hand_angle, hand_point
+from pedvr.etiquette.interaction import decide_hinged
+from pedvr.etiquette.objects import DoorObject
+from pedvr.etiquette.regions import HAND_HEIGHT, HOLD_ANGLE
+from pedvr.etiquette.revolving import carried, carry_riders, decide_revolving
+from pedvr.etiquette.vocab import (
+    APPROACH,
+    CLEAR,
+    DEADLOCK_AFTER,
+    DEADLOCK_FREE_S,
+    ENTRANT,
+    EXITING,
+    FOLLOWER,
+    HOLD_DOOR,
+    HOLDER,
+    HOLDER_DEC,
+    IDLE_ANGLE,
+    IDLE_LIFT,
+    NONE,
+    PASS_CONFIRM,
+    PASSING,
+    RIDER,
+    RUSH_SPEEDUP,
+    SENSE_USER,
+    USER_AFTER_PASS,
+    WAIT_ENDS,
+)
 
 if TYPE_CHECKING:
-    from pedvr.behavior.scheduler import Scheduler
-    from pedvr.body.model import FullBody
     from pedvr.crowd.state import CrowdState
 
-# Roles of a pedestrian at a door.
-APPROACH, FOLLOWER, HOLDER, PASSING, ENTRANT, RIDER, EXITING = range(7)
-ROLE_NAMES = ("approach", "follower", "holder", "passing", "entrant", "rider", "exiting")
-# App. B's states.
-(OPENER_INIT, REACH_DOOR, OPEN_DOOR, HOLDER_DEC, HOLD_DOOR, FOLLOWER_INIT, FOLLOWER_DEC, REACH_EDGE,
- RELEASE_DOOR, FINISH_DOOR) = range(10)
-STATE_NAMES = ("OpenerInit", "ReachDoor", "OpenDoor", "HolderDec", "HoldDoor", "FollowerInit",
-               "FollowerDec", "ReachEdge", "ReleaseDoor", "FinishDoor")
-
-OPENER_RANGE = 1.6  # m from the BOP within which a leaderless pedestrian takes the door (Alg. 2)
-ARRIVE = 0.12  # m: a key pose is reached
-REACH_TIME = 0.35  # s: the hand reaches the handle (ReachDoor)
-DECIDE_WAIT = 0.6  # s: a holder in HolderDec waits this long for a follower to commit
-CLEAR = 0.45  # m past the doorway line (plus the radius) at which a walker has passed
-RUSH_SPEEDUP = 0.4  # a pedestrian walks (1 + RUSH_SPEEDUP * Rush) times its speed near a doorway
-CATCH_UP = 1.3  # a committed follower farther than CATCH_UP_AT from its holder walks this much faster
-CATCH_UP_AT = 2.5  # m
-STATE_TIMEOUT = 10.0  # s: a door state that has not moved on gives up (never a deadlock)
-HOLD_TIMEOUT = 12.0  # s: a holder waits this long for an agent follower
-CARRIER_PATIENCE = 8.0  # s: a carrier alone at a pull side frees a hand after this long
-HELP_RANGE = 6.0  # m: a pedestrian behind a carrier this close overtakes to open the door (§4.6)
-DEADLOCK_AFTER = 20.0  # s of waiting with the doorway free: a deadlock (the metric)
-DEADLOCK_FREE_S = 3.0  # s the doorway must have stayed free for a long wait to count as a deadlock
-SENSE_USER = 0.2  # m/s: the user walking toward a door faster than this takes part in its ordering
-THANK_RANGE = 2.5  # m: a follower thanks its holder when passing this close
-LEAF_REACH = 0.9  # m: a hand farther than this from its leaf lets go
-IDLE_ANGLE = math.radians(1.2)  # rad: a holding hand's idle sway along the door's swing
-IDLE_LIFT = 0.012  # m: and up and down
-GRAB_REACH_S = 1.5  # s: a press of E or the trigger takes a handle that comes within reach this soon
+__all__ = ["DoorEtiquette", "DoorState", "Walker"]
 
 
-@dataclass
-class Walker:
-    """One pedestrian (an agent or the user) taking part in a door's etiquette."""
+class DoorEtiquette(EtiquetteCore):
+    """The etiquette layer of one simulation (module docstring). Keyword-only set-up, as
+    :class:`~pedvr.etiquette.core.EtiquetteCore`."""
 
-    id: int
-    door: int
-    side: int  # the side it comes from: +1 the left of span[0] -> span[1]
-    is_user: bool = False
-    leaf: int = -1  # the leaf it passes (a double door's chosen side), -1 revolving / undecided
-    role: int = APPROACH
-    state: int = -1
-    leader: int = NONE
-    since: float = 0.0
-    waited: float = 0.0
-    waiting: bool = False
-    wait_from: float = math.nan
-    action: str = ""  # a holder's decision for its follower
-    follower: int = NONE
-    holder: int = NONE
-    plan: np.ndarray | None = None
-    plan_i: int = 0
-    face: float = math.nan
-    lock: bool = False
-    speed: float = 1.3
-    arm: int = -1  # the arm on the leaf (0 left, 1 right)
-    p_rel: float = 0.0
-    want: float = 0.0  # the angle (>= 0, in the leaf frame) the holder's hand wants
-    frame: LeafFrame | None = None
-    compartment: int = -1
-    catching: bool = False  # walking into a revolving compartment in its window
-    thanked: bool = False
-    helping: int = NONE  # the carrier this pedestrian overtakes to help
-    event: Any = None
-    stop_hold: bool = False
-    user_hold_for: float = 0.0  # the user's progress toward the door when held for (give-up rule)
-    user_best: float = math.inf
-    user_best_at: float = 0.0
-    alone_since: float = math.nan
-
-
-@dataclass
-class DoorState:
-    """Per door: who holds each leaf, who is initiating (the mutex), who uses which leaf."""
-
-    kind: str
-    centre: np.ndarray
-    u: np.ndarray  # along the span
-    n: np.ndarray  # the door's +1 side
-    leaves: list[int]
-    mutex: dict[int, int] = field(default_factory=dict)  # leaf -> initiating walker
-    holder: dict[int, int] = field(default_factory=dict)  # leaf -> holding walker
-
-
-class DoorEtiquette:
-    """The etiquette layer of one simulation (module docstring). Keyword-only set-up."""
-
-    def __init__(self, scene: SceneConfig, *, leaves: DoorLeaves, body: FullBody, rng: np.random.Generator,
-                 replan: Callable[[int], None]) -> None:
-        self.scene = scene
-        self.cfg: EtiquetteConfig = scene.etiquette
-        self.doors: list[Door] = list(scene.world.doors)
-        self.leaves = leaves
-        self.body = body
-        self.rng = rng.spawn(1)[0]
-        self.replan = replan
-        self.scheduler: Scheduler | None = None
-        self.user_id: int | None = None
-        self.t = 0.0
-        self.dstate: list[DoorState] = []
-        for k, d in enumerate(self.doors):
-            a, b = np.asarray(d.span[0], np.float64), np.asarray(d.span[1], np.float64)
-            u = (b - a) / np.linalg.norm(b - a)
-            self.dstate.append(DoorState(kind=d.kind, centre=0.5 * (a + b), u=u, n=np.array([-u[1], u[0]]),
-                                         leaves=[int(i) for i in np.flatnonzero(leaves.door == k)]))
-        self.walkers: dict[int, Walker] = {}
-        # per row (follows the crowd): traits
-        self.kindness = np.zeros(0)
-        self.rush = np.zeros(0)
-        self.female = np.zeros(0, np.bool_)
-        self.carrying = np.zeros(0, np.bool_)
-        self.friend = np.zeros(0, np.int64)
-        self._ids = np.zeros(0, np.int64)
-        self._row: dict[int, int] = {}
-        self._path_cache: dict[int, tuple[int, list[tuple[int, int]]]] = {}
-        self._later: list[tuple[float, int, Callable[[], object]]] = []
-        self._seq = 0
-        # the user's hand on a leaf (a backend's E key or trigger, or the scripted user)
-        self.user_leaf = -1
-        self.user_hand_point: np.ndarray | None = None
-        self._user_grab_pending = False
-        self._user_grab_until = 0.0
-        # what happened, for metrics and the recording
-        self.events: list[dict[str, Any]] = []
-        self.holds = {"HOF": 0, "HOL": 0, "NH": 0}
-        self.passages = 0
-        self.waits: list[float] = []
-        self.deadlocks = 0
-        self._free_since = [math.nan] * len(self.doors)
-        self._deadlocked: set[int] = set()
-        self.thanks = 0
-        self.carrier_forced = 0
-        self.hold_outcomes: dict[int, str] = {}
-
-    # -- rows ------------------------------------------------------------------------------------
-
-    def append(self, ids: np.ndarray, *, profile: Any | None, is_user: bool, female: np.ndarray) -> None:
-        """New rows (after the body's): traits drawn from the etiquette's generator."""
-        n = len(ids)
-        if is_user or profile is None:
-            u = self.scene.user
-            kind = np.zeros(n)
-            rush = np.zeros(n)
-            fem = np.full(n, u.sex == "female")
-            car = np.full(n, u.carrying != "none")
-        else:
-            lo, hi = profile.kindness
-            kind = lo + (hi - lo) * self.rng.random(n)
-            lo, hi = profile.rush
-            rush = lo + (hi - lo) * self.rng.random(n)
-            fem = np.asarray(female, np.bool_).reshape(n)
-            car = np.full(n, profile.carrying != "none")
-        self.kindness = np.concatenate([self.kindness, kind])
-        self.rush = np.concatenate([self.rush, rush])
-        self.female = np.concatenate([self.female, fem])
-        self.carrying = np.concatenate([self.carrying, car])
-        self.friend = np.concatenate([self.friend, np.full(n, NONE, np.int64)])
-        self._ids = np.concatenate([self._ids, np.asarray(ids, np.int64)])
-        self._row = {int(a): r for r, a in enumerate(self._ids)}
-        if is_user:
-            self.user_id = int(ids[0])
-
-    def pair_friends(self, a: int, b: int) -> None:
-        self.friend[self._row[a]] = b
-        self.friend[self._row[b]] = a
-
-    def keep(self, mask: np.ndarray) -> None:
-        gone = [int(i) for i in self._ids[~mask]]
-        for i in gone:  # their bodies are gone already: nothing is asked of them
-            self._row.pop(i, None)
-        for i in gone:
-            w = self.walkers.get(i)
-            if w is not None:
-                self._drop(w, why="left the scene")
-        self.kindness = self.kindness[mask]
-        self.rush = self.rush[mask]
-        self.female = self.female[mask]
-        self.carrying = self.carrying[mask]
-        self.friend = self.friend[mask]
-        self._ids = self._ids[mask]
-        self._row = {int(a): r for r, a in enumerate(self._ids)}
-        for i in gone:
-            self._path_cache.pop(i, None)
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # passages from positions (track_passages): per crowd row, its position at the last tick
+        # and, per door, the side it crossed the doorway from (0: none pending)
+        self._trk_ids = np.zeros(0, np.int64)
+        self._trk_prev = np.zeros((0, 2))
+        self._trk_pend = np.zeros((0, len(self.doors)), np.int8)
+        self.last_passage = [0.0] * len(self.doors)  # s: when each door last passed someone
+        self._user_through: dict[int, float] = {}  # door -> when the user last went through it
 
     def smart_objects(self) -> dict[str, Any]:
         """Every door as a smart object (``pass``, ``hold``), named as in the scene."""
-        from pedvr.etiquette.objects import DoorObject
-
         return {d.name: DoorObject.of(self, k) for k, d in enumerate(self.doors)}
 
     # -- the decision tick -------------------------------------------------------------------
@@ -242,37 +93,21 @@ class DoorEtiquette:
         """At the decision rate, in the ``decide`` phase (before the scheduler ticks)."""
         self.t = t
         self._run_later(t)
+        self.track_passages(crowd)
         self._engage(crowd, paths, cursor)
         for k, ds in enumerate(self.dstate):
             ws = [w for w in self._walkers_at(k)]
             if not ws:
                 continue
             if ds.kind == "revolving":
-                from pedvr.etiquette.revolving import decide_revolving
-
                 decide_revolving(self, k, ws, crowd)
             else:
-                from pedvr.etiquette.interaction import decide_hinged
-
                 decide_hinged(self, k, ws, crowd)
         self._watch_deadlocks(crowd)
 
     def _walkers_at(self, k: int) -> list[Walker]:
         return sorted((w for w in self.walkers.values() if w.door == k), key=lambda w: w.id)
 
-    def _run_later(self, t: float) -> None:
-        while self._later and self._later[0][0] <= t + 1e-9:
-            _, _, fn = self._later.pop(0)
-            fn()
-
-    def later(self, dt: float, fn: Callable[[], object]) -> None:
-        """Run ``fn`` at the first decision tick ``dt`` seconds from now (a nod's second half)."""
-        self._seq += 1
-        self._later.append((self.t + dt, self._seq, fn))
-        self._later.sort(key=lambda x: (x[0], x[1]))
-
-    def row(self, agent: int) -> int | None:
-        return self._row.get(agent)
 
     def _path_doors(self, agent: int, path: np.ndarray) -> list[tuple[int, int]]:
         """(door, waypoint index) for every door the path crosses, cached per path object."""
@@ -320,7 +155,10 @@ class DoorEtiquette:
                     if float(np.hypot(*(pos[r] - ds.centre))) <= self.doors[k].sensing_range:
                         side = 1 if float((pos[r] - ds.centre) @ ds.n) >= 0.0 else -1
                         self.walkers[agent] = Walker(id=agent, door=k, side=side, since=self.t,
-                                                     speed=float(crowd.pref_speed[r]))
+                                                     speed=float(crowd.pref_speed[r]),
+                                                     waited=self.waited_at.pop((agent, k), 0.0),
+                                                     first_wait=self.wait_since_at.pop((agent, k), math.nan),
+                                                     last_wait=self.t)
                         break
                 continue
             if w.role == APPROACH and not any(k == w.door for k, _ in crossing):
@@ -335,8 +173,11 @@ class DoorEtiquette:
             through = float(rel @ ds.n) * w.side < -(CLEAR + 0.25)
             far = float(np.hypot(*rel)) > self.doors[w.door].sensing_range
             if w.role != HOLDER and (through or far):
+                h = self.walkers.get(w.holder) if through and w.holder != NONE else None
+                if h is not None and h.state == HOLD_DOOR and h.follower == w.id:
+                    self.log("held_for_user", h, action=h.action)  # the user walked through the held door
                 if through:
-                    self._passed(w)
+                    self._user_through[w.door] = self.t
                 self._drop(w, why="passed" if through else "walked away")
             return
         for k, ds in enumerate(self.dstate):
@@ -344,6 +185,8 @@ class DoorEtiquette:
             dist = float(np.hypot(*rel))
             if dist > self.doors[k].sensing_range or dist < 1e-9:
                 continue
+            if self.t - self._user_through.get(k, -math.inf) < USER_AFTER_PASS and self.user_leaf < 0:
+                continue  # just through it: stepping back onto its way is not coming to the door
             lateral = abs(float(rel @ ds.u))
             if lateral > 0.5 * self.doors[k].width + 1.5:
                 continue
@@ -352,131 +195,6 @@ class DoorEtiquette:
                 side = 1 if float(rel @ ds.n) >= 0.0 else -1
                 self.walkers[agent] = Walker(id=agent, door=k, side=side, is_user=True, since=self.t)
                 return
-
-    # -- helpers the door models use ------------------------------------------------------------
-
-    def pos(self, crowd: CrowdState, agent: int) -> np.ndarray:
-        r = self._row[agent]
-        return crowd.pos[r]
-
-    def radius(self, crowd: CrowdState, agent: int) -> float:
-        return float(crowd.radius[self._row[agent]])
-
-    def frame(self, leaf: int, opener_side_world: int) -> LeafFrame:
-        """The leaf's frame for an interaction begun from ``opener_side_world`` (the door's side)."""
-        lv = self.leaves
-        k = int(lv.door[leaf])
-        ds = self.dstate[k]
-        e = np.array([math.cos(lv.base[leaf]), math.sin(lv.base[leaf])])
-        left = np.array([-e[1], e[0]])
-        from_left = 1 if float(left @ (ds.n * opener_side_world)) > 0 else -1
-        sign = lv.opening_sign(leaf, from_left)
-        return LeafFrame.of(lv.hinge[leaf], float(lv.base[leaf]), float(lv.length[leaf]), sign)
-
-    def leaf_open(self, leaf: int, frame: LeafFrame) -> float:
-        """How far the leaf is open in ``frame`` (>= 0 into its pull side)."""
-        return max(0.0, frame.sign * float(self.leaves.angle[leaf]))
-
-    def set_plan(self, w: Walker, crowd: CrowdState, target: np.ndarray, *, facing: float | None,
-                 speed: float | None = None, backward: bool = False, lock: bool = False,
-                 end_standing: bool = True) -> None:
-        """Walk ``w`` to ``target`` along App. C's generated steps (their root keys)."""
-        r = self._row[w.id]
-        b = self.body.state
-        fl, fr = b.foot_ref[r, 0], b.foot_ref[r, 1]
-        swing = int(b.swing[r]) if bool(b.stepping[r]) else (RIGHT if float(np.hypot(*(fr - target)))
-                                                              > float(np.hypot(*(fl - target))) else LEFT)
-        plan = generate_steps(root=crowd.pos[r], left=fl, right=fr, swing=swing,
-                              standing=not bool(b.stepping[r]), target=np.asarray(target, np.float64),
-                              target_facing=facing, end_standing=end_standing, backward=backward)
-        keys = plan.root[1:] if plan.root.shape[0] > 1 else plan.root
-        w.waiting = False
-        w.plan = np.ascontiguousarray(keys)
-        w.plan_i = 0
-        w.face = float(plan.facing[-1]) if facing is None else facing
-        w.lock = lock
-        w.speed = float(crowd.pref_speed[r]) if speed is None else speed
-
-    def go_direct(self, w: Walker, target: np.ndarray, *, facing: float, speed: float,
-                  lock: bool = False) -> None:
-        """Walk straight at ``target`` (re-aimed every tick: a moving target)."""
-        w.waiting = False
-        w.plan = np.asarray(target, np.float64).reshape(1, 2).copy()
-        w.plan_i = 0
-        w.face = facing
-        w.lock = lock
-        w.speed = speed
-
-    def stand(self, w: Walker, facing: float) -> None:
-        """``w`` stands where it is, facing ``facing`` (waiting, or holding still)."""
-        w.plan = None
-        w.face = facing
-        w.lock = False
-        w.waiting = w.role in (APPROACH, FOLLOWER)
-
-    def approach(self, w: Walker) -> None:
-        """``w`` walks on along its own path (the etiquette only hurries it)."""
-        w.plan = None
-        w.face = math.nan
-        w.lock = False
-        w.waiting = False
-
-    def arrived(self, w: Walker, crowd: CrowdState, tol: float = ARRIVE) -> bool:
-        if w.plan is None:
-            return True
-        last = w.plan_i >= w.plan.shape[0] - 1
-        return last and float(np.hypot(*(self.pos(crowd, w.id) - w.plan[-1]))) <= tol
-
-    def set_state(self, w: Walker, state: int) -> None:
-        w.state = state
-        w.since = self.t
-
-    # -- decisions (§5) --------------------------------------------------------------------------
-
-    def decide_hold(self, holder: Walker, follower: Walker, crowd: CrowdState) -> str:
-        """HOF / HOL / NH for ``follower`` by the network of §5: Effort from the distance, Care
-        from Table 3, the holder's Kindness and Rush."""
-        r = self._row[holder.id]
-        f = self._row[follower.id]
-        d = float(np.hypot(*(crowd.pos[r] - crowd.pos[f])))
-        p = bn.holding_probabilities(effort=bn.effort_factor(d),
-                                     care=bn.care_factor(follower_female=bool(self.female[f]),
-                                                         follower_carrying=bool(self.carrying[f])),
-                                     kindness=float(self.kindness[r]), rush=float(self.rush[r]))
-        return bn.decide(p, rng=self.rng if self.cfg.decisions == "sampled" else None)
-
-    # -- events (who held for whom) --------------------------------------------------------------
-
-    def log(self, kind: str, w: Walker, **data: Any) -> None:
-        ev = {"t": round(self.t, 4), "event": kind, "door": self.doors[w.door].name, "agent": w.id}
-        ev.update(data)
-        self.events.append(ev)
-
-    def start_hold_event(self, holder: Walker, follower: Walker) -> None:
-        """The holder–follower pair as an event of the behavior layer (ADAPT §6): the holder is
-        claimed (its BFSM suspended while it holds), the follower is an actor (the user: observed)."""
-        sch = self.scheduler
-        if sch is None or holder.is_user or "door_hold" not in sch.events:
-            return
-        try:
-            holder.event = sch.start_event("door_hold", {"holder": holder.id, "follower": follower.id,
-                                                         "door": self.doors[holder.door].name})
-        except Exception:  # noqa: BLE001 - a scene may define door_hold differently: the hold goes on
-            holder.event = None
-
-    def end_hold(self, holder: Walker, outcome: str) -> None:
-        """The hold is over: ``passed`` / ``took over`` (its event succeeds) or anything else (it
-        fails with that reason), as the ``hold`` affordance reports at the scheduler's tick."""
-        if holder.event is not None:
-            self.hold_outcomes[holder.id] = outcome
-        holder.event = None
-
-    def interrupted(self, agent: int) -> None:
-        """A higher-priority event took a holder out of its ``door_hold``: it lets go and goes on."""
-        w = self.walkers.get(agent)
-        if w is not None and w.event is not None:
-            w.event = None
-            w.stop_hold = True
 
     # -- per step: motion ----------------------------------------------------------------------
 
@@ -508,8 +226,9 @@ class DoorEtiquette:
                     pv[r] = v
                 continue
             p = crowd.pos[r]
-            k = w.plan_i
             last = w.plan.shape[0] - 1
+            # on from the nearest key ahead (a body pushed past its keys does not walk back to them)
+            k = w.plan_i + int(np.argmin(np.hypot(*(w.plan[w.plan_i:] - p).T)))
             while k < last and float(np.hypot(*(w.plan[k] - p))) < 0.2:
                 k += 1
             w.plan_i = k
@@ -560,8 +279,6 @@ class DoorEtiquette:
 
     def carry(self, new_vel: np.ndarray, crowd: CrowdState) -> None:
         """After ORCA: revolving-door riders move with their compartment."""
-        from pedvr.etiquette.revolving import carry_riders
-
         carry_riders(self, new_vel, crowd)
 
     def auto_open(self, crowd: CrowdState) -> np.ndarray:
@@ -576,8 +293,6 @@ class DoorEtiquette:
 
     def carried(self, crowd: CrowdState) -> np.ndarray:
         """``(N,)`` who moves with a revolving door's compartment now (its panels do not stop for them)."""
-        from pedvr.etiquette.revolving import carried
-
         out = np.zeros(len(crowd), np.bool_)
         for w in self.walkers.values():
             if w.role in (RIDER, ENTRANT, EXITING) and carried(self, w, crowd):
@@ -641,85 +356,6 @@ class DoorEtiquette:
         p = self.body.state.world_pos[r, joint]
         return np.array([p[0], p[2]])
 
-    def take_leaf(self, w: Walker, leaf: int, *, arm: int, p_rel: float, open_to: float | None,
-                  speed: float = 2.5) -> None:
-        """``w``'s hand takes ``leaf``: opening it toward ``open_to`` (the door leads the hand) or
-        holding it where it is (the hand leads the door)."""
-        ds = self.dstate[w.door]
-        ds.holder[leaf] = w.id
-        w.leaf = leaf
-        w.arm = arm
-        w.p_rel = p_rel * float(self.leaves.length[leaf])
-        assert w.frame is not None
-        if open_to is not None:
-            self.leaves.grab(leaf, open_to=w.frame.sign * open_to, speed=speed)
-            w.want = open_to
-        else:
-            w.want = self.leaf_open(leaf, w.frame)
-            self.leaves.hand(leaf, float(self.leaves.angle[leaf]))
-        r = self._row[w.id]
-        h = w.frame.handle(self.leaf_open(leaf, w.frame), p_rel)
-        self.body.reach_for(w.id, (float(h[0]), HAND_HEIGHT, float(h[1])),
-                            side="right" if arm == RIGHT else "left")
-        self.body.gaze_at(w.id, (float(h[0]), HAND_HEIGHT, float(h[1])))
-        del r
-
-    def let_go(self, w: Walker, *, bounce: bool = True) -> None:
-        """``w`` releases its leaf: ``f_bounce`` (App. A), the closer takes over."""
-        ds = self.dstate[w.door]
-        for leaf, h in list(ds.holder.items()):
-            if h == w.id:
-                del ds.holder[leaf]
-                self.leaves.release(leaf, bounce=math.radians(10.0) if bounce else 0.0)
-        if w.arm >= 0 and not w.is_user and w.id in self._row:
-            self.body.reach_for(w.id, None, side="right" if w.arm == RIGHT else "left")
-        w.arm = -1
-        for leaf, m in list(ds.mutex.items()):
-            if m == w.id:
-                del ds.mutex[leaf]
-
-    # -- the user's hand -------------------------------------------------------------------------
-
-    def user_hand(self, pressed: bool, hand: tuple[float, float] | None = None) -> bool:
-        """A backend reports the user's hand: ``pressed`` (E held or toggled, the trigger) and,
-        in VR, the controller's floor position (``hand``; desktop: None, a reach ahead of the
-        user is assumed). Pressing near a leaf's handle takes it (the door opens toward the pull
-        side, or away from the user on a double-acting leaf); releasing lets go. Returns whether
-        the user holds a leaf now."""
-        self.user_hand_point = None if hand is None else np.asarray(hand, np.float64)
-        if not pressed:
-            if self.user_leaf >= 0:
-                self._user_release()
-            return False
-        if self.user_leaf >= 0:
-            return True
-        self._user_grab_pending = True
-        self._user_grab_until = self.t + GRAB_REACH_S
-        return True
-
-    def user_hand_moved(self, hand: tuple[float, float] | None) -> bool:
-        """VR, every frame between presses: the controller's floor position (None: not tracked; a
-        reach ahead of the user is assumed). A held leaf follows it. Returns whether the user holds a
-        leaf or is reaching for one (a press still pending), as :meth:`user_hand` does."""
-        self.user_hand_point = None if hand is None else np.asarray(hand, np.float64)
-        return self.user_leaf >= 0 or self._user_grab_pending
-
-    def _user_release(self) -> None:
-        leaf = self.user_leaf
-        self.user_leaf = -1
-        if leaf < 0:
-            return
-        k = int(self.leaves.door[leaf])
-        ds = self.dstate[k]
-        if ds.holder.get(leaf) == self.user_id:
-            del ds.holder[leaf]
-        self.leaves.release(leaf)
-        if self.user_id is not None:
-            w = self.walkers.get(self.user_id)
-            if w is not None and w.role == HOLDER:
-                w.role = APPROACH
-                w.state = -1
-                self.log("release", w, leaf=leaf)
 
     def user_reach(self, crowd: CrowdState) -> None:
         """Once per step before the doors: a pending press takes the nearest handle within reach."""
@@ -782,55 +418,86 @@ class DoorEtiquette:
         if self.user_hand_point is not None and int(lv.drive[leaf]) != OPEN:
             lv.hand(leaf, hand_angle(lv.hinge[leaf], float(lv.base[leaf]), self.user_hand_point))
 
-    # -- bookkeeping ---------------------------------------------------------------------------
+    def track_passages(self, crowd: CrowdState) -> None:
+        """Passages, measured from positions at the decision rate (issue 24 item 3): a body passes
+        a door when the way it moved since the last tick crosses the doorway (jamb to jamb) and it
+        then stands :data:`PASS_CONFIRM` m beyond the doorway line; one that steps back across
+        first has not passed. Each passage is a ``pass`` event (who, the side it came from, the
+        leaf it went through at a double door, how long it waited at the door) and counts in
+        ``door_passages``; what the door states believe (a FinishDoor that timed out, a walker
+        dropped on the near side) counts for nothing."""
+        ids = crowd.ids
+        n = len(crowd)
+        pos = crowd.pos
+        if self._trk_ids.shape[0] != n or not np.array_equal(self._trk_ids, ids):
+            old = {int(a): r for r, a in enumerate(self._trk_ids)}
+            prev = pos.copy()
+            pend = np.zeros((n, len(self.doors)), np.int8)
+            for r in range(n):
+                o = old.get(int(ids[r]))
+                if o is not None:
+                    prev[r] = self._trk_prev[o]
+                    pend[r] = self._trk_pend[o]
+            self._trk_ids, self._trk_prev, self._trk_pend = ids.copy(), prev, pend
+        prev, pend = self._trk_prev, self._trk_pend
+        for k, ds in enumerate(self.dstate):
+            d = self.doors[k]
+            cross = _segments_cross(prev, pos, np.asarray(d.span[0]), np.asarray(d.span[1]))
+            if cross.any():
+                came = np.where((prev - ds.centre) @ ds.n >= 0.0, 1, -1).astype(np.int8)
+                back = cross & (pend[:, k] != 0) & (pend[:, k] != came)
+                pend[back, k] = 0  # stepped back across before passing
+                fresh = cross & ~back
+                pend[fresh, k] = came[fresh]
+            todo = np.flatnonzero(pend[:, k])
+            if not todo.size:
+                continue
+            beyond = ((pos[todo] - ds.centre) @ ds.n) * pend[todo, k] < -PASS_CONFIRM
+            for r in todo[beyond]:
+                self._passage(int(r), k, int(pend[r, k]), crowd)
+                pend[r, k] = 0
+        self._trk_prev = pos.copy()
 
-    def _passed(self, w: Walker) -> None:
-        h = self.walkers.get(w.holder) if w.is_user and w.holder != NONE else None
-        if h is not None and h.state == HOLD_DOOR and h.follower == w.id:
-            self.log("held_for_user", h, action=h.action)  # the user walked through the held door
+    def _passage(self, r: int, k: int, side: int, crowd: CrowdState) -> None:
+        agent = int(crowd.ids[r])
+        user = bool(crowd.is_user[r])
+        w = self.walkers.get(agent)
+        waited = w.waited if w is not None and w.door == k else self.waited_at.pop((agent, k), 0.0)
+        ds = self.dstate[k]
+        leaf = -1
+        if ds.kind != "revolving":  # the leaf whose closed span the body crossed nearest
+            lv = self.leaves
+            base = lv.base[ds.leaves]
+            closed = np.stack([np.cos(base), np.sin(base)], 1)
+            mids = lv.hinge[ds.leaves] + 0.5 * lv.length[ds.leaves, None] * closed
+            along = (mids - ds.centre) @ ds.u
+            at = float((crowd.pos[r] - ds.centre) @ ds.u)
+            leaf = ds.leaves[int(np.argmin(np.abs(along - at)))]
         self.passages += 1
-        if not w.is_user:
-            self.waits.append(w.waited)
-        self.log("pass", w, waited_s=round(w.waited, 3), user=w.is_user, side=w.side, leaf=w.leaf)
-
-    def finish(self, w: Walker, crowd: CrowdState, *, passed: bool = True) -> None:
-        """``w`` is through (or gives up the door): its navigation takes over again."""
-        if passed:
-            self._passed(w)
-        self._drop(w, why="done")
-        r = self._row.get(w.id)
-        if r is not None and not w.is_user:
-            self.replan(r)
-
-    def _drop(self, w: Walker, *, why: str) -> None:
-        ds = self.dstate[w.door]
-        if any(h == w.id for h in ds.holder.values()):
-            if w.is_user:
-                self._user_release()
-            else:
-                self.let_go(w)
-        for leaf, m in list(ds.mutex.items()):
-            if m == w.id:
-                del ds.mutex[leaf]
-        if w.event is not None:
-            self.end_hold(w, why)
-        self.walkers.pop(w.id, None)
-        if not w.is_user and w.id in self._row:
-            if w.arm >= 0:
-                self.body.reach_for(w.id, None, side="right" if w.arm == RIGHT else "left")
-        for other in self.walkers.values():
-            if other.follower == w.id:
-                other.follower = NONE
-            if other.holder == w.id:
-                other.holder = NONE
-            if other.leader == w.id:
-                other.leader = NONE
+        self.last_passage[k] = self.t
+        self.wait_since_at.pop((agent, k), None)
+        if w is not None and w.door == k:
+            w.first_wait = math.nan  # its wait at this door is over
+        if not user:
+            self.waits.append(waited)
+        self.events.append({"t": round(self.t, 4), "event": "pass", "door": self.doors[k].name,
+                             "agent": agent, "waited_s": round(waited, 3), "user": user, "side": side,
+                             "leaf": leaf})
 
     def _watch_deadlocks(self, crowd: CrowdState) -> None:
-        """The metric: a pedestrian waiting more than 20 s while its doorway is free. pedvr's reading
-        of "free": nobody holds or is taking the door and nobody is within 1 m of it, for the last
-        :data:`DEADLOCK_FREE_S` at least (a queue that has waited long while the door is merely
-        between two passers, a hand-over of under a second, is not deadlocked)."""
+        """The metric ``door_deadlocks``: long waits at a door that do not end (issue 26). A
+        pedestrian's wait at a door runs from the first time it stands waiting there until its
+        body passes the door, or it has walked on without waiting for :data:`WAIT_ENDS` (a
+        shuffle forward in a queue does not end it). It is a deadlock,
+        counted once per pedestrian and logged, when it has lasted :data:`DEADLOCK_AFTER` and
+
+        * the door has passed nobody for as long (the doorway is stuck), or
+        * the doorway has been free all that while: nobody holds or is taking the door and nobody
+          is within 1 m of it, for :data:`DEADLOCK_FREE_S` at least;
+
+        and, at the end of the run (:meth:`summary`), every wait still going on that has lasted
+        :data:`DEADLOCK_AFTER` counts too: it never ended. A queue that moves on (a passage every
+        few seconds) is no deadlock while the run goes on; one still standing at the end is."""
         for k, ds in enumerate(self.dstate):
             free = not ds.holder and not ds.mutex and not bool(
                 (np.hypot(*(crowd.pos - ds.centre).T) < 1.0).any())
@@ -839,32 +506,57 @@ class DoorEtiquette:
             elif math.isnan(self._free_since[k]):
                 self._free_since[k] = self.t
         for w in self.walkers.values():
-            if w.is_user or not w.waiting or math.isnan(w.wait_from):
+            r = self._row.get(w.id)
+            if w.is_user or r is None:
                 continue
-            if self.t - w.wait_from < DEADLOCK_AFTER or w.id in self._deadlocked:
+            if w.waiting and float(np.hypot(*crowd.vel[r])) < 0.2:
+                w.last_wait = self.t
+                if math.isnan(w.first_wait):
+                    w.first_wait = self.t
+            elif not math.isnan(w.first_wait) and self.t - w.last_wait > WAIT_ENDS:
+                w.first_wait = math.nan  # walking on, not waiting, for a while: that wait is over
+            if math.isnan(w.first_wait) or self.t - w.first_wait < DEADLOCK_AFTER or w.id in self._deadlocked:
                 continue
+            stalled = self.t - self.last_passage[w.door] >= DEADLOCK_AFTER
             since = self._free_since[w.door]
-            if math.isnan(since) or self.t - since < DEADLOCK_FREE_S:
+            free_long = not math.isnan(since) and self.t - since >= DEADLOCK_FREE_S and w.waiting
+            if not (stalled or free_long):
                 continue
             self.deadlocks += 1
             self._deadlocked.add(w.id)
-            self.log("deadlock", w, waited_s=round(self.t - w.wait_from, 2))
+            self.log("deadlock", w, waited_s=round(self.t - w.first_wait, 2),
+                     why="stalled door" if stalled else "free doorway")
+
+    def unended_waits(self) -> list[int]:
+        """Pedestrians whose wait at a door has lasted :data:`DEADLOCK_AFTER` and goes on now
+        (not counted as a deadlock already)."""
+        out = []
+        for w in self.walkers.values():
+            if not w.is_user and not math.isnan(w.first_wait) and w.id not in self._deadlocked \
+                    and self.t - w.first_wait >= DEADLOCK_AFTER:
+                out.append(w.id)
+        return out
 
     @staticmethod
     def empty_summary() -> dict[str, object]:
         """The door metrics of a run without door etiquette."""
         return {"door_holds": {"HOF": 0, "HOL": 0, "NH": 0}, "door_passages": 0, "door_wait_s_p95": 0.0,
-                "door_deadlocks": 0, "door_thanks": 0, "door_holds_for_user": 0, "door_events": []}
+                "door_deadlocks": 0, "door_stalls": 0, "door_thanks": 0, "door_holds_for_user": 0,
+                "door_events": []}
 
     def summary(self) -> dict[str, object]:
-        """The run's door metrics (the metrics JSON): holds by HOF / HOL / NH, passages, the 95th
-        percentile of the time agents waited at doors, deadlocks, thank-yous, doors held for the
-        user, and every door event (who held for whom, waits, thank-yous)."""
+        """The run's door metrics (the metrics JSON): holds by HOF / HOL / NH, passages (bodies
+        through a doorway), the 95th percentile of the time agents waited at doors, deadlocks (long
+        waits that did not end, :meth:`_watch_deadlocks`) and of them the stalls (seen while the
+        run went on: a door that passed nobody, or a free doorway, for 20 s while someone waited),
+        thank-yous, doors held for the user, and every door event (who held for whom, waits,
+        thank-yous)."""
         return {
             "door_holds": dict(self.holds),
             "door_passages": self.passages,
             "door_wait_s_p95": round(float(np.percentile(self.waits, 95)), 4) if self.waits else 0.0,
-            "door_deadlocks": self.deadlocks,
+            "door_deadlocks": self.deadlocks + len(self.unended_waits()),
+            "door_stalls": self.deadlocks,
             "door_thanks": self.thanks,
             "door_holds_for_user": sum(1 for e in self.events if e["event"] == "hold" and e.get("for_user")),
             "door_events": list(self.events),

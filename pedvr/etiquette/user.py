@@ -4,7 +4,7 @@ The scripted users of :mod:`pedvr.crowd.user` walk their route straight through 
 at a one-way door pulled from the user's side that walk would press the user against a closed
 leaf (nothing moves the user, and a pulled leaf cannot open into someone standing in its swing).
 :class:`DoorUser` walks the same route and at each door it meets does what the desktop or
-headset user does with ``E`` or the trigger (:meth:`DoorEtiquette.user_hand`):
+headset user does with ``E`` or the trigger (:meth:`EtiquetteCore.user_hand`):
 
 * **pull side**: it steps to the handle, outside the leaf's swing, presses, waits until the leaf
   is open and ``hold`` seconds more (agents behind it pass first, PF), then walks round the leaf's
@@ -30,7 +30,7 @@ import numpy as np
 from pedvr.etiquette.regions import BOP_PULL_POLAR, HOLD_ANGLE, LANE_AT, LeafFrame
 
 if TYPE_CHECKING:
-    from pedvr.etiquette.system import DoorEtiquette
+    from pedvr.etiquette.core import EtiquetteCore
 
 DRUM_SPEED = 0.4  # m/s: in a revolving door's drum the user walks slowly (the panels turn with the user)
 CLEARANCE = 0.06  # m beyond touching discs that the scripted user keeps from anyone it walks toward
@@ -41,7 +41,7 @@ class DoorUser:
     """A scripted user that opens and holds doors (module docstring)."""
 
     def __init__(self, path: np.ndarray, *, speed: float, heading: float, radius: float, hold: float,
-                 etiquette: DoorEtiquette,
+                 etiquette: EtiquetteCore,
                  perceive: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None) -> None:
         self.et = etiquette
         self.perceive = perceive  # () -> (pos (N, 2), radius (N,), is_user (N,)): who is where now

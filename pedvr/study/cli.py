@@ -9,7 +9,7 @@
 :func:`run_study_command`; ``python -m pedvr.study ...`` runs them on their
 own (:func:`main`). Errors print as ``pedvr: error: ...`` lines with a
 non-zero exit code, never a traceback. A session ended by SIGTERM or SIGHUP
-is recorded as aborted (:mod:`pedvr.study.signals`), says so in one line and
+is recorded as aborted (:mod:`pedvr.signals`), says so in one line and
 exits with 128 + the signal's number.
 """
 
@@ -177,8 +177,9 @@ def _run(args: argparse.Namespace, *, stdin: TextIO, stdout: TextIO) -> int:
     print(why, file=stdout)
     frontend = None
     if backend in ("xr", "desktop"):
-        from pedvr.xr.participant import open_frontend
+        from pedvr.xr.participant import open_frontend, prepare_protocol
 
+        prepare_protocol(protocol)  # before the view opens: compiling in a running headset freezes it
         frontend = open_frontend(backend, eye_height=protocol.eye_height_m)
     try:
         with damage_reported(db):
@@ -201,11 +202,11 @@ def _run_in(
     stdin: TextIO,
     stdout: TextIO,
 ) -> int:
+    from pedvr.signals import TerminatedBySignal, signals_abort
     from pedvr.study.console import ExperimenterConsole, KeySource, NoKeys, TerminalKeys
     from pedvr.study.presenter import Participant, SimulatedParticipant, TerminalParticipant
     from pedvr.study.protocol import participant_number
     from pedvr.study.session import Session
-    from pedvr.study.signals import TerminatedBySignal, signals_abort
     from pedvr.study.store import StudyStore
 
     with StudyStore(db) as store:
@@ -217,11 +218,13 @@ def _run_in(
                 )
             pid = f"SIM{store.next_number():02d}"
         number = participant_number(pid)
+        keys: KeySource = TerminalKeys(stdin, stdout) if _isatty(stdin) else NoKeys()
+        console = ExperimenterConsole(out=stdout, keys=keys)
         participant: Participant
         if frontend is not None:
             from pedvr.xr.participant import InAppParticipant
 
-            participant = InAppParticipant(frontend)
+            participant = InAppParticipant(frontend, console=console)
         elif simulated:
             participant = SimulatedParticipant(
                 seed=protocol.seed, number=number, eye_height_m=protocol.eye_height_m, pace=args.pace or 0.0,
@@ -229,8 +232,6 @@ def _run_in(
             )
         else:
             participant = TerminalParticipant(stdin=stdin, stdout=stdout, eye_height_m=protocol.eye_height_m)
-        keys: KeySource = TerminalKeys(stdin, stdout) if _isatty(stdin) else NoKeys()
-        console = ExperimenterConsole(out=stdout, keys=keys)
         session = Session(
             protocol=protocol,
             store=store,

@@ -42,6 +42,7 @@ import numpy as np
 from pedvr.crowd.user import UserInput
 from pedvr.errors import UsageError
 from pedvr.scene.config import USER_WALKS
+from pedvr.study.console import Command
 from pedvr.study.counterbalance import stable_seed
 from pedvr.study.errors import AnswerError
 from pedvr.study.protocol import ShownPair, TrialSpec
@@ -96,6 +97,16 @@ def head_from_floor(sim: Simulation, *, eye_height_m: float) -> HeadPose:
     return HeadPose(
         position=(x, y, eye_height_m), orientation=(math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
     )
+
+
+class ExperimenterCommand(Exception):
+    """Raised from :meth:`Participant.show` or :meth:`Participant.ask` when the experimenter skipped
+    or aborted at the console while the participant was on a panel (the in-app participant polls
+    the console: issue 23 item 3); the session handles ``command`` as one given between steps."""
+
+    def __init__(self, command: Command) -> None:
+        super().__init__(command.kind)
+        self.command = command
 
 
 class Participant(Protocol):

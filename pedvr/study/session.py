@@ -19,7 +19,7 @@ participant (:meth:`Participant.ask`) to the moment the answer is confirmed.
 The in-app participant draws the item on its next frame, so the time
 includes at most one frame (11 ms at 90 Hz) before the item is visible.
 
-A session ended by Ctrl-C, SIGTERM or SIGHUP (:mod:`pedvr.study.signals`), or
+A session ended by Ctrl-C, SIGTERM or SIGHUP (:mod:`pedvr.signals`), or
 by the participant closing the view, is ``aborted`` with an ``abort`` event
 saying why; a trial running at that moment is marked ``interrupted`` at once,
 its samples up to then kept (and flagged in the export), and ``--resume``
@@ -40,7 +40,7 @@ from scipy.spatial import cKDTree
 from pedvr.errors import UsageError
 from pedvr.study.console import Command, ExperimenterConsole
 from pedvr.study.errors import AnswerError, ParticipantExistsError, StudyStoreError
-from pedvr.study.presenter import Page, Participant, Question
+from pedvr.study.presenter import ExperimenterCommand, Page, Participant, Question
 from pedvr.study.protocol import (
     DemoCue,
     PlannedStep,
@@ -296,12 +296,15 @@ class Session:
         cmd = self.console.check()
         if cmd is not None:
             return self._command(cmd)
-        if step.kind == "instructions":
-            self.participant.show(Page(title=step.title, text=step.text))
-            return _Outcome("done")
-        if step.kind == "questionnaire":
-            return self._questionnaire(step)
-        return self._trial(step)
+        try:
+            if step.kind == "instructions":
+                self.participant.show(Page(title=step.title, text=step.text))
+                return _Outcome("done")
+            if step.kind == "questionnaire":
+                return self._questionnaire(step)
+            return self._trial(step)
+        except ExperimenterCommand as exc:  # skip / abort given while a panel waited (answers kept)
+            return self._command(exc.command)
 
     def _command(self, cmd: Command) -> _Outcome:
         self._event(cmd.kind, cmd.reason or None)

@@ -121,26 +121,45 @@ class KeyboardMouseUser:
         return self.pos.copy(), self.heading
 
 
+# The 2D heading of tracking space's forward (−Z, where a head at rest looks) when tracking floor
+# coordinates ``(x, z)`` are read as 2D ``(x, y)`` unrotated: atan2(−1, 0).
+TRACKING_FORWARD = -math.pi / 2
+
+
 @dataclass
 class PlaySpace:
-    """Where the tracking space lies in the world: 2D ``origin`` and ``yaw`` (CCW, rad).
+    """Where the tracking space lies in the world: 2D ``origin`` and ``yaw``, the world heading
+    (rad, the 2D convention of :mod:`pedvr.render.math3d`) that tracking space's forward (−Z, where
+    a head at rest looks) points to.
 
     A tracking-space point ``(x, y, z)`` (OpenXR, Y up) is at world
-    ``origin + R(yaw)·(x, z)`` on the ground; in 3D the play space is
-    ``T(origin) · R_y(−yaw)`` (the 2D/3D handedness of :mod:`pedvr.render.math3d`).
+    ``origin + R(yaw − TRACKING_FORWARD)·(x, z)`` on the ground; in 3D the play
+    space is ``T(origin) · R_y(−(yaw − TRACKING_FORWARD))`` (the 2D/3D handedness of
+    :mod:`pedvr.render.math3d`), so a head at rest sees what
+    :func:`~pedvr.render.math3d.first_person_rotation` ``(yaw)`` sees (issue 23 item 1: the
+    play space's yaw was the rotation angle itself, and a participant started facing 90° left of
+    the scene's heading).
     """
 
     origin: np.ndarray
     yaw: float = 0.0
 
+    @property
+    def _angle(self) -> float:
+        return self.yaw - TRACKING_FORWARD
+
     def to_world_2d(self, p_tracking: np.ndarray) -> np.ndarray:
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        c, s = math.cos(self._angle), math.sin(self._angle)
         x, z = float(p_tracking[0]), float(p_tracking[2])
         return self.origin + np.array([c * x - s * z, s * x + c * z])
 
+    def heading_of(self, forward_tracking: np.ndarray) -> float:
+        """World heading of a tracking-space direction (its floor projection)."""
+        return _wrap(heading_of_direction(forward_tracking) + self._angle)
+
     def matrix(self) -> np.ndarray:
         m = np.eye(4)
-        m[:3, :3] = rot_y(-self.yaw)
+        m[:3, :3] = rot_y(-self._angle)
         m[:3, 3] = (self.origin[0], 0.0, self.origin[1])
         return m
 
@@ -165,7 +184,9 @@ class HeadsetUser:
     predicted display time ``t``) and controls; :meth:`pose` gives the user
     agent's floor position and heading at any simulation time, interpolated
     between the last two tracked samples (held, not extrapolated, beyond
-    them). Locomotion moves the play space in the direction the head faces;
+    them). The play space starts with its forward (where a head at rest looks) on the scene's
+    ``heading``, so the participant starts facing what the headless and desktop views face.
+    Locomotion moves the play space in the direction the head faces;
     a snap turn rotates it by 30° about the head, so the user turns in place.
     """
 
@@ -195,9 +216,7 @@ class HeadsetUser:
         """Floor position and heading of the head in the world now."""
         if self._head_tracking is None:
             return self.space.origin.copy(), self.space.yaw
-        p = self.space.to_world_2d(self._head_tracking)
-        h = _wrap(heading_of_direction(self._head_forward) + self.space.yaw)
-        return p, h
+        return self.space.to_world_2d(self._head_tracking), self.space.heading_of(self._head_forward)
 
     def track(
         self,

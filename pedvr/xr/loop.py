@@ -10,7 +10,9 @@ interval and missed frames (DESIGN.md "One step": rendering is not a phase).
 
 When the simulation falls more than ``max_lag`` seconds behind the display
 (a stall, a breakpoint), the clock skips ahead instead of running a burst of
-steps (no spiral of death); skipped time is reported.
+steps (no spiral of death); skipped time is reported. An ``offline``
+presenter (frames to files) has no wall clock to keep up with: every frame is
+taken at its own simulated time and none after the run's duration.
 """
 
 from __future__ import annotations
@@ -75,6 +77,9 @@ class Telemetry:
     backend: str = ""
 
     def summary(self) -> dict[str, object]:
+        """Counts and percentiles (``frame_ms_max``: the longest interval between two frames'
+        display times, the worst stall a viewer saw)."""
+
         def pct(xs: list[float], q: float) -> float | None:
             return round(float(np.percentile(xs, q)), 3) if xs else None
 
@@ -95,6 +100,7 @@ class Telemetry:
             "render_ms_max": round(max(self.render_ms), 3) if self.render_ms else None,
             "frame_ms_p50": pct(self.frame_ms, 50),
             "frame_ms_p95": pct(self.frame_ms, 95),
+            "frame_ms_max": round(max(self.frame_ms), 3) if self.frame_ms else None,
             "steps_per_frame_max": max(self.steps) if self.steps else 0,
         }
 
@@ -141,16 +147,26 @@ def run_frames(
     max_lag: float = 0.25,
     clock: object = time.perf_counter,
     max_idle_polls: int | None = None,
+    telemetry: Telemetry | None = None,
+    offline: bool = False,
 ) -> Telemetry:
     """Run until ``duration`` simulated seconds or the presenter closes; return the telemetry.
 
-    The first frame's display time is simulation time ``sim.t``; after that
-    simulation time follows display time. ``clock`` (``() -> float`` seconds)
+    The first frame to be drawn (``should_render``) is shown at simulation time
+    ``sim.t`` (after one step when the simulation has not stepped yet and the
+    presenter is live: the first step poses the bodies); after that simulation
+    time follows display time. Frames before it
+    (an OpenXR session not yet visible) are ended without moving the simulation:
+    nothing happens in the world before the participant can see it. ``clock`` (``() -> float`` seconds)
     times the work, injected for tests. ``max_idle_polls`` bounds how many
     frameless polls (session not running) are tolerated, for tests.
+    ``telemetry`` is filled as frames are made (pass one to keep what was
+    measured when the loop is interrupted: issue 23 item 5). ``offline``: no
+    stall guard, and the simulation runs on to ``duration`` after the last
+    frame taken before it (module docstring).
     """
     tick = clock  # type: ignore[assignment]
-    tel = Telemetry(backend=presenter.name)
+    tel = telemetry if telemetry is not None else Telemetry(backend=presenter.name)
     origin: float | None = None
     last_display: float | None = None
     while not presenter.closed:
@@ -163,7 +179,15 @@ def run_frames(
                 break
             continue
         if origin is None:
+            if not timing.should_render:
+                presenter.end_frame()
+                continue
+            if not offline and sim.step_index == 0:
+                sim.step()  # bodies are posed by a step: a live view never shows them unposed at t = 0
             origin = timing.display_time - sim.t
+        if offline and duration is not None and timing.display_time - origin >= duration - 1e-9:
+            sim.advance_to(duration)  # no frame at or after the end: the run still covers it all
+            break
         if last_display is not None:
             interval = timing.display_time - last_display
             tel.frame_ms.append(interval * 1e3)
@@ -175,7 +199,7 @@ def run_frames(
         if duration is not None:
             target = min(target, duration)
         lag = target - sim.t
-        if lag > max_lag:
+        if lag > max_lag and not offline:
             origin += lag - max_lag
             tel.skipped_sim_s += lag - max_lag
             target = sim.t + max_lag

@@ -16,10 +16,22 @@ open once per session; each trial builds a renderer for its scene.
 
 Closing the window, Esc, or the runtime ending the XR session aborts the
 session like Ctrl-C (the runner records the abort; continue with ``--resume``).
+
+While a panel waits for the participant, the experimenter's console keys still
+work (issue 23 item 3: with a controller that cannot press, Ctrl-C was the only
+way out): help prints, skip and abort end the panel and the runner handles them
+as between steps (:class:`~pedvr.study.presenter.ExperimenterCommand`). Pause
+stops the frames while it lasts, as it does in a trial.
+
+Once an OpenXR session is focused, the runtime's facts (``pedvr xr check``'s:
+runtime, headset, resolution, refresh rate, spaces, bound controllers) are
+stored with the session's records, as an ``xr_runtime`` event whose detail is
+their JSON (a methods section needs them).
 """
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Callable
@@ -31,13 +43,14 @@ from pedvr.errors import BackendUnavailableError
 from pedvr.render.math3d import EYE_HEIGHT
 from pedvr.render.panel import PanelAnchor, PanelDrawer, PanelImage, panel_image, row_at
 from pedvr.study.panel_input import PagePanel, PanelEvent, PanelView, QuestionPanel, drive
-from pedvr.study.presenter import HeadPose, Page, Question, head_from_floor
+from pedvr.study.presenter import ExperimenterCommand, HeadPose, Page, Question, head_from_floor
 from pedvr.study.questionnaire import Response
 
 if TYPE_CHECKING:
     from pedvr.crowd.user import UserInput
     from pedvr.scene.config import SceneConfig
     from pedvr.sim import Simulation
+    from pedvr.study.console import ExperimenterConsole
     from pedvr.study.protocol import TrialSpec
 
 STICK_FIRE = 0.7  # thumbstick x beyond this chooses the next / previous option ...
@@ -67,6 +80,10 @@ class Frontend(Protocol):
 
     def head_pose(self, sim: Simulation) -> HeadPose: ...
 
+    def runtime_facts(self) -> dict[str, Any] | None:
+        """The XR runtime's facts once they are all known (session focused), else None."""
+        ...
+
     def close(self) -> None: ...
 
 
@@ -75,24 +92,42 @@ class SessionClosed(KeyboardInterrupt):
 
 
 class InAppParticipant:
-    """The participant in the app (module docstring). ``max_lag`` as in :func:`pedvr.xr.loop.run_frames`."""
+    """The participant in the app (module docstring). ``max_lag`` as in :func:`pedvr.xr.loop.run_frames`;
+    ``console``: the experimenter's, polled while panels wait and told the runtime's facts."""
 
-    def __init__(self, frontend: Frontend, *, max_lag: float = 0.25) -> None:
+    def __init__(self, frontend: Frontend, *, max_lag: float = 0.25,
+                 console: ExperimenterConsole | None = None) -> None:
         self.frontend = frontend
         self.kind = f"in-app ({frontend.name})"
         self.user_walk: str | None = None  # a real person walks (trial_input gives the pose source)
         self.max_lag = max_lag
+        self.console = console
         self._origin: float | None = None
+        self._facts_logged = False
 
     def _check(self) -> None:
         if self.frontend.closed:
             raise SessionClosed(f"the {self.frontend.name} view was closed")
+        self._log_runtime()
+
+    def _log_runtime(self) -> None:
+        """Store the runtime's facts with the session once, when the frontend knows them all."""
+        if self._facts_logged or self.console is None:
+            return
+        facts = self.frontend.runtime_facts()
+        if facts is not None:
+            self.console.on_event("xr_runtime", json.dumps(facts, sort_keys=True))
+            self._facts_logged = True
 
     def _run(self, panel: PagePanel | QuestionPanel) -> None:
         while not panel.done:
             self._check()
             _, events = self.frontend.frame(None, panel.view())
             drive(panel, events)  # events after the confirming one are dropped, not given to the next panel
+            if self.console is not None and not panel.done:
+                cmd = self.console.check()  # help prints; pause waits; skip and abort end the panel
+                if cmd is not None:
+                    raise ExperimenterCommand(cmd)
 
     def show(self, page: Page) -> None:
         self._run(PagePanel(page, keyboard=self.frontend.keyboard))
@@ -344,6 +379,9 @@ class DesktopFrontend:
         events, self._events = self._events, []
         return now + self.period, events if panel is not None else []
 
+    def runtime_facts(self) -> dict[str, Any] | None:
+        return None  # no XR runtime on the desktop
+
     def head_pose(self, sim: Simulation) -> HeadPose:
         base = head_from_floor(sim, eye_height_m=self.eye_height)
         pitch = self.user.pitch if self.user is not None else 0.0
@@ -524,21 +562,56 @@ class XrFrontend:
     def head_pose(self, sim: Simulation) -> HeadPose:
         return head_from_floor(sim, eye_height_m=self.eye_height)
 
+    def runtime_facts(self) -> dict[str, Any] | None:
+        """The port's :meth:`~pedvr.xr.openxr.OpenXRPort.runtime_facts` once the session has been
+        focused for a few frames (the controllers' profiles are bound by then), else None."""
+        return self.presenter.facts
+
     def _release_trial(self) -> None:
         if self.renderer is not None:
             self.renderer.release()
         self.renderer = self.user = None
 
     def close(self) -> None:
-        from pedvr.xr.run import _finish_xr
-
         try:
-            _finish_xr(self.presenter)  # type: ignore[arg-type]
+            self.presenter.finish()
         finally:
             self._release_trial()
             if self.drawer is not None:
                 self.drawer.release()
             self.presenter.close()
+
+
+def prepare_protocol(protocol: Any, *, say: Callable[[str], None] | None = None) -> int:
+    """Prepare the protocol's trials before the view opens (:mod:`pedvr.prepare`): a trial's first
+    step inside a running headset session would freeze it while numba compiles (issue 23 item 2).
+
+    Each distinct (scene, condition) of participant 1's plan gets a simulation of its own and its
+    first steps with both kernel twins; once one of them compiles nothing, numba's cache is warm
+    and the rest are skipped (a warm start costs one scene's set-up). Returns the number prepared.
+    Kernels a trial needs only later (an event minutes in) still compile when first used."""
+    from pedvr.prepare import first_step, stderr_say, twin_steps
+    from pedvr.scene.loader import load_any
+    from pedvr.sim import Simulation
+    from pedvr.study.protocol import plan_for
+
+    say = stderr_say if say is None else say
+    seen: set[tuple[str, str]] = set()
+    specs = []
+    for step in plan_for(protocol, number=1):
+        spec = step.trial
+        if spec is not None and (spec.scene, spec.condition) not in seen:
+            seen.add((spec.scene, spec.condition))
+            specs.append(spec)
+    for k, spec in enumerate(specs, start=1):
+        say(f"preparing trial scene {k} of {len(specs)}: {spec.scene_name} ({spec.condition}) ...")
+        scene = load_any(protocol.scene_path(spec.scene), seed=spec.seed)
+        sim = Simulation(scene, seed=spec.seed, condition=spec.condition, responsibility=spec.responsibility)
+        compiled = first_step(sim, say=say).kernels_compiled + twin_steps(sim, say=say)[0]
+        if compiled == 0:
+            say("prepared: numba's cache is warm")
+            return k
+    return len(specs)
 
 
 def open_frontend(backend: str, *, eye_height: float) -> DesktopFrontend | XrFrontend:
@@ -560,4 +633,5 @@ __all__ = [
     "controller_events",
     "head_with_pitch",
     "open_frontend",
+    "prepare_protocol",
 ]

@@ -1,21 +1,30 @@
-"""``pedvr run`` with a view: build the backend, run the frame loop, save the run.
+"""``pedvr run`` with a view: build the backend, prepare, run the frame loop, save the run.
 
 One entry point for the three presenters (openxr, desktop, headless with
 files). The backend is built before the simulation, so a backend that cannot
-start costs nothing and fails with one line. The trajectory and metrics are
-written as by the plain headless run, with the frame loop's telemetry under
-``frames`` and the OpenGL renderer's name under ``renderer``.
+start costs nothing and fails with one line. Before the first frame the run is
+prepared (:mod:`pedvr.prepare`): the first step of a simulation of the same
+scene compiles numba's kernels and one frame of it is drawn with the
+backend's own programs, saying what is happening; in the headset this happens
+before the first ``xrWaitFrame`` (issue 23 item 2). The trajectory and metrics
+are written by :mod:`pedvr.outputs`, with the frame loop's telemetry under
+``frames`` (kept on Ctrl-C, SIGTERM and SIGHUP too), what preparing took
+under ``prepare``, and the OpenGL renderer's name under ``renderer`` (in the
+headset too: llvmpipe there is a software renderer as anywhere else).
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pedvr.errors import BackendUnavailableError
-from pedvr.render.math3d import EyeView
+from pedvr.outputs import interrupted_by, signals_interrupt, write_outputs
+from pedvr.prepare import CompileLog, Prepared, prepare, stderr_say
+from pedvr.render.math3d import EyeView, first_person_eye
 from pedvr.render.snapshot import Snapshot
 from pedvr.scene.config import SceneConfig
 from pedvr.sim import Simulation
@@ -40,19 +49,35 @@ class ViewOptions:
     vsync: bool = True
 
 
-def _xr_presenter(scene: SceneConfig, opts: ViewOptions) -> tuple[XrPresenter, HeadsetUser]:
+@dataclass
+class Built:
+    """A backend ready to run: the simulation, its presenter, the renderer's name, and how to
+    prepare (``make_sim``: a fresh simulation of the same run; ``draw``: one frame of one)."""
+
+    sim: Simulation
+    presenter: Presenter
+    renderer: str
+    make_sim: Callable[[], Simulation]
+    draw: Callable[[Simulation], object]
+
+
+def _xr_presenter(scene: SceneConfig) -> tuple[XrPresenter, HeadsetUser, Callable[[Simulation], None]]:
     from pedvr.render.renderer import Renderer
     from pedvr.xr.locomotion import HeadsetUser, WalkableArea
     from pedvr.xr.openxr import OpenXRPort
     from pedvr.xr.session import XrPresenter
 
     port = OpenXRPort.open()
-    user = HeadsetUser(
-        start=scene.user.start,
-        heading=scene.user.heading,
-        walkable=WalkableArea(scene.world, radius=scene.user.radius),
-    )
-    renderer = Renderer.for_scene(port.ctx, scene)
+    try:
+        user = HeadsetUser(
+            start=scene.user.start,
+            heading=scene.user.heading,
+            walkable=WalkableArea(scene.world, radius=scene.user.radius),
+        )
+        renderer = Renderer.for_scene(port.ctx, scene)
+    except BaseException:
+        port.close()
+        raise
 
     def update(sim: Simulation) -> None:
         renderer.begin_frame()
@@ -66,7 +91,20 @@ def _xr_presenter(scene: SceneConfig, opts: ViewOptions) -> tuple[XrPresenter, H
             viewport=viewport,
         )
 
-    return XrPresenter(port, user=user, draw_eye=draw_eye, update=update), user
+    def draw_once(sim: Simulation) -> None:
+        """One eye of ``sim`` into targets like the swapchains' (same format, size and depth), so
+        the driver has compiled every program variant before the first xrWaitFrame."""
+        snap = Snapshot.from_sim(sim)
+        renderer.begin_frame()
+        renderer.update(snap)
+        u = snap.user_row if snap.user_row is not None else 0
+        w, h = port.sizes[0]
+        eye = first_person_eye(pos=snap.pos[u], heading=float(snap.heading[u]), aspect=w / h)
+        with port.offscreen_target() as fbo:
+            draw_eye(eye, fbo, (0, 0, w, h))
+            port.ctx.finish()
+
+    return XrPresenter(port, user=user, draw_eye=draw_eye, update=update), user, draw_once
 
 
 def build(
@@ -79,26 +117,37 @@ def build(
     responsibility: float | None,
     personal_space: float | None = None,
     user_walk: str | None = None,
-) -> tuple[Simulation, Presenter, str]:
-    """The simulation, its presenter, and the renderer's name; raises BackendUnavailableError.
+) -> Built:
+    """The simulation, its presenter, the renderer's name and how to prepare them; raises
+    BackendUnavailableError.
 
     ``user_walk`` applies to the headless backend's scripted user only; a real user
     walks as they like."""
-    crowd_opts = {"seed": seed, "condition": condition, "responsibility": responsibility,
-                  "personal_space": personal_space, "record": True}
+    crowd_opts: dict[str, Any] = {"seed": seed, "condition": condition, "responsibility": responsibility,
+                                  "personal_space": personal_space, "record": True}
     if backend == "xr":
-        presenter, user = _xr_presenter(scene, opts)
-        sim = Simulation(scene, user_input=user, **crowd_opts)  # type: ignore[arg-type]
-        return sim, presenter, "openxr"
+        from pedvr.xr.locomotion import HeadsetUser
+
+        presenter, user, draw = _xr_presenter(scene)
+        sim = Simulation(scene, user_input=user, **crowd_opts)
+        return Built(
+            sim, presenter, presenter.port.renderer_name,  # type: ignore[attr-defined]
+            lambda: Simulation(scene, user_input=HeadsetUser(start=scene.user.start,
+                                                             heading=scene.user.heading), **crowd_opts),
+            draw,
+        )
     if backend == "desktop":
         from pedvr.xr.desktop import DesktopPresenter
         from pedvr.xr.locomotion import KeyboardMouseUser, WalkableArea
 
-        kb = KeyboardMouseUser(
-            start=scene.user.start,
-            heading=scene.user.heading,
-            walkable=WalkableArea(scene.world, radius=scene.user.radius),
-        )
+        def keyboard() -> KeyboardMouseUser:
+            return KeyboardMouseUser(
+                start=scene.user.start,
+                heading=scene.user.heading,
+                walkable=WalkableArea(scene.world, radius=scene.user.radius),
+            )
+
+        kb = keyboard()
         desk = DesktopPresenter(
             scene,
             user=kb,
@@ -108,13 +157,19 @@ def build(
             hud_label=opts.label,
             vsync=opts.vsync,
         )
-        sim = Simulation(scene, user_input=kb, **crowd_opts)  # type: ignore[arg-type]
-        return sim, desk, str(desk.ctx.info.get("GL_RENDERER", "unknown"))
-    if backend == "headless":
-        from pedvr.xr.headless import HeadlessPresenter
+        sim = Simulation(scene, user_input=kb, **crowd_opts)
 
-        sim = Simulation(scene, user_walk=user_walk, **crowd_opts)  # type: ignore[arg-type]
-        head = HeadlessPresenter(
+        def draw_desktop(s: Simulation) -> None:
+            desk.render(s)  # into the back buffer, never swapped: the first real frame clears it
+            desk.ctx.finish()
+
+        return Built(sim, desk, str(desk.ctx.info.get("GL_RENDERER", "unknown")),
+                     lambda: Simulation(scene, user_input=keyboard(), **crowd_opts), draw_desktop)
+    if backend == "headless":
+        from pedvr.xr.offscreen import OffscreenPresenter
+
+        sim = Simulation(scene, user_walk=user_walk, **crowd_opts)
+        head = OffscreenPresenter(
             sim,
             frames_dir=opts.frames,
             video=opts.video,
@@ -124,7 +179,8 @@ def build(
             fps=opts.fps,
             hud_label=opts.label,
         )
-        return sim, head, head.renderer_name
+        return Built(sim, head, head.renderer_name,
+                     lambda: Simulation(scene, user_walk=user_walk, **crowd_opts), head.draw)
     raise BackendUnavailableError(f"backend {backend!r}: expected xr, desktop or headless")
 
 
@@ -142,37 +198,56 @@ def run_with_view(
     out: Path,
     personal_space: float | None = None,
     user_walk: str | None = None,
+    progress: bool = True,
 ) -> dict[str, object]:
-    """Run the frame loop on ``backend`` and save the run (see :func:`pedvr.headless.write_outputs`)."""
-    from pedvr.headless import write_outputs
-
+    """Prepare, run the frame loop on ``backend`` and save the run (see
+    :func:`pedvr.outputs.write_outputs`). Ctrl-C, SIGTERM and SIGHUP end the loop early and keep
+    the outputs and the telemetry so far (``interrupted`` names the signal)."""
     duration = scene.duration if duration is None else duration
     t0 = time.perf_counter()
-    sim, presenter, renderer_name = build(
+    built = build(
         scene, backend=backend, opts=opts, seed=seed, condition=condition, responsibility=responsibility,
         personal_space=personal_space, user_walk=user_walk,
     )
-    interrupted = False
+    sim, presenter = built.sim, built.presenter
+    interrupted: bool | str = False
     tel = Telemetry(backend=presenter.name)
+    prepared: Prepared | None = None
     try:
-        tel = run_frames(sim, presenter, duration=duration)
-        _finish_xr(presenter)
-    except KeyboardInterrupt:
-        interrupted = True
+        with signals_interrupt():
+            prepared = prepare(built.make_sim, what=f"{scene.name} ({backend})", draw=built.draw,
+                               say=stderr_say if progress else None)
+            with CompileLog() as later:
+                try:
+                    run_frames(sim, presenter, duration=duration, telemetry=tel,
+                               offline=backend == "headless")
+                finally:
+                    prepared.compiled_during_run = later.names
+    except KeyboardInterrupt as exc:
+        interrupted = interrupted_by(exc)
     finally:
-        presenter.close()
+        with signals_interrupt():  # a second signal must not cut the session's end short
+            _finish(presenter)
+            presenter.close()
     wall = time.perf_counter() - t0
     from pedvr.xr.session import XrPresenter
 
     lost = presenter.lost if isinstance(presenter, XrPresenter) else None
     extra: dict[str, object] = {
         "frames": tel.summary(),
-        "renderer": renderer_name,
+        "renderer": built.renderer,
         "backend": backend,
         "interrupted": interrupted,
         "wall_s": round(wall, 3),
         "realtime_factor": round(sim.t / wall, 2) if wall > 0 else None,
+        "prepare": prepared.summary() if prepared is not None else None,
     }
+    if isinstance(presenter, XrPresenter):
+        extra["xr"] = {
+            "session_states": [st.name for st in presenter.logic.history],
+            "eyes_rendered": list(presenter.eyes_rendered),
+            "runtime": presenter.facts,
+        }
     if lost:
         extra["backend_lost"] = lost
     summary = write_outputs(
@@ -180,8 +255,8 @@ def run_with_view(
     )
     f = tel.summary()
     print(
-        f"  frames {f['frames']} ({backend}, {renderer_name}), render p50 {f['render_ms_p50']} ms, "
-        f"sim p50 {f['sim_ms_p50']} ms, {missed_line(f, renderer_name)}"
+        f"  frames {f['frames']} ({backend}, {built.renderer}), render p50 {f['render_ms_p50']} ms, "
+        f"sim p50 {f['sim_ms_p50']} ms, {missed_line(f, built.renderer)}"
     )
     if opts.frames is not None:
         print(f"  frames:     {opts.frames}/first_person, {opts.frames}/overhead")
@@ -194,14 +269,9 @@ def run_with_view(
     return summary
 
 
-def _finish_xr(presenter: Presenter, *, timeout: float = 5.0) -> None:
-    """After the run, ask an OpenXR session to exit and keep submitting frames until it has."""
+def _finish(presenter: Presenter) -> None:
+    """After the run, end an OpenXR session politely (:meth:`XrPresenter.finish`)."""
     from pedvr.xr.session import XrPresenter
 
-    if not isinstance(presenter, XrPresenter) or presenter.closed:
-        return
-    presenter.request_exit()
-    deadline = time.perf_counter() + timeout
-    while not presenter.closed and time.perf_counter() < deadline:
-        if presenter.wait_frame() is not None:
-            presenter.end_frame()
+    if isinstance(presenter, XrPresenter):
+        presenter.finish()

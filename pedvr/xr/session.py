@@ -9,7 +9,10 @@ OpenXR session life cycle (OpenXR 1.0 §9.3):
 * ``STOPPING``: end the session; frames stop.
 * ``EXITING``: the runtime or the user ended it; the loop stops normally.
 * ``LOSS_PENDING`` (or instance loss): the headset went away; the loop stops
-  and :attr:`XrPresenter.lost` says why (one line, no traceback).
+  and :attr:`XrPresenter.lost` says why (one line, no traceback). A port call
+  that finds the session or instance already lost (the runtime killed or
+  crashed: ``XR_ERROR_SESSION_LOST``, ``XR_ERROR_INSTANCE_LOST``) raises
+  :class:`RuntimeLostError`, which ends the loop the same way.
 
 Each frame: ``wait_frame`` (predicted display time drives the simulation
 clock), ``begin_frame``, locate the head and the per-eye views at the
@@ -24,7 +27,7 @@ from __future__ import annotations
 import enum
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -39,6 +42,16 @@ if TYPE_CHECKING:
 
 class BackendLostError(BackendUnavailableError):
     """The OpenXR session ended early (headset or runtime lost); the run so far is saved."""
+
+
+FACTS_AFTER_FRAMES = 10  # focused frames before the runtime's facts are read (controllers bound by then)
+
+
+class RuntimeLostError(Exception):
+    """A port call found the OpenXR session or instance lost (the runtime went away mid-call).
+
+    The message is one line saying what happened and what to do; :class:`XrPresenter` turns it
+    into :attr:`XrPresenter.lost` instead of letting it escape the frame loop (issue 23 item 4)."""
 
 
 class SessionState(enum.IntEnum):
@@ -86,7 +99,11 @@ class ViewLocation:
 
 @dataclass(frozen=True)
 class XrFrame:
-    """``xrWaitFrame``'s answer: predicted display time and period (s), and ``should_render``."""
+    """``xrWaitFrame``'s answer: predicted display time (s), ``should_render``, and ``period`` (s):
+    the display's refresh period where the runtime says what it is (``XR_FB_display_refresh_rate``),
+    else the predicted display period. A runtime's predicted period can follow the application's
+    own pace (Monado's does: 16.7 ms up to 683 ms for a slow app), which would hide missed
+    refreshes (issue 23 item 6)."""
 
     display_time: float
     period: float
@@ -121,6 +138,10 @@ class XrPort(Protocol):
     def end_frame(self, *, display_time: float, views: list[ViewLocation] | None) -> None: ...
 
     def idle_wait(self) -> None: ...
+
+    def runtime_facts(self) -> dict[str, Any]:
+        """What ``pedvr xr check`` prints (:meth:`pedvr.xr.openxr.OpenXRPort.runtime_facts`)."""
+        ...
 
     def close(self) -> None: ...
 
@@ -196,6 +217,7 @@ class XrPresenter:
         self.near, self.far = near, far
         self.logic = SessionLogic(port)
         self._frame: XrFrame | None = None
+        self._begun = False  # xrBeginFrame called for self._frame
         self._views: list[ViewLocation] | None = None
         self._last_time: float | None = None
         self.controls = Controls()
@@ -204,6 +226,9 @@ class XrPresenter:
         self.triggers = 0
         self.menus = 0
         self.holding_door = False
+        self.eyes_rendered = [0, 0]  # frames drawn into each eye's swapchain
+        self.focused_frames = 0
+        self.facts: dict[str, Any] | None = None  # the runtime's facts, read once focused for a while
 
     @property
     def closed(self) -> bool:
@@ -213,20 +238,40 @@ class XrPresenter:
     def lost(self) -> str | None:
         return self.logic.lost
 
+    def _lose(self, exc: RuntimeLostError) -> None:
+        self.logic.lost = str(exc)
+        self.logic.running = False  # the runtime is gone: nothing to end
+        self._frame = None
+
     def wait_frame(self) -> FrameTiming | None:
+        try:
+            return self._wait_frame()
+        except RuntimeLostError as exc:
+            self._lose(exc)
+            return None
+
+    def _wait_frame(self) -> FrameTiming | None:
+        if self._frame is not None:
+            self._end_pending()  # a frame left open (an interrupt between wait and end): close it
         for ev in self.port.poll_events():
             self.logic.handle(ev)
         if not self.logic.running:
-            self.port.idle_wait()
+            if not self.logic.done:
+                self.port.idle_wait()
             return None
         frame = self.port.wait_frame()
+        self._frame, self._begun = frame, False
         self.port.begin_frame()
-        self._frame = frame
+        self._begun = True
         head = self.port.locate_head(frame.display_time)
         self.controls = self.port.sync_controls(focused=self.logic.focused)
         self.hands = self.port.locate_hands(frame.display_time)
         self.triggers += int(self.controls.trigger)
         self.menus += int(self.controls.menu)
+        if self.logic.focused:
+            self.focused_frames += 1
+            if self.facts is None and self.focused_frames >= FACTS_AFTER_FRAMES:
+                self.facts = self.port.runtime_facts()
         dt = 0.0 if self._last_time is None else max(0.0, frame.display_time - self._last_time)
         self._last_time = frame.display_time
         self.user.track(
@@ -277,8 +322,13 @@ class XrPresenter:
                 self.holding_door = sim.etiquette.user_hand_moved(hand)
         if self.update is not None:
             self.update(sim)
-        for i, eye in enumerate(self.eye_views()):
-            self.port.render_eye(i, self._drawer(eye))
+        try:
+            for i, eye in enumerate(self.eye_views()):
+                self.port.render_eye(i, self._drawer(eye))
+                if i < len(self.eyes_rendered):
+                    self.eyes_rendered[i] += 1
+        except RuntimeLostError as exc:
+            self._lose(exc)
 
     def _drawer(self, eye: EyeView) -> Callable[[object, tuple[int, int, int, int]], None]:
         def draw(framebuffer: object, viewport: tuple[int, int, int, int]) -> None:
@@ -289,13 +339,49 @@ class XrPresenter:
     def end_frame(self) -> None:
         if self._frame is None:
             return
-        self.port.end_frame(
-            display_time=self._frame.display_time, views=self._views if self._frame.should_render else None
-        )
-        self._frame = None
+        frame, self._frame = self._frame, None
+        try:
+            if not self._begun:
+                self.port.begin_frame()
+            self.port.end_frame(
+                display_time=frame.display_time, views=self._views if frame.should_render else None
+            )
+        except RuntimeLostError as exc:
+            self._lose(exc)
+
+    def _end_pending(self) -> None:
+        """End a frame that was waited for but not ended, with no layers (nothing half-drawn shown)."""
+        self._views = None
+        self.end_frame()
 
     def request_exit(self) -> None:
-        self.logic.request_exit()
+        try:
+            self.logic.request_exit()
+        except RuntimeLostError as exc:
+            self._lose(exc)
+
+    def finish(self, *, timeout: float = 5.0, clock: Callable[[], float] | None = None) -> None:
+        """End the session politely: close a frame left open, ask the runtime to exit, and keep
+        submitting empty frames until it says EXITING (at most ``timeout`` s). Never raises for a
+        lost runtime: :attr:`lost` says so instead."""
+        import time
+
+        tick = clock or time.perf_counter
+        if self._frame is not None:
+            self._end_pending()
+        if self.closed:
+            return
+        if self.facts is None and self.logic.running:  # a short run: read them before the session ends
+            try:
+                self.facts = self.port.runtime_facts()
+            except RuntimeLostError as exc:
+                self._lose(exc)
+                return
+        self.request_exit()
+        deadline = tick() + timeout
+        while not self.closed and tick() < deadline:
+            if self.wait_frame() is not None:
+                self._end_pending()
 
     def close(self) -> None:
         self.port.close()

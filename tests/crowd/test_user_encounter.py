@@ -94,20 +94,22 @@ def test_safety_off_is_pure_rho_and_the_contacts_are_counted() -> None:
 # -- corridors: pinned between the user and a wall ----------------------------------------------
 
 
-def corridor(width: float, *, dead_end: bool, kind: str, n_agents: int, user_speed: float):
+def corridor(width: float, *, dead_end: bool, kind: str, n_agents: int, user_speed: float,
+             user_y: float | None = None, end_x: float | None = None):
     """A 12 m corridor, closed at x = +6 (dead end) or opening into a room at x = 3. The user
-    walks in from x = -5.5 (along the right-hand wall where the corridor is narrower than
-    1.05 m, as a person passing someone there does) to the far end."""
+    walks in from x = -5.5 to ``end_x`` (default: 1 m short of the dead end, or into the room)
+    along ``y = user_y`` (default: along the right-hand wall, 2 cm off it, where the corridor is
+    narrower than 1.05 m, as a person passing someone there does; else the centre line)."""
     h = width / 2
     if dead_end:
         world = {"bounds": [[-6.0, -h], [6.0, h]]}
-        end_x = 5.0
+        end_x = 5.0 if end_x is None else end_x
     else:
         world = {"bounds": [[-6.0, -3.0], [9.0, 3.0]],
                  "obstacles": [{"polygon": [[-6.0, h], [3.0, h], [3.0, 3.0], [-6.0, 3.0]]},
                                {"polygon": [[-6.0, -3.0], [3.0, -3.0], [3.0, -h], [-6.0, -h]]}]}
-        end_x = 8.0
-    uy = -(h - 0.25 - 0.02) if width < 1.05 else 0.0
+        end_x = 8.0 if end_x is None else end_x
+    uy = (-(h - 0.25 - 0.02) if width < 1.05 else 0.0) if user_y is None else user_y
     if kind == "standing":
         states = {"s": {"goal": {"selector": "stay"}}}
         spawns = [{"profile": "adult", "state": "s", "positions": [[1.5 * k, 0.0] for k in range(n_agents)]}]
@@ -167,6 +169,79 @@ def test_no_room_at_all_gives_way_into_the_wall_never_into_the_user() -> None:
     s = sim.summary()
     assert s["user_overlap_max_m"] <= 0.01, s
     assert s["wall_overlap_max_m"] > 0.05 and s["overlaps_over_1cm"] >= 1, s
+
+
+# -- walls where there is room (issue 24, item 10) ------------------------------------------------
+
+TURNED = 2 * 0.25 * DEPTH_RATIO  # m: a turned body's depth, front to back (0.26 m)
+
+
+WALLS = [(w, dead, kind, speed)
+         for w, dead, kind, speed in itertools.product((0.8, 0.9, 1.0, 1.1, 1.3), (True, False),
+                                                        ("standing", "ahead", "oncoming"), (1.0, 1.4))]
+
+
+@pytest.mark.parametrize("width, dead_end, kind, speed", WALLS,
+                         ids=[f"{w}m-{'dead' if d else 'open'}-{k}-{s}" for w, d, k, s in WALLS])
+def test_nobody_is_pushed_into_a_wall_where_a_turned_body_fits(width: float, dead_end: bool, kind: str,
+                                                               speed: float) -> None:
+    """Three agents standing, walking slowly ahead or oncoming; the user walks to the very end of a
+    dead end (its disc 0.25 m from the end wall) or out into the room, along the right-hand wall where
+    the corridor is narrower than 1.05 m, else down the middle: a turned body (0.26 m deep) fits
+    beside the user everywhere. Nobody overlaps a wall by more than 1 cm and nobody enters the user.
+    Before the fix, ORCA saw a turned agent against the wall as wide as its shoulders to a user coming
+    up behind it and chased it ahead into the dead end, where the user's body pushed it 9 cm into the
+    end wall (0.8 m, 1.4 m/s)."""
+    h = width / 2
+    user_y = -(h - 0.25 - 0.02) if width < 1.05 else 0.0
+    assert h + abs(user_y) - 0.25 >= TURNED + 0.01  # a turned body fits beside the user, with 1 cm to spare
+    scene = corridor(width, dead_end=dead_end, kind=kind, n_agents=3, user_speed=speed, user_y=user_y,
+                     end_x=5.5 if dead_end else None)
+    sim = Simulation(scene)
+    sim.advance_to(12.0 if dead_end else 15.0)
+    s = sim.summary()
+    assert s["wall_overlap_max_m"] <= 0.01, s
+    assert s["user_overlap_max_m"] == 0.0, s
+    assert s["user_spheres_reached"] == 1, s
+
+
+def test_a_turned_agent_against_a_wall_is_not_chased_by_a_user_who_passes_beside_it() -> None:
+    """The root cause of item 10. An agent turned flat against a corridor wall (its torso facing the
+    user's side, 0.13 m deep); the user 0.42 m behind it and 0.40 m to the side, walking along the
+    corridor at 1.3 m/s: the user's disc passes 0.02 m clear of the turned body. A disc as wide as the
+    pair along the line of centres (0.45 m there) made the safety step toward the user say they collide,
+    and with the wall on the other side the agent could only run ahead of the user, into the dead end;
+    the obstacle of the two footprints lets it stand."""
+    from pedvr.crowd.steering import Steering
+    from pedvr.scene.config import SteeringParams
+    from pedvr.world.obstacles import ObstacleSet
+    from tests.crowd._helpers import crowd as make
+
+    wall = ObstacleSet.from_polygons([np.array([[-6.0, 0.4], [6.0, 0.4], [6.0, 1.0], [-6.0, 1.0]])])  # y = 0.4
+    state = make([[-0.42, -0.13], [0.0, 0.27]], vel=[[1.3, 0.0], [0.0, 0.0]],
+                 pref_vel=[[1.3, 0.0], [0.0, 0.0]], is_user=[True, False], responsibility=1.0)
+    state.turn[1] = 1.0
+    state.torso[1] = -0.5 * np.pi  # facing the user's side of the corridor
+    for coupled in (False, True):
+        steer = Steering(SteeringParams(), wall, coupled=coupled)
+        px, py, dx, dy = steer.orca_lines(state, 1 / 90, 1)[-1]  # the line toward the user comes last
+        assert dx * py - dy * px <= 0.0  # standing still is on its permitted side: det(d, p - 0) <= 0
+    v = Steering(SteeringParams(), wall, coupled=False).compute_velocities(state, 1 / 90)
+    assert np.hypot(*v[1]) < 0.05, v[1]  # plain ORCA: it stays where it stands
+
+
+@pytest.mark.parametrize("width", [0.8, 0.9, 1.0])
+def test_with_no_room_beside_the_user_its_body_still_wins(width: float) -> None:
+    """The user down the middle of a narrow dead end to its very end: beside the user there is
+    ``width / 2 - 0.25`` m (0.15 to 0.25 m), less than a turned body's 0.26 m, and in front of it
+    0.25 m, so the three agents cannot all keep off the walls. The user's body still wins: nobody
+    is ever inside it (the wall overlap is the metrics' to report)."""
+    sim = Simulation(corridor(width, dead_end=True, kind="oncoming", n_agents=3, user_speed=1.0, user_y=0.0,
+                              end_x=5.5))
+    sim.advance_to(12.0)
+    s = sim.summary()
+    assert s["user_overlap_max_m"] == 0.0, s
+    assert s["wall_overlap_max_m"] > 0.01, s  # no room: someone is in a wall
 
 
 # -- personal space ---------------------------------------------------------------------------
@@ -251,3 +326,22 @@ def test_a_turned_agent_shows_its_shoulders_turned() -> None:
     assert np.radians(15.0) < twist <= np.radians(60.0) + 1e-9
     assert checked >= 5
     assert not np.any(sim.body.state.shoulder_turn[sim.crowd.is_user])
+
+
+def test_an_agent_in_the_corner_the_user_walks_into_goes_round_the_user_along_the_wall() -> None:
+    """The user 0.3 m from both walls of a room's corner, an agent between the user and the corner:
+    the user's outline covers the corner, so neither wall has room that way. The push out of the
+    user slides the agent along a wall the other way, past the user, to where there is room: it
+    ends outside the user's disc with its centre in the room and its body off the walls."""
+    from pedvr.crowd.steering import Steering
+    from pedvr.scene.config import SteeringParams
+    from pedvr.world.obstacles import ObstacleSet
+
+    room = ObstacleSet.from_polygons([np.array([[0.0, 0.0], [0.0, 4.0], [4.0, 4.0], [4.0, 0.0]])])  # clockwise: inside
+    steer = Steering(SteeringParams(), room, coupled=False)
+    pos = np.array([[0.3, 0.3], [0.12, 0.1]])
+    radius = np.full(2, 0.25)
+    out = steer.resolve_contacts(pos, radius, np.array([True, False]))
+    assert np.array_equal(out[0], pos[0])
+    assert np.linalg.norm(out[1] - out[0]) >= 0.5
+    assert (out[1] >= 0.25 - 0.005).all() and (out[1] <= 4.0 - 0.25).all()  # off the walls, in the room

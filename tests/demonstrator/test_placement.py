@@ -19,11 +19,15 @@ from pedvr.demonstrator.arm import (
 )
 from pedvr.demonstrator.placement import (
     EYE_LIMIT,
+    FALLBACK_FAR,
+    HEAD_MAX,
     VIS_DISCARD,
     W_ACTION,
     W_NECK,
     W_VIS,
+    WIDE_SHARE,
     Observer,
+    Placement,
     PlacementSearch,
     first_frame,
     plan_placement,
@@ -163,6 +167,7 @@ def test_a_fully_hidden_observer_is_discarded() -> None:
     plan = plan_placement(stage_of(TABLE, *box), FIGURE, POINT, Observer((2.8, 2.8)), start=(-4.5, -4.5))
     assert plan.best is None
     assert plan.rejected["visibility"] > 0
+    assert plan.widened and plan.fallback  # nothing, even widened and off the model
 
 
 def test_search_spread_over_ticks_gives_the_same_plan() -> None:
@@ -238,3 +243,79 @@ def test_collision_potential_is_the_papers() -> None:
     assert collision_potential(np.asarray([[0.0, 1.0, 0.0]]), spheres[:1])[0] == 1.0  # on the sphere: 1
     assert collision_potential(np.asarray([[3.0, 1.0, 0.0]]), spheres)[0] == 0.0  # none near
 
+
+
+# -- widening and the fallback (issue 24 item 8) ----------------------------------------------------
+
+PANEL = Obstacle(vertices=((-3.0, 5.5), (3.0, 5.5), (3.0, 5.8), (-3.0, 5.8)), kind="wall", height=2.5)
+PAINTING = Action("point", (0.0, 5.65), 1.5, preferred_distance("point", FIGURE, height=1.5, size=0.5))
+
+
+def bay(*more: Obstacle) -> Stage:
+    """A gallery bay: a painting on a partition, a 3 m pillar in front of it (tests/demonstrator/_demo.py)."""
+    world = WorldConfig(bounds=((-10.0, -6.0), (10.0, 6.0)),
+                        obstacles=(PANEL, circle(0.0, 2.8, 0.6, kind="pillar", height=3.0), *more))
+    return Stage(world, NavMesh.build(world, 0.25))
+
+
+def _valid(st: Stage, p: Placement, observer: Observer, action: Action) -> None:
+    """Every hard constraint of §4 holds at ``p``."""
+    assert st.mesh.contains(p.pos)
+    assert math.dist(p.pos, observer.pos) >= 2 * 0.25 + 0.3
+    assert np.allclose(st.mesh.find_path((-6.0, -3.0), p.pos)[-1], p.pos)
+    ok, stroke = stroke_points(st, FIGURE, action, np.asarray([p.pos]), np.asarray([p.heading]))
+    assert ok[0] and np.allclose(stroke[0], p.stroke)
+    e = st.occluded(np.asarray([p.pos]), FIGURE.eye_height, np.asarray([observer.pos]), observer.eye_height)[0]
+    assert e == p.e_vis and e <= VIS_DISCARD
+    assert abs(p.head) <= p.head_limit + 1e-9 and abs(p.eyes) <= EYE_LIMIT + 1e-9
+
+
+def test_an_observer_behind_a_pillar_widens_the_search() -> None:
+    """The reported case: 0 valid placements near d_pref (all hidden), many farther out."""
+    st = bay()
+    obs = Observer((0.0, 1.0))
+    plan = plan_placement(st, FIGURE, PAINTING, obs, start=(-6.0, -3.0))
+    # the model's own pass (what §4 describes) finds none: the hidden are discarded, not perturbed
+    assert sum(plan.rejected.values()) == 72 and plan.rejected["visibility"] >= 15, plan.rejected
+    assert plan.widened and not plan.fallback
+    assert len(plan.ranked) >= 10
+    assert all(p.origin == "wide" for p in plan.ranked)
+    for p in plan.ranked[:5]:
+        _valid(st, p, obs, PAINTING)
+    best = plan.best
+    assert best is not None and best.distance > PAINTING.d_pref + 0.3  # out of the pillar's shadow
+    # as the issue measured: the model's candidates at d_pref = 2 m are valid, so widening is right
+    far = Action("point", PAINTING.target, PAINTING.height, 2.0)
+    assert not plan_placement(st, FIGURE, far, obs, start=(-6.0, -3.0)).widened
+    # an observer the model can serve is planned as before: no widening, model placements only
+    near = plan_placement(st, FIGURE, PAINTING, Observer((-4.0, 1.5)), start=(-6.0, -3.0))
+    assert not near.widened and near.ranked and all(p.origin == "model" for p in near.ranked)
+
+
+def test_with_none_valid_even_widened_it_falls_back_to_a_visible_placement() -> None:
+    """Screens hide the observer from everywhere within 2·d_pref of the painting: the fallback
+    faces the observer from farther out, still valid in every hard constraint."""
+    screens = (Obstacle(vertices=((1.5, 3.0), (3.6, 3.0), (3.6, 3.1), (1.5, 3.1)), height=2.5),
+               Obstacle(vertices=((1.4, 0.5), (1.5, 0.5), (1.5, 3.1), (1.4, 3.1)), height=2.5))
+    world = WorldConfig(bounds=((-10.0, -6.0), (10.0, 6.0)), obstacles=(PANEL, *screens))
+    st = Stage(world, NavMesh.build(world, 0.25))
+    obs = Observer((3.0, 1.5))
+    plan = plan_placement(st, FIGURE, PAINTING, obs, start=(-6.0, -3.0))
+    assert plan.widened and plan.fallback
+    assert plan.ranked and all(p.fallback for p in plan.ranked)
+    for p in plan.ranked:
+        _valid(st, p, obs, PAINTING)
+        assert 2.0 * PAINTING.d_pref < p.distance <= FALLBACK_FAR + 1e-9
+        assert p.head_limit == HEAD_MAX
+
+
+def test_a_search_spread_over_ticks_widens_the_same() -> None:
+    st = bay()
+    obs = Observer((0.0, 1.0))
+    whole = plan_placement(st, FIGURE, PAINTING, obs, start=(-6.0, -3.0))
+    s = PlacementSearch(st, FIGURE, PAINTING, obs, start=(-6.0, -3.0))
+    ticks = 1
+    while not s.advance(24):
+        ticks += 1
+    assert ticks == 3 + math.ceil(72 / (24 // WIDE_SHARE))  # the model pass, then the wide one
+    assert [(p.pos, p.heading) for p in s.plan.ranked] == [(p.pos, p.heading) for p in whole.ranked]

@@ -201,12 +201,15 @@ def test_revolving_door_one_sided_flow_is_continuous() -> None:
 
 @pytest.mark.parametrize("per_side", [6])
 def test_no_deadlock_with_six_per_side(per_side: int) -> None:
-    """The paper occasionally deadlocked with 12 + 14; with up to 6 a side pedvr never waits
-    20 s at a free doorway, and the flow goes on to the end (bench/door_observations.py
-    measures 6 + 6 and 12 + 14 over more seeds)."""
+    """The paper occasionally deadlocked with 12 + 14; with up to 6 a side pedvr's door never
+    stalls (nobody waits 20 s while the door passes nobody, or at a free doorway: door_stalls), and
+    the flow goes on to the end (bench/door_observations.py measures 6 + 6 and 12 + 14 over more
+    seeds). Since issue 26, door_deadlocks also counts queue waits of 20 s still going when the
+    run ends (door_stalls is the part of it seen while the run went on)."""
     events = _events("door_opposing", 4, 60.0, counts=(per_side, per_side))
     s = _summary(events)
-    assert s["door_deadlocks"] == 0, s
+    assert s["door_stalls"] == 0, s
+    assert s["door_deadlocks"] >= s["door_stalls"]
     passes = _passes(events)
     assert len(passes) >= 8 and passes[-1]["t"] > 45.0, passes
     assert {e["side"] for e in passes} == {-1, 1}
@@ -375,3 +378,20 @@ def test_the_user_s_hand_takes_holds_and_releases_a_door(tmp_path: Path) -> None
     far.etiquette.user_hand(True)
     far.advance_to(3.0)
     assert far.etiquette.user_leaf == -1 and abs(float(far.doors.angle[0])) < 1e-9
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_agents_hold_doors_for_the_user_in_the_user_scene(seed: int) -> None:
+    """Issue 24 item 6: door_user exists to show agents holding doors for the participant; in four
+    seeds the user was never held for (door_holds_for_user 0: the user walked through doors others
+    had opened, or was taken up again as coming to a door it had just passed)."""
+    events = _events("door_user", seed, 40.0)
+    s = _summary(events)
+    holds = [e for e in events if e["event"] == "hold" and e.get("for_user")]
+    assert s["door_holds_for_user"] == len(holds) >= 1, holds
+    assert all(e["action"] in ("HOF", "HOL") for e in holds[:1]), holds
+    # the user passes every door it is held for, and nobody holds a door for the user once through
+    user_passes = [e for e in events if e["event"] == "pass" and e.get("user")]
+    for h in holds:
+        assert any(p["door"] == h["door"] and p["t"] >= h["t"] for p in user_passes), (h, user_passes)
+    assert not [e for e in events if e["event"] == "give_up" and e.get("for_user")], events

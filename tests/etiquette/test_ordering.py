@@ -66,3 +66,15 @@ def test_double_door_the_freer_door_under_load() -> None:
                        in_region=True, wait_credit=0.5) == (NONE, 0)
     assert choose_side(me, [me], DoubleDoor(free=(False, False), load=(3, 1), keep_leaf_for_plus=0),
                        in_region=True, wait_credit=0.5) == (NONE, 1)
+
+
+def test_double_door_a_queue_spreads_over_both_leaves() -> None:
+    """§6.3, issue 26: with more than two ahead of it on its side and its leader's leaf carrying
+    LOAD_MARGIN more than the other, a later arriver takes the less congested leaf (Alg. 3 read
+    literally kept a queue of eight on one leaf while the other stood free)."""
+    queue = [_c(i, 1.0 + 0.8 * i, leaf=0) for i in range(1, 9)]
+    me = queue[-1]
+    busy = DoubleDoor(free=(False, True), load=(7, 0), keep_leaf_for_plus=0)
+    assert choose_side(me, queue, busy, in_region=False, wait_credit=0.5) == (NONE, 1)
+    balanced = DoubleDoor(free=(False, False), load=(4, 3), keep_leaf_for_plus=0)
+    assert choose_side(me, queue, balanced, in_region=False, wait_credit=0.5) == (queue[-2].id, 0)

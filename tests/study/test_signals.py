@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
+from pedvr.signals import TerminatedBySignal, signals_abort
 from pedvr.study.cli import main
 from pedvr.study.presenter import SimulatedParticipant
-from pedvr.study.signals import TerminatedBySignal, signals_abort
 from pedvr.study.store import StudyStore
 
 from .conftest import DATA, run_session

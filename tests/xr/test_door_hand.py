@@ -17,7 +17,7 @@ import pytest
 
 from pedvr.crowd.user import StandingUser
 from pedvr.sim import Simulation
-from pedvr.xr.locomotion import Controls, HeadsetUser
+from pedvr.xr.locomotion import TRACKING_FORWARD, Controls, HeadsetUser
 from pedvr.xr.session import Pose, XrPresenter
 from tests.etiquette.test_etiquette_sim import _user_scene
 from tests.xr.test_session import FOCUS, READY, FakePort
@@ -28,7 +28,7 @@ FACING = ((-0.6, 0.85), math.atan2(-0.4, 0.6))  # facing the handle: the reach a
 
 
 def _grip(x: float, y: float) -> Pose:
-    """A grip pose at world floor point (x, y) for a play space at the origin with yaw 0 (tracking x, z)."""
+    """A grip pose at world floor point (x, y) for the play space of :func:`_take` (tracking (x, z) = world)."""
     return Pose(position=np.array([x, 1.0, y]), orientation=(0.0, 0.0, 0.0, 1.0))
 
 
@@ -38,7 +38,10 @@ def _take(tmp_path: Path, user: tuple[tuple[float, float], float], hands: list[P
     scene = _user_scene(tmp_path, route="[[5.0, 0.0]]", pull=-1.0, agent="[5.0, 2.0]")
     sim = Simulation(scene, seed=1, user_input=StandingUser(user[0], heading=user[1]))
     port = FakePort(events=[READY + FOCUS], controls=[Controls(trigger=True, trigger_hand=hand)], hands=hands)
-    p = XrPresenter(port, user=HeadsetUser(start=(0.0, 0.0), heading=0.0), draw_eye=lambda eye, fbo, vp: None)
+    # A play space whose tracking axes are the world's: its forward (tracking -Z) faces world heading
+    # TRACKING_FORWARD (-π/2), so tracking (x, z) is world (x, y).
+    user_in = HeadsetUser(start=(0.0, 0.0), heading=TRACKING_FORWARD)
+    p = XrPresenter(port, user=user_in, draw_eye=lambda eye, fbo, vp: None)
     sim.advance_to(0.5)
     while sim.t < 3.5:
         timing = p.wait_frame()

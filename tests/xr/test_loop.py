@@ -54,9 +54,10 @@ def test_simulation_follows_display_time_at_its_own_fixed_dt(scene) -> None:  # 
     p = ScriptedPresenter(times=list(times), period=1 / 60)
     tel = run_frames(sim, p, duration=None)
     assert p.renders == 31 and tel.missed_frames == 0
-    assert sim.t == pytest.approx(30 / 60, abs=dt)
+    # The first frame shows the world after its first step (the bodies posed), at t = dt.
+    assert sim.t == pytest.approx(dt + 30 / 60, abs=dt)
     for k, shown in enumerate(p.shown):
-        assert k / 60 - dt - 1e-9 <= shown <= k / 60 + 1e-9  # never ahead of the display, < one step behind
+        assert dt + k / 60 - dt - 1e-9 <= shown <= dt + k / 60 + 1e-9  # never ahead, < one step behind
     assert set(tel.steps[1:]) <= {1, 2}
 
 
@@ -85,7 +86,7 @@ def test_a_stall_skips_simulated_time_instead_of_a_burst_of_steps(scene) -> None
     tel = run_frames(
         sim, ScriptedPresenter(times=[0.0, 1 / 90, 3.0], period=1 / 90), duration=None, max_lag=0.25
     )
-    assert sim.t == pytest.approx(1 / 90 + 0.25, abs=sim.dt)
+    assert sim.t == pytest.approx(sim.dt + 1 / 90 + 0.25, abs=sim.dt)
     assert tel.skipped_sim_s == pytest.approx(3.0 - 1 / 90 - 0.25, abs=1e-9)
     assert max(tel.steps) <= round(0.25 / sim.dt) + 1
 
@@ -98,3 +99,53 @@ def test_duration_stops_the_loop_and_telemetry_goes_into_the_summary(scene) -> N
     s = tel.summary()
     assert s["frames"] == p.renders and s["fps"] == pytest.approx(30.0)
     assert {"sim_ms_p50", "render_ms_p50", "missed_frames", "frame_ms_p95"} <= set(s)
+
+
+def test_offline_frames_are_taken_at_k_over_fps_and_none_at_or_after_the_end(scene) -> None:  # type: ignore[no-untyped-def]
+    """Issue 24 item 11: --fps 1 --duration 6 wrote 26 frames (the stall guard moved the clock by
+    0.25 s a frame); offline, frame k shows simulated time k/fps and the run still reaches 6 s."""
+    sim = Simulation(scene)
+    p = ScriptedPresenter(times=[float(k) for k in range(100)], period=1.0)
+    tel = run_frames(sim, p, duration=6.0, offline=True)
+    assert p.renders == 6 and tel.skipped_sim_s == 0
+    for k, shown in enumerate(p.shown):
+        assert k - sim.dt - 1e-9 <= shown <= k + 1e-9
+    assert sim.t == pytest.approx(6.0, abs=1e-9)
+
+
+def test_interrupted_loop_keeps_the_telemetry_measured_so_far(scene) -> None:  # type: ignore[no-untyped-def]
+    """Issue 23 item 5: Ctrl-C in the frame loop dropped the telemetry ('frames 0 ... p50 None')."""
+    from pedvr.xr.loop import Telemetry
+
+    class Interrupting(ScriptedPresenter):
+        def wait_frame(self) -> FrameTiming | None:
+            if self.renders == 5:
+                raise KeyboardInterrupt
+            return super().wait_frame()
+
+    tel = Telemetry(backend="fake")
+    with pytest.raises(KeyboardInterrupt):
+        run_frames(Simulation(scene), Interrupting(times=[k / 90 for k in range(50)], period=1 / 90),
+                   duration=None, telemetry=tel)
+    s = tel.summary()
+    assert s["frames"] == 5 and s["render_ms_p50"] is not None and s["frame_ms_max"] is not None
+
+
+def test_the_clock_starts_at_the_first_frame_that_is_drawn(scene) -> None:  # type: ignore[no-untyped-def]
+    """An OpenXR session sends frames it will not show (not yet visible): the world waits for them, so
+    the participant's first view is the scene at t = 0, seed for seed the same."""
+
+    @dataclass
+    class Hidden(ScriptedPresenter):
+        hidden: int = 3
+
+        def wait_frame(self) -> FrameTiming | None:
+            t = self.times.pop(0)
+            show = self.ends >= self.hidden
+            return FrameTiming(display_time=t, period=self.period, should_render=show)
+
+    sim = Simulation(scene)
+    p = Hidden(times=[k / 90 for k in range(10)], period=1 / 90)
+    run_frames(sim, p, duration=None)
+    assert p.ends == 10 and p.renders == 7 and p.shown[0] == pytest.approx(sim.dt)  # one step: posed bodies
+    assert sim.t == pytest.approx(sim.dt + 6 / 90, abs=1e-9)

@@ -351,3 +351,34 @@ def test_the_action_set_has_a_grip_pose_per_hand_bound_for_every_profile_with_an
     for *_, pose in rt.action_spaces:  # the grip itself, no offset
         assert (pose.position.x, pose.position.y, pose.position.z, pose.orientation.w) == (0.0, 0.0, 0.0, 1.0)
     assert [_addr(s) for s in p._grip_spaces] == [0x90, 0xA0]
+
+
+def test_the_frame_period_is_the_displays_refresh_where_the_runtime_says(
+    port: tuple[OpenXRPort, ScriptedRuntime],
+) -> None:
+    """Issue 23 item 6: Monado's predicted period follows a slow application's pace (up to 683 ms),
+    so misses counted against it vanish; XR_FB_display_refresh_rate gives the display's own."""
+    p, rt = port
+    rt.frame_state = xr.FrameState(predicted_display_time=NS, predicted_display_period=683_000_000,
+                                   should_render=True)
+    assert p.wait_frame().period == pytest.approx(0.683)  # no refresh rate known: the predicted one
+    p.refresh_hz = 90.0
+    assert p.wait_frame().period == pytest.approx(1 / 90)
+
+
+@pytest.mark.parametrize("error", ["SessionLostError", "InstanceLostError", "RuntimeFailureError"])
+def test_a_lost_runtime_inside_a_frame_call_is_one_line(
+    port: tuple[OpenXRPort, ScriptedRuntime], error: str,
+) -> None:
+    from pedvr.xr.session import RuntimeLostError
+
+    p, rt = port
+
+    def lost(session: object, info: object) -> None:
+        raise getattr(xr, error)()
+
+    rt.begin_frame = lost  # type: ignore[attr-defined]
+    with pytest.raises(RuntimeLostError, match=r"^the OpenXR runtime went away \(\w+ in begin_frame\): "
+                                               r"restart it") as exc:
+        p.begin_frame()
+    assert "\n" not in str(exc.value)

@@ -9,7 +9,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from pedvr.render.math3d import EyeView, matrix_to_quat, projection_from_fov, rot_y
+from pedvr.render.math3d import (
+    EyeView,
+    first_person_rotation,
+    matrix_to_quat,
+    projection_from_fov,
+    quat_to_matrix,
+    rot_y,
+)
 from pedvr.xr.locomotion import Controls, HeadsetUser
 from pedvr.xr.session import (
     InstanceLossPending,
@@ -74,9 +81,10 @@ class FakePort:
     def locate_views(self, display_time: float) -> list[ViewLocation]:
         if self.head is None:
             return []
-        p = self.head.position
+        # Each eye half the IPD along the head's own right axis (+X of the head's orientation).
+        p, r = self.head.position, quat_to_matrix(*self.head.orientation)
         return [
-            ViewLocation(pose=Pose(position=p + [dx, 0, 0], orientation=self.head.orientation), fov=FOV)
+            ViewLocation(pose=Pose(position=p + r @ [dx, 0, 0], orientation=self.head.orientation), fov=FOV)
             for dx in (-0.032, 0.032)
         ]
 
@@ -97,6 +105,9 @@ class FakePort:
 
     def idle_wait(self) -> None:
         self.calls.append("idle")
+
+    def runtime_facts(self) -> dict[str, object]:
+        return {"runtime": "FakePort", "interaction_profiles": {"left": None, "right": None}}
 
     def close(self) -> None:
         self.calls.append("close")
@@ -183,16 +194,32 @@ def test_request_exit_asks_the_runtime_once() -> None:
     assert port.calls.count("request_exit") == 1
 
 
+@pytest.mark.parametrize("heading", [0.0, 0.7, math.pi / 2, -2.5])
+def test_a_head_at_rest_faces_the_scenes_heading_as_the_headless_view_does(heading: float) -> None:
+    # Issue 23 item 1: the play space's yaw was off by π/2 (the participant started facing a wall).
+    port = FakePort(events=[READY + FOCUS], head=head_pose(0.0, 0.0))
+    drawn: list[EyeView] = []
+    user = HeadsetUser(start=(2.0, 3.0), heading=heading)
+    p = XrPresenter(port, user=user, draw_eye=lambda eye, fbo, vp: drawn.append(eye))
+    frame(p)
+    _, h = p.user.pose(1e9)
+    assert math.cos(h - heading) == pytest.approx(1.0)
+    expected = first_person_rotation(heading)
+    for eye in drawn:
+        assert np.allclose(eye.view[:3, :3].T, expected, atol=1e-9)  # the view's inverse rotation
+
+
 def test_head_pose_becomes_the_user_agent_on_the_floor_with_its_yaw() -> None:
     # Tracking (0.5, 1.7, -1.0), turned 90° left (yaw +π/2 about +Y: looking down -X in tracking space).
     port = FakePort(events=[READY + FOCUS], head=head_pose(0.5, -1.0, yaw=math.pi / 2))
     p, _ = presenter(port)
     frame(p)
     pos, heading = p.user.pose(1e9)
-    # Play space at origin (2, 3), yaw 0: tracking (x, z) -> world (2 + x, 3 + z).
-    assert pos == pytest.approx([2.5, 2.0])
-    # Looking down tracking -X is 2D heading π.
-    assert math.cos(heading) == pytest.approx(-1.0)
+    # The play space faces the start heading 0 (world +x) with tracking -Z: tracking (x, z) ->
+    # world (2 - z, 3 + x), so 1 m ahead and 0.5 m to the right (2D +y is the right, math3d).
+    assert pos == pytest.approx([3.0, 3.5])
+    # Turned 90° left of heading 0 is 2D heading -π/2 (turning right makes the heading grow).
+    assert math.sin(heading) == pytest.approx(-1.0)
 
 
 def test_eye_views_use_each_eyes_off_axis_projection_and_the_play_space() -> None:
@@ -201,19 +228,20 @@ def test_eye_views_use_each_eyes_off_axis_projection_and_the_play_space() -> Non
     frame(p)
     expected = projection_from_fov(angle_left=FOV[0], angle_right=FOV[1], angle_up=FOV[2], angle_down=FOV[3])
     assert np.allclose(drawn[0].projection, expected)
-    assert drawn[0].position == pytest.approx([2.0 - 0.032, 1.7, 3.0])
-    assert drawn[1].position == pytest.approx([2.0 + 0.032, 1.7, 3.0])
+    # Facing world +x, the left eye is on 2D -y (the user's left), the right eye on +y.
+    assert drawn[0].position == pytest.approx([2.0, 1.7, 3.0 - 0.032])
+    assert drawn[1].position == pytest.approx([2.0, 1.7, 3.0 + 0.032])
 
 
 def test_thumbstick_moves_the_user_where_the_head_faces_at_walking_speed() -> None:
-    # Head yaw 0 looks down tracking -Z: 2D heading -π/2 in a play space of yaw 0.
+    # A head at rest faces the start heading (0: world +x).
     port = FakePort(events=[READY + FOCUS], controls=[Controls()] + [Controls(move=(0.0, 1.0))] * 90)
     p, _ = presenter(port)
     for _ in range(91):
         frame(p)
     pos, heading = p.user.pose(1e9)
-    assert heading == pytest.approx(-math.pi / 2)
-    assert pos == pytest.approx([2.0, 3.0 - 1.3], abs=1e-6)  # 1 s at 1.3 m/s along 2D -y
+    assert heading == pytest.approx(0.0)
+    assert pos == pytest.approx([2.0 + 1.3, 3.0], abs=1e-6)  # 1 s at 1.3 m/s along 2D +x
     assert p.user.moving_speed == pytest.approx(1.3)
 
 
@@ -259,5 +287,36 @@ def test_lost_tracking_keeps_the_last_pose_and_skips_rendering() -> None:
     frame(p)
     port.head = None
     frame(p)
-    assert p.user.pose(1e9)[0] == pytest.approx([3.0, 3.0])
+    assert p.user.pose(1e9)[0] == pytest.approx([2.0, 4.0])  # tracking +x: the right, 2D +y (math3d)
     assert port.ended[-1] == 0 and len(drawn) == 2  # second frame: empty layer list, nothing drawn
+
+
+def test_a_lost_runtime_mid_call_ends_the_loop_with_one_line_not_an_exception() -> None:
+    """Issue 23 item 4: XR_ERROR_INSTANCE_LOST escaped from xrBeginFrame as SessionLostError."""
+    from pedvr.xr.session import RuntimeLostError
+
+    class Losing(FakePort):
+        def begin_frame(self) -> None:
+            if self.frame_index >= 3:
+                raise RuntimeLostError("the OpenXR runtime went away (InstanceLost in begin_frame): restart it")
+            super().begin_frame()
+
+    port = Losing(events=[READY + FOCUS])
+    p, _ = presenter(port)
+    assert frame(p) and frame(p)
+    assert p.wait_frame() is None
+    assert p.closed and p.lost is not None and "went away" in p.lost and "\n" not in p.lost
+    p.finish()  # nothing to end politely: no exception, no calls to a dead runtime
+    assert "request_exit" not in port.calls
+
+
+def test_finish_ends_a_frame_left_open_with_no_layers_before_asking_to_exit() -> None:
+    port = FakePort(events=[READY + FOCUS, [], [StateChanged(SessionState.STOPPING)],
+                            [StateChanged(SessionState.IDLE), StateChanged(SessionState.EXITING)]])
+    p, _ = presenter(port)
+    assert frame(p)
+    p.wait_frame()  # ... and an interrupt (Ctrl-C, SIGTERM) lands before this frame is ended
+    p.finish(timeout=1.0)
+    assert port.ended[:2] == [2, None]  # the open frame ended with no layers, nothing half-drawn
+    assert port.calls.index("request_exit") > port.calls.index("begin_frame")
+    assert p.closed and p.logic.history[-1] == SessionState.EXITING

@@ -1,7 +1,10 @@
-"""The headless presenter: EGL offscreen rendering to PNG files and an MP4 video.
+"""The offscreen presenter of headless runs: EGL rendering to PNG files and an MP4 video.
 
-Frames are made at a fixed rate (``fps``, default 30) of simulated time, not
-wall time, so the same seed gives the same images. Each frame is the first
+Frames are taken at fixed simulated times ``k / fps`` (``fps`` default 30) for
+``k / fps`` < the run's duration, not at wall-clock times, so the same seed
+gives the same images, ``--fps 1 --duration 6`` gives 6 frames, and the video
+(at ``fps``) plays in real time (issue 24 item 11: the frame loop's stall
+guard used to skip simulated time between frames more than 0.25 s apart). Each frame is the first
 person view (``view``: mono, side-by-side or anaglyph; the scripted user's
 eyes) and the overhead debug view; ``--frames DIR`` writes
 ``DIR/first_person/000000.png`` and ``DIR/overhead/000000.png``, ``--video
@@ -65,7 +68,7 @@ class VideoWriter:
         self._gen.close()
 
 
-class HeadlessPresenter:
+class OffscreenPresenter:
     """Renders each frame offscreen and writes it to files. Keyword-only options as the CLI's."""
 
     name = "headless"
@@ -115,9 +118,8 @@ class HeadlessPresenter:
     def wait_frame(self) -> FrameTiming:
         return FrameTiming(display_time=self.index / self.fps, period=1.0 / self.fps)
 
-    def render(self, sim: Simulation) -> None:
-        from PIL import Image
-
+    def draw(self, sim: Simulation) -> tuple[np.ndarray, np.ndarray]:
+        """Draw ``sim``'s first-person and overhead views offscreen; return them (RGB, top row first)."""
         snap = Snapshot.from_sim(sim)
         r = self.renderer
         r.begin_frame()
@@ -139,7 +141,12 @@ class HeadlessPresenter:
             hud=self.hud if self.view != "overhead" else None,
         )
         r.draw_overhead(framebuffer=self.over.fbo, snap=snap)
-        first, over = self.first.read(), self.over.read()
+        return self.first.read(), self.over.read()
+
+    def render(self, sim: Simulation) -> None:
+        from PIL import Image
+
+        first, over = self.draw(sim)
         if self.frames_dir is not None:
             Image.fromarray(first).save(self.frames_dir / "first_person" / f"{self.index:06d}.png")
             Image.fromarray(over).save(self.frames_dir / "overhead" / f"{self.index:06d}.png")

@@ -1,4 +1,4 @@
-"""SIGTERM and SIGHUP end a study session like Ctrl-C: ``aborted``, with a logged event.
+"""SIGTERM and SIGHUP end a run or a study session like Ctrl-C: ``aborted``, with a logged event.
 
 A session killed politely (``kill PID``, a closed terminal, a desktop logging
 out) should leave the database as an abort by the experimenter would: the
