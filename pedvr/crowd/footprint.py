@@ -127,7 +127,8 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, heading, walk_turn, nbr_
     ``short_of_room[i]`` (from the user encounter) makes the agent turn with its torso
     facing ``room_dir[i]`` (a unit vector across the passing line) even before it is
     that close; ``narrow_dir[i]`` (nonzero: :func:`narrow_kernel`), entering a passage
-    between walls narrower than its shoulders, likewise. A turned agent untwists only
+    between walls narrower than its shoulders, likewise, and before any neighbour: there the
+    walls decide which way the shoulders lie. A turned agent untwists only
     where its disc fits: no neighbour's disc within ``SQUEEZE_GAP`` and no wall closer
     than its radius (``wall_dist[i]``, the distance to the nearest obstacle edge);
     otherwise it holds its turn. It untwists to
@@ -146,6 +147,13 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, heading, walk_turn, nbr_
         px = pos[i, 0]
         py = pos[i, 1]
         crowded = wall_dist[i] < radius[i]
+        walls = narrow_dir[i, 0] != 0.0 or narrow_dir[i, 1] != 0.0
+        if walls:
+            # a passage narrower than the shoulders: its walls decide the facing, whoever is near
+            fx = narrow_dir[i, 0]
+            fy = narrow_dir[i, 1]
+            found = True
+            crowded = True
         for q in range(nbr_count[i]):
             j = nbr_idx[i, q]
             dx = pos[j, 0] - px
@@ -154,7 +162,7 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, heading, walk_turn, nbr_
             gap = d - radius[i] - radius[j]
             if gap < SQUEEZE_GAP:
                 crowded = True
-            if gap >= SQUEEZE_GAP or gap >= best or d < 1e-9:
+            if walls or gap >= SQUEEZE_GAP or gap >= best or d < 1e-9:
                 continue
             rvx = vel[i, 0] - vel[j, 0]
             rvy = vel[i, 1] - vel[j, 1]
@@ -172,11 +180,6 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, heading, walk_turn, nbr_
             fx = nx
             fy = ny
             found = True
-        if not found and (narrow_dir[i, 0] != 0.0 or narrow_dir[i, 1] != 0.0):
-            fx = narrow_dir[i, 0]
-            fy = narrow_dir[i, 1]
-            found = True
-            crowded = True
         if not found and short_of_room[i]:
             fx = room_dir[i, 0]
             fy = room_dir[i, 1]
@@ -198,13 +201,16 @@ NARROW_LOOKAHEAD = 0.5  # m: the passage is looked for this far ahead too (turni
 @njit(cache=True, inline="always")
 def _passage(px, py, ex, ey, reach, vertices, nxt, n_static, origin, cell, nx, ny, cell_start,
              cell_edges, edge_cells):
-    """``(left, right, inside)``: the distances from ``p`` to the nearest static obstacle edge on
-    each side of the way ``e`` (inf where none within ``reach``), and whether ``p`` lies inside
-    an obstacle (behind its nearest edge: RVO2's edges have the free side on their right)."""
+    """``(left, right, inside, nx, ny)``: the distances from ``p`` to the nearest static obstacle
+    edge on each side of the way ``e`` (inf where none within ``reach``), whether ``p`` lies
+    inside an obstacle (behind its nearest edge: RVO2's edges have the free side on their
+    right), and the unit direction from ``p`` to the nearest edge point ((0, 0): none)."""
     left = math.inf
     right = math.inf
     nearest = math.inf
     inside = False
+    nx_ = 0.0
+    ny_ = 0.0
     inv = 1.0 / cell
     qx0 = max(int(math.floor((px - reach - origin[0]) * inv)), 0)
     qx1 = min(int(math.floor((px + reach - origin[0]) * inv)), nx - 1)
@@ -233,19 +239,23 @@ def _passage(px, py, ex, ey, reach, vertices, nxt, n_static, origin, cell, nx, n
                 if d < nearest:
                     nearest = d
                     inside = (ax - px) * wy - (ay - py) * wx > 0.0  # p left of a -> b
+                    if d > 1e-9:
+                        nx_ = dx / d
+                        ny_ = dy / d
                 if ex * dy - ey * dx > 0.0:
                     left = min(left, d)
                 else:
                     right = min(right, d)
-    return left, right, inside
+    return left, right, inside, nx_, ny_
 
 
 @njit(cache=True)  # O(N) and cheap: a parallel region would cost more than it saves (pedvr.kernels)
 def narrow_kernel(pos, pref_vel, radius, is_user, vertices, nxt, n_static, origin, cell, nx, ny,
                   cell_start, cell_edges, edge_cells, out_dir):
-    """``out_dir[i]``: a unit torso facing across the way (perpendicular to the preferred
-    velocity) where agent ``i`` is about to squeeze through a passage between walls narrower
-    than its shoulders plus ``NARROW_MARGIN``, at its position or ``NARROW_LOOKAHEAD`` ahead;
+    """``out_dir[i]``: a unit torso facing across the passage (toward its nearest wall, so the
+    shoulders lie along it) where agent ``i`` is about to squeeze through a passage between
+    walls narrower than its shoulders plus ``NARROW_MARGIN``, at its position or
+    ``NARROW_LOOKAHEAD`` ahead along its preferred velocity;
     ``(0, 0)`` elsewhere (issue 26: real people pass 0.5 m, turned). A look-ahead point inside
     an obstacle (the agent walks at a wall) does not count."""
     for i in range(pos.shape[0]):
@@ -260,12 +270,17 @@ def narrow_kernel(pos, pref_vel, radius, is_user, vertices, nxt, n_static, origi
         ey = vy / v
         reach = radius[i] + NARROW_MARGIN
         for ahead in (0.0, NARROW_LOOKAHEAD):
-            left, right, inside = _passage(pos[i, 0] + ahead * ex, pos[i, 1] + ahead * ey, ex, ey, reach,
-                                           vertices, nxt, n_static, origin, cell, nx, ny, cell_start,
-                                           cell_edges, edge_cells)
+            left, right, inside, wx, wy = _passage(pos[i, 0] + ahead * ex, pos[i, 1] + ahead * ey, ex, ey,
+                                                   reach, vertices, nxt, n_static, origin, cell, nx, ny,
+                                                   cell_start, cell_edges, edge_cells)
             if not inside and left + right < 2.0 * reach:
-                out_dir[i, 0] = -ey
-                out_dir[i, 1] = ex
+                # the chest toward the nearest wall: the shoulders lie along the passage, whichever
+                # way the agent comes at it (across its own way would turn them askew in the mouth)
+                if wx == 0.0 and wy == 0.0:
+                    wx = -ey
+                    wy = ex
+                out_dir[i, 0] = wx
+                out_dir[i, 1] = wy
                 break
 
 

@@ -78,3 +78,11 @@ def test_a_body_turns_its_shoulders_to_pass_a_gap_narrower_than_them() -> None:
     assert _slot_agent((4.2, 2.0), (1.0, 0.0))[0] < 1.0  # walking at the wall itself: no slot there
     assert _slot_agent((2.0, 5.0), (1.0, 0.0))[0] < 1.0  # far from the slot
     assert _slot_agent((4.2, 7.0), (0.0, 1.0))[0] < 1.0  # along the wall, one wall only
+
+
+def test_a_body_coming_at_a_slot_askew_lays_its_shoulders_along_the_slot() -> None:
+    """The torso faces the slot's wall (its shoulders along the slot), not across the agent's own
+    way: coming at the slot diagonally, across its way would leave it askew in the mouth."""
+    turn, torso = _slot_agent((4.2, 4.9), (1.0, 0.3))
+    assert turn == pytest.approx(1.0)
+    assert abs(math.remainder(torso - math.pi / 2, math.pi)) < 1e-6
