@@ -214,9 +214,8 @@ class SteeringParams:
     # radius, the footprint an ellipse along its heading (1: the disc; pedvr.crowd.footprint)
     depth_ratio: float = 0.72
     # Coupled mode (issue 26): the time gap (s) kept to whoever walks ahead in one's lane going
-    # one's way; the preferred speed is the free distance to them over it (pedvr.crowd.headway).
-    # 0.17 s: the calibration's choice (sweeps/calibration.toml, README "Crowds against real data")
-    time_gap: float = 0.17
+    # one's way; the preferred speed is the free distance to them over it (pedvr.crowd.headway)
+    time_gap: float = 0.3
 
 
 @dataclass(frozen=True)
