@@ -189,7 +189,8 @@ def run_point(case_name: str, params: dict[str, float], duration: float | None, 
 
     case = get_case(case_name)
     scene = load_any(case.scene_path(), seed=seed)
-    scene = dataclasses.replace(scene, steering=dataclasses.replace(scene.steering, **params))
+    steering: Any = scene.steering  # the spec checked every key names a float [steering] field
+    scene = dataclasses.replace(scene, steering=dataclasses.replace(steering, **params))
     sim = Simulation(scene, seed=seed, condition="pedvr", record=True)
     t0 = time.perf_counter()
     sim.advance_to(case.duration if duration is None else duration)

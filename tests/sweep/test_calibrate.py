@@ -88,7 +88,8 @@ def test_the_design_fills_the_ranges_and_is_the_same_for_the_same_spec(method: s
 
 
 def test_the_objective_is_the_mean_absolute_error_and_a_missing_measure_counts_fully() -> None:
-    rows = [{"errors": {"flow_per_s": -0.2, "speed_mps": 0.1}}, {"errors": {"flow_per_s": 1.0, "speed_mps": None}}]
+    rows: list[dict[str, Any]] = [{"errors": {"flow_per_s": -0.2, "speed_mps": 0.1}},
+                                  {"errors": {"flow_per_s": 1.0, "speed_mps": None}}]
     assert objective(rows) == pytest.approx((0.2 + 0.1 + 1.0) / 3)
     assert math.isinf(objective([{"errors": {"flow_per_s": None}}]))
 
