@@ -495,6 +495,8 @@ class Simulation:
         if self.etiquette is not None:  # holders stepping round a door keep facing it (App. C)
             heading = self.etiquette.face(heading, self.crowd.heading, self.crowd, self.dt)
         self.metrics.observe_user_contact(self.crowd, root)
+        if len(self.doors) and (self.crowd.length > 0.0).any():
+            heading = self._no_turning_into_leaves(root, heading)
         self._root_heading = heading
         self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user,
                                                     turn=self.crowd.turn, torso=self.crowd.torso,
@@ -544,7 +546,35 @@ class Simulation:
                                           + np.count_nonzero(was_still & (doors.revolvers.omega != 0.0)))
         return root
 
-    def _door_discs(self, root: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _no_turning_into_leaves(self, root: np.ndarray, heading: np.ndarray) -> np.ndarray:
+        """A pushed pram does not swing into a door leaf: a rigid footprint (0.8 m long) whose new
+        heading would put it deeper into a leaf than its old one keeps its old heading this step.
+        Steering keeps the footprint's centre off the leaf, not its turn; a pusher standing
+        nearly still beside a leaf held at its stop has a heading that wavers by a few hundredths
+        of a radian a step, which swung the pram's front 2-3 cm into the leaf every other step, and
+        the leaf shoved it back out."""
+        c = self.crowd
+        rows = np.flatnonzero((c.length > 0.0) & (heading != c.heading))
+        if not rows.size:
+            return heading
+        new = self._leaf_depth(root, heading)
+        old = self._leaf_depth(root, c.heading)
+        back = rows[new[rows] > old[rows] + 1e-4]
+        if back.size:
+            heading = heading.copy()
+            heading[back] = c.heading[back]
+        return heading
+
+    def _leaf_depth(self, root: np.ndarray, heading: np.ndarray) -> np.ndarray:
+        """How far each body's footprint at ``root`` facing ``heading`` lies inside a door leaf (m)."""
+        discs, rad, owner = self._door_discs(root, heading)
+        pushed, _ = self.doors.push_out(discs, rad, ~self.crowd.is_user[owner])
+        depth = np.zeros(len(self.crowd))
+        np.maximum.at(depth, owner, np.hypot(*(pushed - discs).T))
+        return depth
+
+    def _door_discs(self, root: np.ndarray, heading: np.ndarray | None = None,
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The discs the door controller sees, and each one's crowd row: every body's disc, except
         that a pushed pram's rigid footprint is seen as the discs that hold its ellipse
         (:func:`pedvr.crowd.footprint.covering_discs`) instead of its pusher's disc."""
@@ -553,7 +583,8 @@ class Simulation:
         rows = np.flatnonzero(c.length > 0.0)
         if not rows.size:
             return root, c.radius, np.arange(n)
-        fp = footprints(root, c.radius, c.turn, c.torso, self._root_heading, c.ahead, c.length)
+        heading = self._root_heading if heading is None else heading
+        fp = footprints(root, c.radius, c.turn, c.torso, heading, c.ahead, c.length)
         pos, rad, own = covering_discs(fp, rows)
         radius = c.radius.copy()
         radius[rows] = 0.0
