@@ -28,9 +28,10 @@ import os
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
+from pedvr.argtypes import positive as _positive
 from pedvr.errors import PedvrError, UsageError
 from pedvr.scene.config import CONDITIONS, USER_WALKS
 from pedvr.scenes import DEFAULT_SCENE, resolve_scene, shipped_scenes
@@ -55,21 +56,6 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescrip
         if "default" in text or action.default is None or action.default is False:
             return text
         return super()._get_help_string(action)
-
-
-def _positive(kind: Callable[[str], float]) -> Callable[[str], float]:
-    def parse(text: str) -> float:
-        try:
-            v = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-        if not math.isfinite(v):
-            raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
-        if v <= 0:
-            raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
-        return v
-
-    return parse
 
 
 def _nonnegative(text: str) -> float:

@@ -22,7 +22,7 @@ PEDVR = Path(__file__).resolve().parents[1] / "pedvr"
 RANK = {
     # the vocabulary everyone shares
     "pedvr": 0, "errors": 0, "registry": 0, "kernels": 0, "validation": 0, "provenance": 0, "scenes": 0,
-    "signals": 0,
+    "signals": 0, "argtypes": 0,
     "scene": 1,
     "world": 2,
     "body": 3, "crowd": 3,

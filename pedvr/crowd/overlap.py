@@ -106,8 +106,14 @@ def pair_overlaps(pos, radius, depth, facing, tolerance):
                         continue
                     ov = rr - d
                     if d > 1e-12 and (depth[i] < radius[i] or depth[j] < radius[j]):
-                        ov = _ellipse_penetration(radius[i], depth[i], facing[i, 0], facing[i, 1],
-                                                  radius[j], depth[j], facing[j, 0], facing[j, 1], dx, dy)
+                        # along the line of centres first (cheap, and never below the true depth):
+                        # only bodies that may overlap pay for the search over directions
+                        ov = (support(radius[i], depth[i], facing[i, 0], facing[i, 1], dx / d, dy / d)
+                              + support(radius[j], depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d)
+                              - d)
+                        if ov > 0.0:
+                            ov = _ellipse_penetration(radius[i], depth[i], facing[i, 0], facing[i, 1],
+                                                      radius[j], depth[j], facing[j, 0], facing[j, 1], dx, dy)
                     worst = max(worst, ov)
                     if ov > tolerance:
                         if m == cap:

@@ -19,6 +19,7 @@ from typing import Any, TextIO
 
 import shapely
 
+from pedvr.argtypes import positive
 from pedvr.measure.cases import (
     CASES,
     DATA_HELP,
@@ -32,16 +33,6 @@ from pedvr.measure.cases import (
 from pedvr.measure.errors import MeasureError
 from pedvr.measure.measures import Measures, Setup, measure, walkable_polygon
 from pedvr.measure.trajectories import DEFAULT_FPS, Run, from_recording, load_real
-
-
-def _positive(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
-    return v
 
 
 def add_measure_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -98,7 +89,7 @@ def add_measure_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--fps",
-        type=_positive,
+        type=positive(float),
         default=DEFAULT_FPS,
         help="frames/s kept from a recording (default: %(default)s)",
     )
@@ -110,11 +101,12 @@ def add_measure_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--input-fps",
-        type=_positive,
+        type=positive(float),
         default=None,
         help="frame rate of a real .txt file whose header does not say (default: the case's)",
     )
-    p.add_argument("--cutoff", type=_positive, default=None, help="Voronoi cut-off radius (m; default: none)")
+    p.add_argument("--cutoff", type=positive(float), default=None,
+                   help="Voronoi cut-off radius (m; default: none)")
     p.add_argument("--data", default=None, help="real-data folder (default: $PEDVR_REAL_DATA)")
     p.add_argument("--plot", type=Path, default=None, metavar="DIR", help="write the plots (PNG) here")
     p.add_argument("--json", action="store_true")
@@ -148,19 +140,19 @@ def add_realism_parser(bench_subparsers: Any) -> argparse.ArgumentParser:
     )
     b.add_argument(
         "--duration",
-        type=_positive,
+        type=positive(float),
         default=None,
         help="simulated seconds per run (default: each case's, 90-140 s)",
     )
     b.add_argument("--seed", type=int, default=None, help="seed (default: the scenes')")
     b.add_argument("--data", default=None, help="real-data folder (default: $PEDVR_REAL_DATA)")
     b.add_argument(
-        "--fps", type=_positive, default=DEFAULT_FPS, help="frames/s measured (default: %(default)s)"
+        "--fps", type=positive(float), default=DEFAULT_FPS, help="frames/s measured (default: %(default)s)"
     )
     b.add_argument("--plot", type=Path, default=None, metavar="DIR", help="write each case's plots here")
     b.add_argument(
         "--jupedsim-radius",
-        type=_positive,
+        type=positive(float),
         default=None,
         metavar="R",
         help="radius (m) of JuPedSim's agents (default: the scene profile's, as pedvr's; JuPedSim's: 0.2)",

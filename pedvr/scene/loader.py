@@ -881,6 +881,23 @@ def _table_keys(data: dict[str, Any], *keys: str) -> list[str]:
     return list(node) if isinstance(node, dict) else []
 
 
+def _profile_and_state(c: _Checker, s: dict[str, Any], path: str, profiles: dict[str, AgentProfile],
+                       behavior: BehaviorConfig | None,
+                       declared: tuple[set[str], set[str]]) -> tuple[str | None, str | None]:
+    """A spawn's or source's ``profile`` and ``state``, each checked against the ones the file
+    declares (``declared``: names with problems of their own are not also "unknown")."""
+    profile = c.string(s, "profile", f"{path}.profile")
+    if profile is not None and profile not in profiles and profile not in declared[0]:
+        known = sorted(set(profiles) | declared[0])
+        c.bad(f"{path}.profile", profile, f"unknown profile; known: {', '.join(known) or 'none'}")
+    state = c.string(s, "state", f"{path}.state")
+    if state is not None and behavior is not None and state not in behavior.states \
+            and state not in declared[1]:
+        known = sorted(set(behavior.states) | declared[1])
+        c.bad(f"{path}.state", state, f"unknown state; known: {', '.join(known) or 'none'}")
+    return profile, state
+
+
 def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
             behavior: BehaviorConfig | None, world: WorldConfig | None, *,
             declared: tuple[set[str], set[str]] = (set(), set())) -> tuple[Spawn, ...]:
@@ -900,15 +917,7 @@ def _spawns(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
             continue
         c.known(s, path, ("profile", "state", "positions", "count", "region", "facing_deg", "friends"))
         friends = c.boolean(s, "friends", f"{path}.friends", default=False)
-        profile = c.string(s, "profile", f"{path}.profile")
-        if profile is not None and profile not in profiles and profile not in declared[0]:
-            known = sorted(set(profiles) | declared[0])
-            c.bad(f"{path}.profile", profile, f"unknown profile; known: {', '.join(known) or 'none'}")
-        state = c.string(s, "state", f"{path}.state")
-        if state is not None and behavior is not None and state not in behavior.states \
-                and state not in declared[1]:
-            known = sorted(set(behavior.states) | declared[1])
-            c.bad(f"{path}.state", state, f"unknown state; known: {', '.join(known) or 'none'}")
+        profile, state = _profile_and_state(c, s, path, profiles, behavior, declared)
         facing = c.number(s, "facing_deg", f"{path}.facing_deg", required=False, default=None)
         positions: tuple[Vec2, ...] = ()
         count = 0
@@ -948,15 +957,7 @@ def _sources(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
         path = f"agents.sources[{i}]"
         c.known(s, path, ("profile", "state", "rate", "region", "line", "max_count", "start", "stop",
                           "timing", "facing_deg"))
-        profile = c.string(s, "profile", f"{path}.profile")
-        if profile is not None and profile not in profiles and profile not in declared[0]:
-            known = sorted(set(profiles) | declared[0])
-            c.bad(f"{path}.profile", profile, f"unknown profile; known: {', '.join(known)}")
-        state = c.string(s, "state", f"{path}.state")
-        if state is not None and behavior is not None and state not in behavior.states \
-                and state not in declared[1]:
-            known = sorted(set(behavior.states) | declared[1])
-            c.bad(f"{path}.state", state, f"unknown state; known: {', '.join(known)}")
+        profile, state = _profile_and_state(c, s, path, profiles, behavior, declared)
         rate = c.number(s, "rate", f"{path}.rate", check=lambda x: 0 < x <= 100,
                         expect="in (0, 100] agents/s")
         max_count = c.whole(s, "max_count", f"{path}.max_count", required=False, default=0)

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
+from pedvr.argtypes import positive
 from pedvr.errors import PedvrError, UsageError
 from pedvr.scene.config import USER_WALKS
 
@@ -31,16 +32,6 @@ EXIT_ABORTED = 4
 class _StudyParser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         raise UsageError(f"{self.prog}: {message}")
-
-
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
-    return v
 
 
 def _add_commands(study: argparse.ArgumentParser) -> None:
@@ -64,13 +55,13 @@ def _add_commands(study: argparse.ArgumentParser) -> None:
     run.add_argument("--db", type=Path, default=None, help="study database (default: ./<study name>.sqlite)")
     run.add_argument(
         "--max-trial-seconds",
-        type=_positive_float,
+        type=positive(float),
         default=None,
         help="cap every trial's time limit (dry runs)",
     )
     run.add_argument(
         "--pace",
-        type=_positive_float,
+        type=positive(float),
         default=None,
         help="simulated participant only: run trials at this multiple of real time",
     )

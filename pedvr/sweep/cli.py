@@ -18,28 +18,10 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
+from pedvr.argtypes import count as _count
+from pedvr.argtypes import positive
 from pedvr.errors import UsageError
 from pedvr.sweep.errors import SweepError
-
-
-def _count(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be >= 0")
-    return v
-
-
-def _positive(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not v > 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
-    return v
 
 
 def add_sweep_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -96,7 +78,7 @@ def add_bench_parser(bench_subparsers: Any) -> argparse.ArgumentParser:
     b.add_argument("--runs", type=_count, default=100)
     b.add_argument("--workers", type=_count, default=2)
     b.add_argument("--scene", default="headon_corridor")
-    b.add_argument("--duration", type=_positive, default=2.0, help="simulated seconds per run")
+    b.add_argument("--duration", type=positive(float), default=2.0, help="simulated seconds per run")
     b.add_argument("--json", action="store_true")
     from pedvr.measure.cli import add_realism_parser  # `bench realism` (issue 26; run by pedvr.cli)
 

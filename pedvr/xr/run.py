@@ -262,11 +262,19 @@ def run_with_view(
         print(f"  frames:     {opts.frames}/first_person, {opts.frames}/overhead")
     if opts.video is not None:
         print(f"  video:      {opts.video}")
-    if lost:
+    if lost_first(interrupted, lost):
         from pedvr.xr.session import BackendLostError
 
         raise BackendLostError(f"the OpenXR session ended early: {lost}")
     return summary
+
+
+def lost_first(interrupted: bool | str, lost: str | None) -> bool:
+    """Whether the runtime going away ended the run (exit 3), rather than a signal. A Ctrl-C that
+    lands while the runtime's client library waits in a call (Monado's ``recvmsg``) interrupts
+    that call, which then reports the session lost; the signal came first, so the run ends as
+    interrupted (130 for Ctrl-C) with ``backend_lost`` in its metrics."""
+    return lost is not None and not interrupted
 
 
 def _finish(presenter: Presenter) -> None:

@@ -320,3 +320,15 @@ def test_finish_ends_a_frame_left_open_with_no_layers_before_asking_to_exit() ->
     assert port.ended[:2] == [2, None]  # the open frame ended with no layers, nothing half-drawn
     assert port.calls.index("request_exit") > port.calls.index("begin_frame")
     assert p.closed and p.logic.history[-1] == SessionState.EXITING
+
+
+def test_a_signal_that_cut_a_runtime_call_short_ends_the_run_as_interrupted() -> None:
+    """Against Monado, Ctrl-C during ``xrAcquireSwapchainImage`` made its IPC ``recvmsg`` fail
+    (EINTR), the call reported the session lost, and the run exited 3 ("the runtime went away")
+    instead of 130: the signal came first."""
+    from pedvr.xr.run import lost_first
+
+    assert lost_first(False, "the OpenXR runtime went away (SessionLost in end_frame)")
+    assert not lost_first(True, "the OpenXR runtime went away (SessionLost in end_frame)")
+    assert not lost_first("SIGTERM", "the OpenXR runtime went away (SessionLost in end_frame)")
+    assert not lost_first(False, None)
