@@ -515,8 +515,10 @@ class Simulation:
         if self.etiquette is not None:  # holders stepping round a door keep facing it (App. C)
             heading = self.etiquette.face(heading, self.crowd.heading, self.crowd, self.dt)
         self.metrics.observe_user_contact(self.crowd, root)
-        if len(self.doors) and (self.crowd.length > 0.0).any():
-            heading = self._no_turning_into_leaves(root, heading)
+        if (self.crowd.length > 0.0).any():
+            heading = self._pram_keeps_its_course(heading)
+            if len(self.doors):
+                heading = self._no_turning_into_leaves(root, heading)
         self._root_heading = heading
         self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user,
                                                     turn=self.crowd.turn, torso=self.crowd.torso,
@@ -565,6 +567,22 @@ class Simulation:
         self.metrics.door_openings += int(np.count_nonzero(was_closed & (np.abs(doors.angle) >= CLOSED_EPS))
                                           + np.count_nonzero(was_still & (doors.revolvers.omega != 0.0)))
         return root
+
+    def _pram_keeps_its_course(self, heading: np.ndarray) -> np.ndarray:
+        """A pushed pram is not turned toward a velocity that leads away from where its pusher
+        wants to go: a rigid footprint whose avoidance velocity points more than a right angle
+        off its preferred one keeps its old heading this step (it is shoved aside, or backs up,
+        but does not swing round). Turning it there swung the pram's front round a door leaf's
+        free end, which pushed it further round: a pusher 1.5 m before an open double door
+        circled there for 40 s (``tests/etiquette/test_carriers.py``)."""
+        c = self.crowd
+        v, p = self._new_vel, c.pref_vel
+        rows = np.flatnonzero((c.length > 0.0) & (np.einsum("ij,ij->i", v, p) < 0.0))
+        if not rows.size:
+            return heading
+        heading = heading.copy()
+        heading[rows] = c.heading[rows]
+        return heading
 
     def _no_turning_into_leaves(self, root: np.ndarray, heading: np.ndarray) -> np.ndarray:
         """A pushed pram does not swing into a door leaf: a rigid footprint (0.8 m long) whose new
