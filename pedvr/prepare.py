@@ -252,7 +252,9 @@ def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
                     sim.step()
         crowd = sim.crowd
         if len(crowd):
-            crowd.turn[:] = np.where(crowd.is_user, 0.0, 0.5)
+            # Fully turned: above any walking body's turn (coupled walkers are ellipses already,
+            # turn_for(depth_ratio), and only bodies turned beyond it meet the wall kernels).
+            crowd.turn[:] = np.where(crowd.is_user, 0.0, 1.0)
             crowd.torso[:] = crowd.heading + 0.5 * np.pi
             sim.step()
     return watch.compiled, watch.compile_s

@@ -40,6 +40,7 @@ from pedvr.record import Metrics, Recording
 from pedvr.scene.config import (
     CONDITIONS,
     PRAM_MIN_RADIUS,
+    TURNED_DEPTH_RATIO,
     USER_WALKS,
     AgentProfile,
     SceneConfig,
@@ -187,6 +188,21 @@ class Simulation:
             self._navmeshes[key] = NavMesh.build(self.scene.world, clearance=key)
         return self._navmeshes[key]
 
+    def path_mesh_for(self, radius: float) -> NavMesh:
+        """The mesh agents of ``radius`` plan their paths on: coupled, the navigation mesh with
+        the narrow passages a body turned to squeeze through fits (its half depth
+        ``TURNED_DEPTH_RATIO * radius``; :mod:`pedvr.world.navmesh`), which the full radius
+        closes (issue 26: real people pass a 0.5 m bottleneck); decoupled (the paper's discs),
+        :meth:`navmesh_for`. Spawns, sources and goals stay on :meth:`navmesh_for`: a disc must
+        fit where an agent stands."""
+        if not self.coupled:
+            return self.navmesh_for(radius)
+        key = -round(radius, 4)  # negative keys: the path meshes
+        if key not in self._navmeshes:
+            self._navmeshes[key] = NavMesh.build(self.scene.world, clearance=-key,
+                                                 narrow=-key * TURNED_DEPTH_RATIO)
+        return self._navmeshes[key]
+
     def _scripted_user(self) -> UserInput:
         u = self.scene.user
         if not u.route:
@@ -255,6 +271,7 @@ class Simulation:
             self.etiquette.append(ids, profile=prof, is_user=is_user,
                                   female=self.body.state.dims[first:first + n, sk.DIM_SEX] == sk.SEX_FEMALE)
         self.crowd.append(rows)
+        self.steering.forget_neighbors()
         self.encounters.append(n)
         self.behavior.append(BehaviorState.rows(n))
         self.paths.extend(np.zeros((0, 2)) for _ in range(n))
@@ -391,7 +408,7 @@ class Simulation:
         if np.isnan(goal[0]):
             self.paths[row] = np.zeros((0, 2))
             return
-        mesh = self.navmesh_for(float(self.crowd.radius[row]))
+        mesh = self.path_mesh_for(float(self.crowd.radius[row]))
         try:
             self.paths[row] = mesh.find_path(tuple(self.crowd.pos[row]), (float(goal[0]), float(goal[1])))
         except NavigationError:
@@ -470,7 +487,10 @@ class Simulation:
         body's limits; then shoulders turn where people squeeze past each other."""
         self.body.fill_limits(self.crowd, self.crowd.limits)
         crowd = self.crowd
-        pref = self.steering.unstick(crowd.vel, crowd.pref_vel, crowd.is_user, self.stuck_time, self.dt)
+        # coupled: no faster than keeps the time gap to whoever walks ahead (pedvr.crowd.headway);
+        # an agent that waits in a queue is waiting, not stuck (its preferred speed is 0)
+        pref = self.steering.headway(crowd, crowd.pref_vel)
+        pref = self.steering.unstick(crowd.vel, pref, crowd.is_user, self.stuck_time, self.dt)
         pref, short, to_user = self.encounters.steer(
             pos=crowd.pos, vel=crowd.vel, pref_vel=pref, radius=crowd.radius,
             responsibility=crowd.responsibility, is_user=crowd.is_user, dt=self.dt,
@@ -495,8 +515,10 @@ class Simulation:
         if self.etiquette is not None:  # holders stepping round a door keep facing it (App. C)
             heading = self.etiquette.face(heading, self.crowd.heading, self.crowd, self.dt)
         self.metrics.observe_user_contact(self.crowd, root)
-        if len(self.doors) and (self.crowd.length > 0.0).any():
-            heading = self._no_turning_into_leaves(root, heading)
+        if (self.crowd.length > 0.0).any():
+            heading = self._pram_keeps_its_course(heading)
+            if len(self.doors):
+                heading = self._no_turning_into_leaves(root, heading)
         self._root_heading = heading
         self._root = self.steering.resolve_contacts(root, self.crowd.radius, self.crowd.is_user,
                                                     turn=self.crowd.turn, torso=self.crowd.torso,
@@ -545,6 +567,22 @@ class Simulation:
         self.metrics.door_openings += int(np.count_nonzero(was_closed & (np.abs(doors.angle) >= CLOSED_EPS))
                                           + np.count_nonzero(was_still & (doors.revolvers.omega != 0.0)))
         return root
+
+    def _pram_keeps_its_course(self, heading: np.ndarray) -> np.ndarray:
+        """A pushed pram is not turned toward a velocity that leads away from where its pusher
+        wants to go: a rigid footprint whose avoidance velocity points more than a right angle
+        off its preferred one keeps its old heading this step (it is shoved aside, or backs up,
+        but does not swing round). Turning it there swung the pram's front round a door leaf's
+        free end, which pushed it further round: a pusher 1.5 m before an open double door
+        circled there for 40 s (``tests/etiquette/test_carriers.py``)."""
+        c = self.crowd
+        v, p = self._new_vel, c.pref_vel
+        rows = np.flatnonzero((c.length > 0.0) & (np.einsum("ij,ij->i", v, p) < 0.0))
+        if not rows.size:
+            return heading
+        heading = heading.copy()
+        heading[rows] = c.heading[rows]
+        return heading
 
     def _no_turning_into_leaves(self, root: np.ndarray, heading: np.ndarray) -> np.ndarray:
         """A pushed pram does not swing into a door leaf: a rigid footprint (0.8 m long) whose new
@@ -609,16 +647,20 @@ class Simulation:
         """The 2D agent takes the position and heading of its body's root (the body is the truth)."""
         crowd = self.crowd
         virt = ~crowd.is_user
-        if self.coupled:
-            # The body's commanded velocity, inside its motion limits; a contact push moves
-            # the body but is not a step it chose to take.
-            vel = np.where(virt[:, None], self._new_vel, crowd.vel)
-        else:
-            # Decoupled (plain ORCA and a contact pass: position-based dynamics): the
-            # velocity is the disc's actual motion, so where contacts pushed an agent the
-            # next step's ORCA sees a blocked neighbour as blocked (in a jam the contact
-            # pass then needs a few iterations instead of a hundred).
-            vel = np.where(virt[:, None], (self._root - crowd.pos) / self.dt, crowd.vel)
+        # The velocity is the body's actual motion, contacts included (position-based dynamics),
+        # in both conditions: the next step's ORCA sees a blocked neighbour as blocked, and a
+        # coupled body's motion limits start from what it really did. (Until issue 26 a coupled
+        # body kept its commanded velocity: an agent held back at a corner or behind a neighbour
+        # went on "walking" into it, its acceleration limits centred on a speed it did not have;
+        # at the 0.7 m corridor entrance 18 of 111 passed in 40 s, with this 33.)
+        # A push can make it faster than the body walks; it keeps at most its max speed (else its
+        # acceleration limits would lie outside what it can walk, and the linear program drop them).
+        moved = (self._root - crowd.pos) / self.dt
+        speed = np.hypot(moved[:, 0], moved[:, 1])
+        over = speed > crowd.max_speed
+        if over.any():
+            moved[over] *= (crowd.max_speed[over] / speed[over])[:, None]
+        vel = np.where(virt[:, None], moved, crowd.vel)
         crowd.pos = np.where(virt[:, None], self._root, crowd.pos)
         crowd.vel = vel
         crowd.heading = self._root_heading
@@ -697,6 +739,7 @@ class Simulation:
             return
         keep = ~drop
         self.crowd.keep(keep)
+        self.steering.forget_neighbors()
         self.encounters.keep(keep)
         self.body.keep(keep)
         if self.etiquette is not None:

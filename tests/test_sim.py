@@ -46,16 +46,38 @@ def test_motion_limits_hold_in_coupled_mode(scene: str) -> None:
     keep = ~sim.crowd.is_user  # nobody leaves these scenes
     for _ in range(round(20.0 / sim.dt)):
         before = sim.crowd.vel.copy()
+        h = sim.crowd.heading[keep].copy()
         sim.step()
-        dv = np.linalg.norm(sim.crowd.vel[keep] - before[keep], axis=1) / sim.dt
+        # the steered (commanded) velocity against the body's actual one before the step; contact
+        # pushes are not steps the body took (they move it, and its velocity, afterwards)
+        v = sim._new_vel[keep]
+        dv = np.linalg.norm(v - before[keep], axis=1) / sim.dt
         worst["accel"] = max(worst["accel"], float(dv.max(initial=0)))
-        h = sim.crowd.heading[keep]
         fwd = np.stack([np.cos(h), np.sin(h)], 1)
-        v = sim.crowd.vel[keep]
         worst["back"] = max(worst["back"], float((-(v * fwd).sum(1)).max(initial=0)))
     assert worst["accel"] <= max(lim[LIMIT_ACCEL], lim[LIMIT_DECEL]) * 1.05 + 1e-6, worst
     assert worst["back"] <= lim[LIMIT_BACKWARD] + 0.05, worst
     assert lim[LIMIT_SIDEWAYS] > 0
+
+
+@pytest.mark.parametrize("condition", ["pedvr", "decoupled"])
+def test_a_body_s_velocity_is_its_actual_motion(condition: str) -> None:
+    """The velocity the next step starts from is how far the body moved (contact pushes
+    included, at most its max speed), not the velocity it was told to walk (issue 26: a coupled
+    agent held back at a corner went on walking into it)."""
+    sim = Simulation(load_scene(resolve_scene("validation/uo_070")), condition=condition)
+    sim.advance_to(8.0)  # the crowd presses at the entrance
+    virt = ~sim.crowd.is_user
+    differs = 0
+    for _ in range(90):
+        before = sim.crowd.pos.copy()
+        sim.step()
+        moved = (sim.crowd.pos - before) / sim.dt
+        speed = np.linalg.norm(moved, axis=1)
+        moved *= np.minimum(1.0, sim.crowd.max_speed / np.maximum(speed, 1e-12))[:, None]
+        np.testing.assert_allclose(sim.crowd.vel[virt], moved[virt], atol=1e-9)
+        differs += int(np.count_nonzero(np.linalg.norm(sim._new_vel[virt] - moved[virt], axis=1) > 1e-6))
+    assert differs > 0  # contacts did move bodies other than they were steered
 
 
 def test_decoupled_mode_ignores_limits() -> None:

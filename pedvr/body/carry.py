@@ -99,9 +99,13 @@ def object_yaw(kind: np.ndarray, heading: np.ndarray, shoulder_turn: np.ndarray)
     return np.asarray(heading, np.float64) - np.where(box, np.asarray(shoulder_turn, np.float64), 0.0)
 
 
+FRAME_COLUMNS = 5  # object_frame's x, y, z, yaw, tilt
+
+
 def object_frame(kind: np.ndarray, root: np.ndarray, yaw: np.ndarray, scale: np.ndarray,
                  hands: np.ndarray, taken: np.ndarray) -> np.ndarray:
-    """``(N, 4)`` where a carried thing is drawn: ``x, y, z`` (3D world, m) and its 2D ``yaw``.
+    """``(N, 5)`` where a carried thing is drawn: ``x, y, z`` (3D world, m), its 2D ``yaw`` and
+    its ``tilt`` (rad, about its forward axis, its left side up; a box held in both hands only).
     A box's centre lies between the two hands (``hands (N, 2, 3)``, the posed hand joints), so it
     is drawn where it is held even where the pose graph moved the arms after the reach (the legs'
     IK lowering the pelvis, the chest turning); where a hand is ``taken (N, 2)`` by the behaviour,
@@ -110,14 +114,22 @@ def object_frame(kind: np.ndarray, root: np.ndarray, yaw: np.ndarray, scale: np.
     kind = np.asarray(kind).reshape(-1)
     sc = object_scale(kind, scale)
     origin, forward, _ = carry_frame(root, yaw, sc)
-    out = np.zeros((kind.shape[0], 4))
+    out = np.zeros((kind.shape[0], FRAME_COLUMNS))
     box = kind == BOX
     centre = origin + forward * (BOX_AHEAD * sc)[:, None]
     centre[:, 1] = BOX_HEIGHT * sc
     both = box & ~np.asarray(taken, np.bool_).any(axis=1)
-    centre = np.where(both[:, None], np.asarray(hands, np.float64).mean(axis=1), centre)
+    hands = np.asarray(hands, np.float64)
+    centre = np.where(both[:, None], hands.mean(axis=1), centre)
     out[:, :3] = np.where(box[:, None], centre, origin)
     out[:, 3] = yaw
+    # ... and tilted as the hands hold it: the chest's turn rotates the arms about a spine that
+    # leans while walking (graph.turn_shoulders), so at a 38° turn one hand rides 2 cm above the
+    # other; a level box was drawn 1 cm off both.
+    across = hands[:, 0] - hands[:, 1]
+    sep = np.linalg.norm(across, axis=1)
+    tilt = np.arcsin(np.clip(across[:, 1] / np.where(sep > 1e-9, sep, 1.0), -1.0, 1.0))
+    out[:, 4] = np.where(both & (sep > 1e-9), tilt, 0.0)
     return out
 
 

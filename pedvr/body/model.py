@@ -149,7 +149,7 @@ class BodyState:
     reach_pt: np.ndarray  # (N,2,3) world target
     carrying: np.ndarray  # (N,) int8 carry.NONE / BOX / PERAMBULATOR: both hands on it (pedvr.body.carry)
     carry_yaw: np.ndarray  # (N,) rad: the carried thing's 2D facing this step (carry.object_yaw)
-    carry_frame: np.ndarray  # (N,4) where it is drawn: x, y (up), z world m and yaw (carry.object_frame)
+    carry_frame: np.ndarray  # (N,5) where it is drawn: x, y (up), z world m, yaw, tilt (carry.object_frame)
     q_kind: np.ndarray  # (N,Q) int64
     q_prio: np.ndarray
     q_wait: np.ndarray
@@ -187,7 +187,7 @@ class BodyState:
             gaze_agent=np.full(n, -1, np.int64), gaze_rule=z(n, np.bool_),
             g_kind=z(n, np.int64), g_start=z(n), g_dur=z(n), g_next=z(n), sitting=z(n, np.bool_),
             reach_on=z((n, 2), np.bool_), reach_pt=z((n, 2, 3)), carrying=z(n, np.int8),
-            carry_yaw=z(n), carry_frame=z((n, 4)),
+            carry_yaw=z(n), carry_frame=z((n, carry.FRAME_COLUMNS)),
             q_kind=np.full((n, act.QUEUE), act.EMPTY, np.int64), q_prio=z((n, act.QUEUE)),
             q_wait=z((n, act.QUEUE)), q_planned=z((n, act.QUEUE), np.bool_), q_dur=z((n, act.QUEUE)),
             run_kind=np.full((n, act.N_RES), -1, np.int64), run_end=z((n, act.N_RES)),

@@ -32,6 +32,17 @@ footprints). The model (pedvr's choice; the papers give no formula):
 (adult anthropometry: chest depth 0.23-0.28 m, biacromial width 0.36-0.46 m
 plus the arms). The user is always a disc: pedvr cannot turn the person.
 
+The walking body (coupled mode, issue 26): a person is not as deep as wide even when not
+squeezing past anyone, and follows others closer than a disc of shoulder width allows. In
+the coupled condition an agent that does not squeeze has the turn ``walk_turn`` (from
+``[steering] depth_ratio``, the half depth over the radius: ``b = depth_ratio · r``) with its
+torso along its heading: an ellipse a shoulder width across and ``2 b`` front to back, so two
+people in line come as close as ``2 b`` centre to centre (0.72 · 0.25 m: 0.36 m, the length a
+pedestrian standing in a line takes up, Seyfried et al. 2005, J. Stat. Mech. P10002). Its
+torso follows the heading at ``TORSO_RATE`` (taking the nearer of the two facings of the
+same ellipse). Squeezing turns it further, to ``τ = 1``, as above. The decoupled condition
+keeps ``walk_turn = 0``: the paper's discs.
+
 A pushed perambulator (Huang & Terzopoulos §4.6: "a longer footprint for
 steering"; the paper gives no shape, this is pedvr's choice) makes the pusher
 and the pram one rigid footprint: the ellipse with its long semi-axis ``L``
@@ -60,8 +71,9 @@ from numba import njit
 
 from pedvr.crowd.neighbors import obstacle_neighbors_of
 from pedvr.kernels import row_njit
+from pedvr.scene.config import TURNED_DEPTH_RATIO
 
-DEPTH_RATIO = 0.52  # front-to-back half depth / shoulder half width
+DEPTH_RATIO = TURNED_DEPTH_RATIO  # front-to-back half depth / shoulder half width, turned
 SQUEEZE_GAP = 0.15  # m: a passing neighbour's disc this close (surface to surface) makes the agent turn
 PASS_SPEED = 0.2  # m/s: relative speed above which a close neighbour is passing (not queueing)
 TURN_RATE = 2.5  # 1/s: τ changes at most this much per second (0.4 s to turn fully)
@@ -83,17 +95,45 @@ def depth_of(radius, turn):
     return radius * (1.0 - turn * (1.0 - DEPTH_RATIO))
 
 
+def turn_for(depth_ratio: float) -> float:
+    """The turn ``τ`` whose half depth is ``depth_ratio`` times the radius (the inverse of
+    :func:`depth_of`): 0 for the disc, 1 for :data:`DEPTH_RATIO`."""
+    return (1.0 - depth_ratio) / (1.0 - DEPTH_RATIO)
+
+
+@njit(cache=True, inline="always")
+def _toward(torso, fx, fy, turn, dt):
+    """The torso facing one step toward ``(fx, fy)`` or its opposite, whichever is nearer (the
+    ellipse is the same for both: at most a quarter turn), at ``TORSO_RATE``; at once for a disc
+    (``turn <= 0``), so the footprint never jumps (a jump toward a wall would leave the agent
+    inside it)."""
+    want = math.atan2(fy, fx)
+    delta = (want - torso + math.pi) % (2.0 * math.pi) - math.pi
+    if delta > 0.5 * math.pi:
+        delta -= math.pi
+    elif delta < -0.5 * math.pi:
+        delta += math.pi
+    if turn <= 0.0:
+        return torso + delta
+    lim = TORSO_RATE * dt
+    return torso + min(max(delta, -lim), lim)
+
+
 @njit(cache=True)  # O(N) and cheap: a parallel region would cost more than it saves (pedvr.kernels)
-def turn_kernel(pos, vel, radius, is_user, turn, torso, nbr_idx, nbr_count, short_of_room,
-                room_dir, wall_dist, dt, out_turn, out_torso):
+def turn_kernel(pos, vel, radius, is_user, turn, torso, heading, walk_turn, nbr_idx, nbr_count,
+                short_of_room, room_dir, narrow_dir, wall_dist, dt, out_turn, out_torso):
     """New ``τ`` and torso facing per row (compute, then the caller commits).
 
     ``short_of_room[i]`` (from the user encounter) makes the agent turn with its torso
     facing ``room_dir[i]`` (a unit vector across the passing line) even before it is
-    that close. A turned agent untwists only where its disc fits: no neighbour's disc
-    within ``SQUEEZE_GAP`` and no wall closer than its radius (``wall_dist[i]``, the
-    distance to the nearest obstacle edge); otherwise it holds its turn. User rows
-    never turn.
+    that close; ``narrow_dir[i]`` (nonzero: :func:`narrow_kernel`), entering a passage
+    between walls narrower than its shoulders, likewise, and before any neighbour: there the
+    walls decide which way the shoulders lie. A turned agent untwists only
+    where its disc fits: no neighbour's disc within ``SQUEEZE_GAP`` and no wall closer
+    than its radius (``wall_dist[i]``, the distance to the nearest obstacle edge);
+    otherwise it holds its turn. It untwists to
+    ``walk_turn`` (coupled: the walking body's ellipse, its torso following ``heading``;
+    0: the disc). User rows never turn.
     """
     for i in range(pos.shape[0]):
         out_turn[i] = 0.0
@@ -107,6 +147,13 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, nbr_idx, nbr_count, shor
         px = pos[i, 0]
         py = pos[i, 1]
         crowded = wall_dist[i] < radius[i]
+        walls = narrow_dir[i, 0] != 0.0 or narrow_dir[i, 1] != 0.0
+        if walls:
+            # a passage narrower than the shoulders: its walls decide the facing, whoever is near
+            fx = narrow_dir[i, 0]
+            fy = narrow_dir[i, 1]
+            found = True
+            crowded = True
         for q in range(nbr_count[i]):
             j = nbr_idx[i, q]
             dx = pos[j, 0] - px
@@ -115,7 +162,7 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, nbr_idx, nbr_count, shor
             gap = d - radius[i] - radius[j]
             if gap < SQUEEZE_GAP:
                 crowded = True
-            if gap >= SQUEEZE_GAP or gap >= best or d < 1e-9:
+            if walls or gap >= SQUEEZE_GAP or gap >= best or d < 1e-9:
                 continue
             rvx = vel[i, 0] - vel[j, 0]
             rvy = vel[i, 1] - vel[j, 1]
@@ -137,24 +184,104 @@ def turn_kernel(pos, vel, radius, is_user, turn, torso, nbr_idx, nbr_count, shor
             fx = room_dir[i, 0]
             fy = room_dir[i, 1]
             found = True
-        target = 1.0 if found else (turn[i] if crowded else 0.0)
+        target = 1.0 if found else (max(turn[i], walk_turn) if crowded else walk_turn)
         step = TURN_RATE * dt
         out_turn[i] = min(max(target, turn[i] - step), turn[i] + step)
         if found:
-            # The ellipse is the same for f and -f: take the one nearer the current torso
-            # (at most a quarter turn), and turn toward it at TORSO_RATE, so the footprint
-            # never jumps (a jump toward a wall would leave the agent inside it).
-            want = math.atan2(fy, fx)
-            delta = (want - torso[i] + math.pi) % (2.0 * math.pi) - math.pi
-            if delta > 0.5 * math.pi:
-                delta -= math.pi
-            elif delta < -0.5 * math.pi:
-                delta += math.pi
-            if turn[i] <= 0.0:
-                out_torso[i] = torso[i] + delta  # a disc: any facing, at once
-            else:
-                lim = TORSO_RATE * dt
-                out_torso[i] = torso[i] + min(max(delta, -lim), lim)
+            out_torso[i] = _toward(torso[i], fx, fy, turn[i], dt)
+        elif walk_turn > 0.0 and turn[i] <= walk_turn:
+            # walking, not squeezing: the body's depth along its heading
+            out_torso[i] = _toward(torso[i], math.cos(heading[i]), math.sin(heading[i]), turn[i], dt)
+
+
+NARROW_MARGIN = 0.05  # m: a passage narrower than the shoulders plus this is squeezed through turned
+NARROW_LOOKAHEAD = 0.5  # m: the passage is looked for this far ahead too (turning takes 0.4 s)
+
+
+@njit(cache=True, inline="always")
+def _passage(px, py, ex, ey, reach, vertices, nxt, n_static, origin, cell, nx, ny, cell_start,
+             cell_edges, edge_cells):
+    """``(left, right, inside, nx, ny)``: the distances from ``p`` to the nearest static obstacle
+    edge on each side of the way ``e`` (inf where none within ``reach``), whether ``p`` lies
+    inside an obstacle (behind its nearest edge: RVO2's edges have the free side on their
+    right), and the unit direction from ``p`` to the nearest edge point ((0, 0): none)."""
+    left = math.inf
+    right = math.inf
+    nearest = math.inf
+    inside = False
+    nx_ = 0.0
+    ny_ = 0.0
+    inv = 1.0 / cell
+    qx0 = max(int(math.floor((px - reach - origin[0]) * inv)), 0)
+    qx1 = min(int(math.floor((px + reach - origin[0]) * inv)), nx - 1)
+    qy0 = max(int(math.floor((py - reach - origin[1]) * inv)), 0)
+    qy1 = min(int(math.floor((py + reach - origin[1]) * inv)), ny - 1)
+    for gy in range(qy0, qy1 + 1):
+        for gx in range(qx0, qx1 + 1):
+            c = gy * nx + gx
+            for q in range(cell_start[c], cell_start[c + 1]):
+                k = cell_edges[q]
+                if k >= n_static or gx != max(edge_cells[k, 0], qx0) or gy != max(edge_cells[k, 1], qy0):
+                    continue
+                ax = vertices[k, 0]
+                ay = vertices[k, 1]
+                bx = vertices[nxt[k], 0]
+                by = vertices[nxt[k], 1]
+                wx = bx - ax
+                wy = by - ay
+                ll = wx * wx + wy * wy
+                t = 0.0 if ll <= 0.0 else min(max(((px - ax) * wx + (py - ay) * wy) / ll, 0.0), 1.0)
+                dx = ax + t * wx - px
+                dy = ay + t * wy - py
+                d = math.sqrt(dx * dx + dy * dy)
+                if d >= reach:
+                    continue
+                if d < nearest:
+                    nearest = d
+                    inside = (ax - px) * wy - (ay - py) * wx > 0.0  # p left of a -> b
+                    if d > 1e-9:
+                        nx_ = dx / d
+                        ny_ = dy / d
+                if ex * dy - ey * dx > 0.0:
+                    left = min(left, d)
+                else:
+                    right = min(right, d)
+    return left, right, inside, nx_, ny_
+
+
+@njit(cache=True)  # O(N) and cheap: a parallel region would cost more than it saves (pedvr.kernels)
+def narrow_kernel(pos, pref_vel, radius, is_user, vertices, nxt, n_static, origin, cell, nx, ny,
+                  cell_start, cell_edges, edge_cells, out_dir):
+    """``out_dir[i]``: a unit torso facing across the passage (toward its nearest wall, so the
+    shoulders lie along it) where agent ``i`` is about to squeeze through a passage between
+    walls narrower than its shoulders plus ``NARROW_MARGIN``, at its position or
+    ``NARROW_LOOKAHEAD`` ahead along its preferred velocity;
+    ``(0, 0)`` elsewhere (issue 26: real people pass 0.5 m, turned). A look-ahead point inside
+    an obstacle (the agent walks at a wall) does not count."""
+    for i in range(pos.shape[0]):
+        out_dir[i, 0] = 0.0
+        out_dir[i, 1] = 0.0
+        vx = pref_vel[i, 0]
+        vy = pref_vel[i, 1]
+        v = math.sqrt(vx * vx + vy * vy)
+        if is_user[i] or v < 1e-6:
+            continue
+        ex = vx / v
+        ey = vy / v
+        reach = radius[i] + NARROW_MARGIN
+        for ahead in (0.0, NARROW_LOOKAHEAD):
+            left, right, inside, wx, wy = _passage(pos[i, 0] + ahead * ex, pos[i, 1] + ahead * ey, ex, ey,
+                                                   reach, vertices, nxt, n_static, origin, cell, nx, ny,
+                                                   cell_start, cell_edges, edge_cells)
+            if not inside and left + right < 2.0 * reach:
+                # the chest toward the nearest wall: the shoulders lie along the passage, whichever
+                # way the agent comes at it (across its own way would turn them askew in the mouth)
+                if wx == 0.0 and wy == 0.0:
+                    wx = -ey
+                    wy = ex
+                out_dir[i, 0] = wx
+                out_dir[i, 1] = wy
+                break
 
 
 @njit(cache=True)

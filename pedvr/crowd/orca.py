@@ -66,11 +66,21 @@ What is relaxed first when the program is infeasible
     2. If the hard prefix itself is infeasible (e.g. a wall ahead closer than
        the braking distance, or the body's heading jumped so ``v`` violates
        (c)), the heading-relative lines (c) are dropped first.
-    3. If obstacles plus (a), (b) are still infeasible, all motion-limit
-       lines are dropped and plain ORCA (RVO2's behaviour) is solved.
+    3. If obstacles plus (a), (b) are still infeasible (a body pushed toward a
+       wall faster than it can brake before ORCA's obstacle horizon), the
+       obstacle lines join the agent lines as soft ones: the body brakes as
+       hard as (a), (b) allow toward the velocity that violates them least,
+       and the contact pass (:mod:`pedvr.crowd.contact`) keeps it out of the
+       wall. (Since issue 26 a body's velocity is its actual motion, pushes
+       included, so this happens: about twice in 14 400 agent-steps of
+       ``bidirectional_flow``; dropping every limit there made the body's
+       velocity jump by 30 m/s² and more.)
+    4. If (a), (b) alone are infeasible (a velocity above max speed, which the
+       simulation never hands in), all motion-limit lines are dropped and plain
+       ORCA (RVO2's behaviour) is solved.
     ``out_status[i]`` reports what happened as bit flags: ``STATUS_DENSE``
-    (step 1 ran), ``STATUS_DROPPED_HEADING`` (step 2), ``STATUS_DROPPED_MOTION``
-    (step 3).
+    (step 1 ran), ``STATUS_DROPPED_HEADING`` (step 2), ``STATUS_SOFT_OBSTACLES``
+    (step 3), ``STATUS_DROPPED_MOTION`` (step 4).
 
 Decoupled mode (``coupled=False``) is plain ORCA with no motion limits: the
 baseline, and what the oracle test compares against RVO2.
@@ -108,6 +118,7 @@ MAX_MOTION_LINES = ACCEL_POLYGON_SIDES + 2 + 3
 STATUS_DENSE = 1  # linear_program3 ran: agent lines were softened
 STATUS_DROPPED_HEADING = 2  # hard prefix infeasible: heading-relative limits (c) dropped
 STATUS_DROPPED_MOTION = 4  # still infeasible: every motion limit dropped (plain ORCA)
+STATUS_SOFT_OBSTACLES = 8  # obstacles and (a), (b) infeasible: obstacle lines softened, limits kept
 
 _FM = {"nsz", "arcp", "contract", "afn"}  # no reassociation, no nnan/ninf (RVO2 uses inf)
 
@@ -803,6 +814,24 @@ def _shift_lines(lines, src, dst, count):
 
 
 @row_njit(fastmath=_FM)
+def _rotate_front(lines, first, second, scratch):
+    """Swap the first two blocks of ``lines`` (``first`` rows, then ``second`` rows) in place,
+    through ``scratch`` (room for ``first`` rows)."""
+    _copy_lines(lines, 0, scratch, 0, first)
+    _shift_lines(lines, first, 0, second)
+    _copy_lines(scratch, 0, lines, second, first)
+
+
+@row_njit(fastmath=_FM)
+def _copy_lines(src, at, dst, to, count):
+    for k in range(count):
+        dst[to + k, 0] = src[at + k, 0]
+        dst[to + k, 1] = src[at + k, 1]
+        dst[to + k, 2] = src[at + k, 2]
+        dst[to + k, 3] = src[at + k, 3]
+
+
+@row_njit(fastmath=_FM)
 def _solve(lines, n, num_hard, max_speed, prx, pry, proj):
     fail, rx, ry = linear_program2(lines, n, max_speed, prx, pry, False)
     if fail < n:
@@ -914,12 +943,20 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
         n = num_hard + num_agent
         fail, rx, ry = linear_program2(lines, n, ms, prx, pry, False)
         if fail < num_hard:
-            # ... then every motion limit: plain ORCA.
-            status = STATUS_DROPPED_MOTION
-            _shift_lines(lines, num_hard, num_obst, num_agent)
-            num_hard = num_obst
-            n = num_hard + num_agent
+            # ... then the obstacle lines go soft behind the velocity limits (a), (b) ...
+            _rotate_front(lines, num_obst, num_vel_lim, proj)
             fail, rx, ry = linear_program2(lines, n, ms, prx, pry, False)
+            if fail >= num_vel_lim:
+                status = STATUS_DROPPED_HEADING | STATUS_SOFT_OBSTACLES
+                num_hard = num_vel_lim
+            else:
+                # ... and only if (a), (b) alone are infeasible, every motion limit: plain ORCA.
+                _rotate_front(lines, num_vel_lim, num_obst, proj)
+                status = STATUS_DROPPED_MOTION
+                _shift_lines(lines, num_hard, num_obst, num_agent)
+                num_hard = num_obst
+                n = num_hard + num_agent
+                fail, rx, ry = linear_program2(lines, n, ms, prx, pry, False)
     if fail < n:
         status |= STATUS_DENSE
         rx, ry = linear_program3(lines, n, num_hard, fail, ms, rx, ry, proj)

@@ -24,6 +24,7 @@ from numba import njit
 from pedvr.crowd import contact as _contact
 from pedvr.crowd import deadlock as _deadlock
 from pedvr.crowd import footprint as _fp
+from pedvr.crowd import headway as _hw
 from pedvr.crowd import neighbors as _nb
 from pedvr.crowd import orca as _orca
 from pedvr.crowd.state import N_LIMITS, CrowdState
@@ -93,6 +94,10 @@ class Steering:
                 f"neighbor_dist = {params.neighbor_dist}: must be > 0")
         if params.max_neighbors < 0:
             raise SteeringInputError(f"max_neighbors = {params.max_neighbors}: must be >= 0")
+        if params.time_gap < 0.0:
+            raise SteeringInputError(f"time_gap = {params.time_gap}: must be >= 0 s")
+        if not _fp.DEPTH_RATIO <= params.depth_ratio <= 1.0:
+            raise SteeringInputError(f"depth_ratio = {params.depth_ratio}: must be in [{_fp.DEPTH_RATIO}, 1]")
         if params.time_horizon <= 0.0 or params.time_horizon_obst <= 0.0:
             raise SteeringInputError(
                 f"time_horizon = {params.time_horizon}, time_horizon_obst = "
@@ -111,6 +116,9 @@ class Steering:
         self._scratch_key: tuple[int, int, int] | None = None
         self._bounds = np.zeros(0, np.int64)  # chunk bounds of the last row count
         self._neighbors: tuple[np.ndarray, np.ndarray] | None = None
+        # Coupled: the walking body's turn (its ellipse along the heading, pedvr.crowd.footprint);
+        # decoupled: the paper's discs.
+        self.walk_turn = _fp.turn_for(params.depth_ratio) if self.coupled else 0.0
         # The late safety step toward the user (pedvr.crowd.encounter): ORCA's line toward
         # the user has this horizon; 0 switches it off.
         self.user_horizon = float(params.user_safety_horizon) if params.user_safety else 0.0
@@ -272,6 +280,29 @@ class Steering:
             lines)
         return lines[:count].copy()
 
+    def headway(self, state: CrowdState, pref_vel: np.ndarray) -> np.ndarray:
+        """Preferred velocities ``(N, 2)`` whose speeds keep the time gap ``params.time_gap`` to
+        whoever walks ahead in each agent's lane and goes its way (:mod:`pedvr.crowd.headway`):
+        coupled mode only; decoupled (plain ORCA), or a time gap of 0, returns them unchanged.
+        Uses the neighbour lists of the last :meth:`compute_velocities` when they are of the
+        same rows (the simulation forgets them when rows come or go), else searches afresh."""
+        n = len(state)
+        pref_vel = _check("pref_vel", pref_vel, (n, 2), np.float64)
+        if n == 0 or not self.coupled or self.params.time_gap <= 0.0:
+            return pref_vel.copy()
+        fp = self._footprints(state)
+        if self._neighbors is None or self._neighbors[0].shape[0] != n:
+            self._neighbors = self.neighbors(np.ascontiguousarray(fp.centre))
+        idx, cnt = self._neighbors
+        out = np.empty((n, 2))
+        _hw.headway_kernel(fp.centre, pref_vel, fp.radius, fp.depth, fp.facing,
+                           np.ascontiguousarray(state.is_user), idx, cnt, float(self.params.time_gap), out)
+        return out
+
+    def forget_neighbors(self) -> None:
+        """Rows came or went: the last neighbour lists no longer name the same agents."""
+        self._neighbors = None
+
     # ------------------------------------------------------------------ footprints
 
     @staticmethod
@@ -296,16 +327,24 @@ class Steering:
         if n:
             pos = np.ascontiguousarray(state.pos)
             wall = np.full(n, np.inf)
-            turned = np.flatnonzero(state.turn > 0.0)
+            turned = np.flatnonzero(state.turn > self.walk_turn)
             if turned.size and len(self._next):
                 og = self.obstacle_grid
                 _fp.wall_distance_kernel(pos, turned, np.ascontiguousarray(state.radius), self._verts,
                                          self._next, og.origin, og.cell, og.shape[0], og.shape[1],
                                          og.cell_start, og.cell_edges, og.edge_cells, wall)
-            _fp.turn_kernel(pos, np.ascontiguousarray(state.vel),
-                            np.ascontiguousarray(state.radius), np.ascontiguousarray(state.is_user),
-                            np.ascontiguousarray(state.turn), np.ascontiguousarray(state.torso), idx, cnt,
-                            short, room, wall, float(dt), turn, torso)
+            radius = np.ascontiguousarray(state.radius)
+            is_user = np.ascontiguousarray(state.is_user)
+            narrow = np.zeros((n, 2))
+            if self.coupled and self._n_static:  # coupled: passages narrower than the shoulders
+                og = self.obstacle_grid
+                _fp.narrow_kernel(pos, np.ascontiguousarray(state.pref_vel), radius, is_user, self._verts,
+                                  self._next, self._n_static, og.origin, og.cell, og.shape[0], og.shape[1],
+                                  og.cell_start, og.cell_edges, og.edge_cells, narrow)
+            _fp.turn_kernel(pos, np.ascontiguousarray(state.vel), radius, is_user,
+                            np.ascontiguousarray(state.turn), np.ascontiguousarray(state.torso),
+                            np.ascontiguousarray(state.heading), self.walk_turn, idx, cnt, short, room,
+                            narrow, wall, float(dt), turn, torso)
             turn[state.length > 0.0] = 0.0  # a pram and its pusher: one rigid footprint, no shoulder turn
         return turn, torso
 

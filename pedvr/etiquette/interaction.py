@@ -369,9 +369,12 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
             # QUEUE_GAP back, a little off the lane that people coming through walk along.
             fr = lh.frame
             side_local = 1 if w.side == _pull_side_world(et, lh) else -1
-            back = _behind(fr, radius, side_local) + fr.m * side_local * QUEUE_GAP
+            # Once that follower has left its place for the leaf's edge (REACH_EDGE), the next moves
+            # up into the place itself, so that it is closed up when the door changes hands.
+            moved_on = leader.state == REACH_EDGE
+            back = _behind(fr, radius, side_local) + fr.m * side_local * (0.0 if moved_on else QUEUE_GAP)
             off = 1.0 if float((p - back) @ fr.e) >= 0.0 or side_local > 0 else -1.0  # pull side: latch way
-            spot = back + fr.e * off * QUEUE_ASIDE
+            spot = back if moved_on else back + fr.e * off * QUEUE_ASIDE
             if float(np.hypot(*(p - spot))) > 0.25:
                 et.go_direct(w, spot, facing=_toward(spot, fr.lane(0.0)), speed=float(crowd.pref_speed[r]))
             else:
@@ -415,7 +418,7 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
                      speed=float(crowd.pref_speed[r]))
         et.log("push_through", w)
         return
-    if leaf in ds.mutex or leaf in ds.holder:
+    if leaf in ds.mutex or leaf in ds.holder or _oncoming(et, w, crowd):
         et.stand(w, face_door)
         return
     if float(np.hypot(*(p - bop))) <= OPENER_RANGE or float(np.hypot(*(p - ds.centre))) <= OPENER_RANGE:
@@ -895,10 +898,15 @@ def _catch_nh(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState) -> boo
 
 def _oncoming(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
     """Whether someone passing this door the other way is still in the doorway or coming out of it
-    on ``w``'s side (a PF follower waits for it: the doorway takes one way at a time)."""
+    on ``w``'s side (a PF follower, or one about to open the door, waits for it: the doorway takes
+    one way at a time). Passing the other way: a follower passing first, or a holder walking
+    through after letting go (FinishDoor); an opener from the other side that did not wait met
+    such a holder head-on in the doorway, where both stood for seconds."""
     ds = et.dstate[w.door]
     for o in et.walkers.values():
-        if o.door != w.door or o.side == w.side or o.role != PASSING or o.id not in et._row:
+        if o.door != w.door or o.side == w.side or o.id not in et._row:
+            continue
+        if not (o.role == PASSING or (o.role == HOLDER and o.state == FINISH_DOOR)):
             continue
         rel = float((et.pos(crowd, o.id) - ds.centre) @ ds.n) * o.side  # > 0: still on its own side
         if rel > -(et.radius(crowd, o.id) + 0.35):

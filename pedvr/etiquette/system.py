@@ -56,6 +56,8 @@ from pedvr.etiquette.vocab import (
     NONE,
     PASS_CONFIRM,
     PASSING,
+    PURSUIT_ANGLE,
+    PURSUIT_LENGTH,
     RIDER,
     RUSH_SPEEDUP,
     SENSE_USER,
@@ -231,6 +233,19 @@ class DoorEtiquette(EtiquetteCore):
             k = w.plan_i + int(np.argmin(np.hypot(*(w.plan[w.plan_i:] - p).T)))
             while k < last and float(np.hypot(*(w.plan[k] - p))) < 0.2:
                 k += 1
+            # A rigid footprint (a pram) cannot step sideways: a key close beside its pusher (within
+            # PURSUIT_LENGTH of the footprint's length, more than PURSUIT_ANGLE off its heading) is
+            # passed over for the next, not steered at (that turned the pram across the doorway,
+            # where it stalled against a leaf's edge).
+            if crowd.length[r] > 0.0:
+                reach = PURSUIT_LENGTH * float(crowd.length[r])
+                h = float(crowd.heading[r])
+                while k < last:
+                    d = w.plan[k] - p
+                    off = abs((math.atan2(d[1], d[0]) - h + math.pi) % (2 * math.pi) - math.pi)
+                    if float(np.hypot(*d)) >= reach or off <= PURSUIT_ANGLE:
+                        break
+                    k += 1
             w.plan_i = k
             d = w.plan[k] - p
             dist = float(np.hypot(*d))

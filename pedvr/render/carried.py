@@ -95,11 +95,11 @@ def _local(kind: int) -> np.ndarray:
 
 def frames(kind: np.ndarray, frame: np.ndarray | None, pos: np.ndarray, heading: np.ndarray,
            scale: np.ndarray) -> np.ndarray:
-    """``(N, 4)`` the body's carry frames (:func:`pedvr.body.carry.object_frame`), or where none
+    """``(N, 5)`` the body's carry frames (:func:`pedvr.body.carry.object_frame`), or where none
     were given (a hand-made snapshot) the ones of bodies holding their things at ``pos`` facing
     ``heading``."""
     if frame is not None:
-        return np.asarray(frame, np.float64).reshape(-1, 4)
+        return np.asarray(frame, np.float64).reshape(-1, carry.FRAME_COLUMNS)
     kind = np.asarray(kind).reshape(-1)
     n = kind.shape[0]
     return carry.object_frame(kind, pos, heading, scale, np.zeros((n, 2, 3)), np.ones((n, 2), np.bool_))
@@ -107,11 +107,11 @@ def frames(kind: np.ndarray, frame: np.ndarray | None, pos: np.ndarray, heading:
 
 def carried_vertices(kind: np.ndarray, frame: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """World-space vertices of every box and pram: rows with ``kind`` (:data:`pedvr.body.carry.BOX`
-    or ``PERAMBULATOR``) placed at ``frame (N, 4)`` (x, y, z, yaw: :func:`frames`), body
+    or ``PERAMBULATOR``) placed at ``frame (N, 5)`` (x, y, z, yaw, tilt: :func:`frames`), body
     ``scale (N,)``."""
     kind = np.asarray(kind).reshape(-1)
-    frame = np.asarray(frame, np.float64).reshape(-1, 4)
-    pos, heading = frame[:, [0, 2]], frame[:, 3]
+    frame = np.asarray(frame, np.float64).reshape(-1, carry.FRAME_COLUMNS)
+    pos, heading, tilt = frame[:, [0, 2]], frame[:, 3], frame[:, 4]
     scale = carry.object_scale(kind, scale)
     parts = []
     for k in (carry.BOX, carry.PERAMBULATOR):
@@ -122,13 +122,17 @@ def carried_vertices(kind: np.ndarray, frame: np.ndarray, scale: np.ndarray) -> 
         out = np.tile(local, rows.size).reshape(rows.size, len(local))  # colours, uv, materials
         c, s = np.cos(heading[rows])[:, None], np.sin(heading[rows])[:, None]
         sc = scale[rows][:, None]
-        a, y, cc = (local["pos"][None, :, j] * sc for j in range(3))
+        a, y0, c0 = (local["pos"][None, :, j] * sc for j in range(3))
+        # the tilt about the forward axis first (its left side, at -c, up), then the heading
+        ct, st = np.cos(tilt[rows])[:, None], np.sin(tilt[rows])[:, None]
+        y, cc = y0 * ct - c0 * st, c0 * ct + y0 * st
         # (a forward, c across) -> ground: a rotation by the heading (so the winding is kept)
         p = np.empty((rows.size, len(local), 3), np.float32)
         p[..., 0] = c * a - s * cc + pos[rows, 0:1]
         p[..., 1] = y + frame[rows, 1:2]
         p[..., 2] = s * a + c * cc + pos[rows, 1:2]
-        na, ny, nc = (local["normal"][None, :, j] for j in range(3))
+        na, ny0, nc0 = (local["normal"][None, :, j] for j in range(3))
+        ny, nc = ny0 * ct - nc0 * st, nc0 * ct + ny0 * st
         nrm = np.empty_like(p)
         nrm[..., 0] = c * na - s * nc
         nrm[..., 1] = ny
@@ -141,10 +145,10 @@ def carried_vertices(kind: np.ndarray, frame: np.ndarray, scale: np.ndarray) -> 
 
 def outline_segments(kind: np.ndarray, frame: np.ndarray,
                      scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Overhead outlines at ``frame (N, 4)`` (:func:`frames`): segment end points ``(2S, 2)``
+    """Overhead outlines at ``frame (N, 5)`` (:func:`frames`): segment end points ``(2S, 2)``
     (ground) and each segment's kind ``(S,)``."""
     kind = np.asarray(kind).reshape(-1)
-    frame = np.asarray(frame, np.float64).reshape(-1, 4)
+    frame = np.asarray(frame, np.float64).reshape(-1, carry.FRAME_COLUMNS)
     pos, heading = frame[:, [0, 2]], frame[:, 3]
     scale = carry.object_scale(kind, scale)
     d, _, w = carry.BOX_SIZE

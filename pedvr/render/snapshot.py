@@ -37,8 +37,9 @@ class Snapshot:
     each agent's index into the scene's profiles, -1 for the user, through
     the scene's ``characters`` keys; neither: the procedural character).
     ``carrying`` ``(N,) int8`` is what each agent carries (:mod:`pedvr.body.carry`: 0 nothing,
-    1 a box, 2 a perambulator), drawn at ``carry_frame`` ``(N, 4)`` (the body's: a box's centre
-    between the hands, a pram's root, and the yaw, :func:`pedvr.body.carry.object_frame`; None:
+    1 a box, 2 a perambulator), drawn at ``carry_frame`` ``(N, 5)`` (the body's: a box's centre
+    between the hands, a pram's root, the yaw and a box's tilt in the hands,
+    :func:`pedvr.body.carry.object_frame`; None:
     at ``pos`` facing ``heading`` as a body holds it standing), :mod:`pedvr.render.carried`;
     None: nothing.
     """

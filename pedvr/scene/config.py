@@ -193,6 +193,11 @@ class AgentProfile:
     carrying: str = "none"
 
 
+# A body that turned its shoulders to squeeze past: its half depth front to back over its radius
+# (chest depth 0.26 m beside a 0.50 m shoulder width; pedvr.crowd.footprint).
+TURNED_DEPTH_RATIO = 0.52
+
+
 @dataclass(frozen=True)
 class SteeringParams:
     """ORCA parameters shared by every agent (van den Berg et al. 2011)."""
@@ -205,6 +210,12 @@ class SteeringParams:
     personal_space: float = 0.3  # m added to the user's radius for avoidance (not for contact)
     user_safety: bool = True  # the late safety step toward the user (off: pure ρ, contacts possible)
     user_safety_horizon: float = 1.0  # s: horizon of that safety step
+    # Coupled mode (issue 26): a walking body's half depth front to back as a share of its
+    # radius, the footprint an ellipse along its heading (1: the disc; pedvr.crowd.footprint)
+    depth_ratio: float = 0.72
+    # Coupled mode (issue 26): the time gap (s) kept to whoever walks ahead in one's lane going
+    # one's way; the preferred speed is the free distance to them over it (pedvr.crowd.headway)
+    time_gap: float = 0.3
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,7 @@ from pedvr.scene.config import (
     PRAM_MIN_RADIUS,
     SEXES,
     SOURCE_TIMINGS,
+    TURNED_DEPTH_RATIO,
     USER_WALKS,
     AgentProfile,
     BehaviorConfig,
@@ -512,7 +513,7 @@ def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
     d = SteeringParams()
     c.known(s, "steering", ("neighbor_dist", "max_neighbors", "time_horizon", "time_horizon_obst",
                             "user_responsibility", "personal_space", "user_safety",
-                            "user_safety_horizon"))
+                            "user_safety_horizon", "depth_ratio", "time_gap"))
     pos = lambda x: x > 0  # noqa: E731
     return SteeringParams(
         neighbor_dist=c.number(s, "neighbor_dist", "steering.neighbor_dist", required=False,
@@ -535,6 +536,12 @@ def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
         user_safety_horizon=c.number(s, "user_safety_horizon", "steering.user_safety_horizon",
                                      required=False, default=d.user_safety_horizon, check=pos,
                                      expect="> 0 s") or d.user_safety_horizon,
+        depth_ratio=_or(c.number(s, "depth_ratio", "steering.depth_ratio", required=False,
+                                 default=d.depth_ratio, check=lambda x: TURNED_DEPTH_RATIO <= x <= 1,
+                                 expect=f"in [{TURNED_DEPTH_RATIO}, 1] (a turned body's depth to the disc)"),
+                        d.depth_ratio),
+        time_gap=_or(c.number(s, "time_gap", "steering.time_gap", required=False, default=d.time_gap,
+                              check=lambda x: 0 <= x <= 5, expect="in [0, 5] s (0: off)"), d.time_gap),
     )
 
 

@@ -14,6 +14,22 @@ disc (``4 * quad_segs`` sides, apothem ``r``) is also cut out at every vertex
 of the walkable area. The mesh is thus exact along straight walls and at most
 ``r * (1/cos(pi / (4 * quad_segs)) - 1)`` conservative at obstacle corners
 (2 % of ``r`` at the default ``quad_segs=4``: 5 mm for r = 0.25 m).
+
+Narrow passages (issue 26): people pass gaps narrower than their shoulders by
+turning them (real people pass 0.5 m; a turned body is ``narrow`` deep, 0.13 m
+for r = 0.25 m, :mod:`pedvr.crowd.footprint`), but the mesh shrunk by ``r``
+closes such a gap. ``NavMesh.build(world, clearance=r, narrow=b)`` adds back the
+gaps the full radius closes and a body ``b`` deep fits through: the *necks* of
+the area shrunk by ``b`` that the area shrunk by ``r`` misses, each one's part of
+the ``b``-shrunk area within ``r - b`` of it (so it joins the ``r`` mesh on both
+sides). A neck is a piece of ``erode(W, b) − erode(W, r) ⊕ (r − b)`` (what a
+body ``b`` deep reaches but a disc of radius ``r`` does not) that touches the
+``r`` mesh in two or more places: the pieces that touch it once are the corners
+a disc cannot fill, not passages. Triangles in a neck are ``narrow``; A* counts
+the way through them ``NARROW_COST`` times its length (a queue forms there, and
+a turned body walks slower), so a narrow passage is taken when the way round is
+more than that much longer. On the mesh, a point is at least ``clearance`` from
+every obstacle except in a neck, where it is at least ``narrow``.
 """
 
 from __future__ import annotations
@@ -36,6 +52,8 @@ from pedvr.world.pathing import astar_corridor, corridor_portals, funnel, path_l
 
 # How far (metres) a snapped point is moved inside its triangle.
 SNAP_INSET = 0.002
+NARROW_COST = 3.0  # A*'s cost per metre through a narrow passage, per metre elsewhere
+_NECK_OVERLAP = 0.01  # m: a neck's part reaches this far into the r mesh, so the two join
 _REGION_CACHE_SIZE = 64
 
 
@@ -62,6 +80,30 @@ def _erode(area: Polygon | MultiPolygon, r: float, quad_segs: int) -> Polygon | 
     result = shapely.normalize(eroded.difference(shapely.union_all(cut)))
     parts = [g for g in shapely.get_parts(result) if isinstance(g, Polygon) and g.area > 0.0]
     return parts[0] if len(parts) == 1 else MultiPolygon(parts)
+
+
+def _necks(area: Polygon | MultiPolygon, wide: Polygon | MultiPolygon, r: float, b: float,
+           quad_segs: int) -> Polygon | MultiPolygon | None:
+    """The narrow passages of ``area`` (the walkable area) a body ``b`` deep fits through and a
+    disc of radius ``r`` does not, each grown to join ``wide`` (``area`` shrunk by ``r``) on its
+    sides; None when there are none (see the module docstring)."""
+    thin = _erode(area, b, quad_segs)
+    if thin.is_empty:
+        return None
+    reach = wide.buffer(r - b, quad_segs=quad_segs) if not wide.is_empty else wide
+    left = thin.difference(reach)
+    grow = r - b + _NECK_OVERLAP
+    out = []
+    for piece in shapely.get_parts(left):
+        if not isinstance(piece, Polygon) or piece.area <= 1e-9:
+            continue
+        near = piece.buffer(grow, quad_segs=quad_segs)
+        if len([g for g in shapely.get_parts(wide.intersection(near)) if g.area > 1e-9]) < 2:
+            continue  # touches the wide mesh once: a corner a disc cannot fill, not a passage
+        out.append(near.intersection(thin))
+    if not out:
+        return None
+    return shapely.union_all(out)
 
 
 def _triangulate(area: Polygon | MultiPolygon) -> tuple[np.ndarray, np.ndarray]:
@@ -122,6 +164,9 @@ class NavMesh:
     - ``components (T,) int64``: connected part of each triangle, 0-based.
     - ``tri_area (T,) float64``: m².
 
+    - ``narrow (T,) bool``: the triangle lies in a narrow passage (only meshes built
+      with ``narrow``; see the module docstring).
+
     ``polygon`` is the shrunk walkable area the mesh covers. Queries take
     points as anything array-like of shape (2,); points outside the mesh are
     snapped (see :meth:`nearest_walkable`). Build with :meth:`build`.
@@ -139,22 +184,33 @@ class NavMesh:
     _region_cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = field(
         default_factory=dict, repr=False
     )
+    narrow: np.ndarray = field(default_factory=lambda: np.zeros(0, np.bool_), repr=False)
+    narrow_clearance: float | None = None
 
     @classmethod
-    def build(cls, world: WorldConfig, clearance: float, *, quad_segs: int = 4) -> NavMesh:
+    def build(cls, world: WorldConfig, clearance: float, *, narrow: float | None = None,
+              quad_segs: int = 4) -> NavMesh:
         """Build the mesh of ``world`` for discs of radius ``clearance`` (m, >= 0).
 
-        ``quad_segs`` is the number of chords per quarter circle at rounded
-        corners (see the module doc). Raises :class:`NavigationError` when
-        ``clearance`` is negative or not finite, or nothing is walkable.
+        ``narrow`` (m, in (0, clearance)): also the passages a body that deep fits through
+        (see the module doc). ``quad_segs`` is the number of chords per quarter circle at
+        rounded corners (see the module doc). Raises :class:`NavigationError` when
+        ``clearance`` is negative or not finite, ``narrow`` is outside (0, clearance), or
+        nothing is walkable.
         """
         if not (math.isfinite(clearance) and clearance >= 0.0):
             raise NavigationError(f"clearance = {clearance}: must be a finite number >= 0")
+        if narrow is not None and not (math.isfinite(narrow) and 0.0 < narrow < clearance):
+            raise NavigationError(f"narrow = {narrow}: must be a number in (0, clearance = {clearance})")
         if quad_segs < 1:
             raise NavigationError(f"quad_segs = {quad_segs}: must be >= 1")
-        area = walkable_area(world)
+        walk = walkable_area(world)
+        area = walk
         if clearance > 0.0:
-            area = _erode(area, clearance, quad_segs)
+            area = _erode(walk, clearance, quad_segs)
+        necks = None if narrow is None else _necks(walk, area, clearance, narrow, quad_segs)
+        if necks is not None:
+            area = shapely.normalize(shapely.union(area, necks))
         polys = [p for p in polygons_of(area) if isinstance(p, Polygon)]  # type: ignore[arg-type]
         shrunk: Polygon | MultiPolygon = polys[0] if len(polys) == 1 else MultiPolygon(polys)
         verts, tris = _triangulate(shrunk)
@@ -184,6 +240,11 @@ class NavMesh:
         bt, bk = np.nonzero(neighbors < 0)
         ba = np.ascontiguousarray(verts[tris[bt, bk]])
         bb = np.ascontiguousarray(verts[tris[bt, (bk + 1) % 3]])
+        in_neck = np.zeros(n, np.bool_)
+        if necks is not None:
+            centre = verts[tris].mean(axis=1)
+            wide = area if clearance <= 0.0 else _erode(walk, clearance, quad_segs)
+            in_neck = ~shapely.contains_xy(wide, centre[:, 0], centre[:, 1])
         return cls(
             clearance=float(clearance),
             polygon=shrunk,
@@ -194,9 +255,18 @@ class NavMesh:
             tri_area=tri_area,
             _grid=(origin, h, nx, ny, cell_start, cell_tris),
             _boundary=(ba, bb, bt.astype(np.int64)),
+            narrow=in_neck,
+            narrow_clearance=None if narrow is None else float(narrow),
         )
 
     # -- queries -----------------------------------------------------------
+
+    @property
+    def _cost(self) -> np.ndarray | None:
+        """A*'s cost per metre in each triangle (None: 1 everywhere)."""
+        if not self.narrow.any():
+            return None
+        return np.where(self.narrow, NARROW_COST, 1.0)
 
     @property
     def area(self) -> float:
@@ -288,7 +358,8 @@ class NavMesh:
         # its mistakes differ by direction: search both ways, keep the shorter.
         for a, b, ta, tb, flip in ((s, g, ts, tg, False), (g, s, tg, ts, True)):
             corridor = astar_corridor(
-                self.verts, self.tris, self.neighbors, ta, tb, (a[0], a[1]), (b[0], b[1])
+                self.verts, self.tris, self.neighbors, ta, tb, (a[0], a[1]), (b[0], b[1]),
+                cost=self._cost,
             )
             if corridor is None:  # pragma: no cover - components say it is reachable
                 raise NavigationError(f"no path from {_fmt(s0)} to {_fmt(g0)}")

@@ -57,6 +57,7 @@ def astar_corridor(
     goal_tri: int,
     start: tuple[float, float],
     goal: tuple[float, float],
+    cost: np.ndarray | None = None,
 ) -> list[int] | None:
     """The triangle sequence from ``start_tri`` to ``goal_tri``, or None.
 
@@ -69,15 +70,20 @@ def astar_corridor(
     exact one (a triangle reached again more cheaply is expanded again); the
     funnel then makes the path taut inside the corridor.
     Heap ties are broken by triangle index, so the result is deterministic.
+    ``cost (T,)`` (>= 1; None: all 1) weighs each metre walked inside a triangle: the leg from
+    one entry point to the next counts at the cost of the triangle it crosses (the heuristic
+    stays admissible).
     """
+    n = np.shape(tris)[0]
+    weights = np.ones(n) if cost is None else np.ascontiguousarray(cost, np.float64)
     out = _astar(np.ascontiguousarray(verts, np.float64), np.ascontiguousarray(tris, np.int64),
                  np.ascontiguousarray(neighbors, np.int64), int(start_tri), int(goal_tri),
-                 float(start[0]), float(start[1]), float(goal[0]), float(goal[1]))
+                 float(start[0]), float(start[1]), float(goal[0]), float(goal[1]), weights)
     return None if out.shape[0] == 0 else [int(t) for t in out]
 
 
 @njit(cache=True)
-def _astar(verts, tris, neighbors, start_tri, goal_tri, sx, sy, gx, gy):  # noqa: ANN001, ANN202
+def _astar(verts, tris, neighbors, start_tri, goal_tri, sx, sy, gx, gy, cost):  # noqa: ANN001, ANN202
     n = tris.shape[0]
     best_g = np.full(n, np.inf)
     entry = np.zeros((n, 2))
@@ -110,7 +116,7 @@ def _astar(verts, tris, neighbors, start_tri, goal_tri, sx, sy, gx, gy):  # noqa
                 continue
             a, b = tris[t, k], tris[t, (k + 1) % 3]
             qx, qy = _portal_point(px, py, verts[a, 0], verts[a, 1], verts[b, 0], verts[b, 1], gx, gy)
-            g = best_g[t] + math.hypot(qx - px, qy - py)
+            g = best_g[t] + cost[t] * math.hypot(qx - px, qy - py)
             if g < best_g[nb]:
                 best_g[nb] = g
                 entry[nb, 0], entry[nb, 1] = qx, qy

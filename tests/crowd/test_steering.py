@@ -11,6 +11,7 @@ from pedvr.crowd.orca import (
     SIDEWAYS_SLOPE,
     STATUS_DROPPED_HEADING,
     STATUS_DROPPED_MOTION,
+    STATUS_SOFT_OBSTACLES,
     STOPPED_SPEED,
 )
 from pedvr.crowd.state import (
@@ -167,6 +168,24 @@ def test_infeasible_hard_prefix_drops_heading_limits_first() -> None:
     assert s.last_status[0] & STATUS_DROPPED_HEADING
     assert not s.last_status[0] & STATUS_DROPPED_MOTION
     assert np.linalg.norm(out[0] - state.vel[0]) <= state.limits[0, LIMIT_DECEL] * 0.1 + 1e-9
+
+
+def test_a_body_pushed_at_a_wall_brakes_within_its_limits() -> None:
+    """A body moving at a wall faster than it can brake before ORCA's obstacle horizon (a
+    contact push can do that since its velocity is its actual motion): the obstacle lines go
+    soft and it brakes as hard as its limits allow, instead of dropping every limit and
+    jumping to a velocity plain ORCA likes (which RVO2 would)."""
+    wall = ObstacleSet.from_polygons([np.array([[-5.0, 0.6], [5.0, 0.6], [5.0, 1.0], [-5.0, 1.0]])])
+    state = crowd([(0.0, 0.0)], [(0.0, 1.0)], [(0.0, 1.3)], heading=[math.pi / 2])
+    s = Steering(PARAMS, wall, coupled=True)
+    dt = 1.0 / 90.0
+    out = s.compute_velocities(state, dt)
+    assert s.last_status[0] & STATUS_SOFT_OBSTACLES
+    assert not s.last_status[0] & STATUS_DROPPED_MOTION
+    assert np.linalg.norm(out[0] - state.vel[0]) <= state.limits[0, LIMIT_DECEL] * dt + 1e-9
+    assert out[0, 1] < state.vel[0, 1] - 0.9 * state.limits[0, LIMIT_DECEL] * dt  # it brakes, hard
+    plain = Steering(PARAMS, wall, coupled=False).compute_velocities(state, dt)
+    assert plain[0, 1] < 0.4  # what the limits keep it from doing at once
 
 
 def test_wrong_shapes_are_named() -> None:

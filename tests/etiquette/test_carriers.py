@@ -7,7 +7,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import pytest
 
 from pedvr.scene.loader import load_any
 from pedvr.scenes import resolve_scene
@@ -29,8 +28,8 @@ def _door_double_with_pram() -> object:
     return dataclasses.replace(s, profiles={**s.profiles, "pram": prof}, spawns=(pram, *s.spawns))
 
 
-@pytest.mark.parametrize("seed", [5, 2])
-def test_a_pram_at_a_double_door_gets_through(seed: int) -> None:
+def _through_at(seed: int) -> tuple[float | None, int]:
+    """When the pram's pusher got past the door line (None: not in 90 s), and the run's overlaps."""
     sim = Simulation(_door_double_with_pram(), seed=seed)  # type: ignore[arg-type]
     row = int(np.argmin(np.hypot(*(sim.crowd.pos - np.asarray(START)).T)))
     pram = int(sim.crowd.ids[row])
@@ -41,5 +40,16 @@ def test_a_pram_at_a_double_door_gets_through(seed: int) -> None:
         r = np.nonzero(sim.crowd.ids == pram)[0]
         if len(r) and sim.crowd.pos[r[0], 0] > 0.5:  # past the door line, clear of the leaves
             through_at = sim.t
-    assert through_at is not None, f"seed {seed}: the pram was still on its side after 90 s"
-    assert sim.summary()["overlaps_over_1cm"] == 0
+    return through_at, int(sim.summary()["overlaps_over_1cm"])
+
+
+def test_a_pram_at_a_double_door_gets_through() -> None:
+    """Seeds 0-9: at least 8 prams through in 90 s, none overlapping anyone. Issue 26's crowd model
+    passed 7 before a pusher steered past keys beside it and kept its course against a shove
+    (``Simulation._pram_keeps_its_course``); main before that model passed 8 (not the same 8).
+    Not every pram gets through yet: over seeds 0-19, 16 of 20 (bench/door_observations.py
+    ``--only pram`` measures it)."""
+    results = {seed: _through_at(seed) for seed in range(10)}
+    stuck = [s for s, (t, _) in results.items() if t is None]
+    assert len(stuck) <= 2, f"prams still on their side after 90 s in seeds {stuck}"
+    assert all(o == 0 for _, o in results.values()), results

@@ -146,3 +146,21 @@ def test_carried_vertices_follow_the_body_frame() -> None:
     assert ahead.min() > 0.3 and ahead.max() <= carry.PRAM_FRONT + 1e-5
     assert pram[:, 1].min() > -1e-6  # wheels on the floor, not through it
     assert np.allclose(np.linalg.norm(v["normal"], axis=1), 1.0, atol=1e-5)
+
+
+def test_a_box_tilted_in_the_hands_is_drawn_tilted() -> None:
+    """A box held with the left hand 2 cm above the right (a chest turned while walking) is drawn
+    with its left side up by the same, not level between them."""
+    kind = np.array([carry.BOX], np.int8)
+    d, h, w = carry.BOX_SIZE
+    # facing +x (yaw 0): the left side is (sin 0, 0, -cos 0) = -z
+    hands = np.array([[[0.3, 1.01, -w / 2], [0.3, 0.99, w / 2]]])
+    fr = carry.object_frame(kind, np.zeros((1, 2)), np.zeros(1), np.ones(1), hands, np.zeros((1, 2), np.bool_))
+    assert math.isclose(fr[0, 4], math.asin(0.02 / math.hypot(0.02, w)), rel_tol=1e-9)
+    v = carried_vertices(kind, fr, np.ones(1))["pos"]
+    left, right = v[v[:, 2] < 0.0], v[v[:, 2] > 0.0]  # the box is centred between the hands (z 0)
+    assert math.isclose(left[:, 1].mean() - right[:, 1].mean(), 0.02, abs_tol=1e-3)  # the left side higher
+    level = fr.copy()
+    level[0, 4] = 0.0
+    flat = carried_vertices(kind, level, np.ones(1))["pos"]
+    assert abs(flat[flat[:, 2] < 0.0][:, 1].mean() - flat[flat[:, 2] > 0.0][:, 1].mean()) < 1e-6

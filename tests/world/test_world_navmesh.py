@@ -198,3 +198,56 @@ def test_large_worlds_build_and_locate_every_sampled_point():
         a, b, c = (mesh.verts[mesh.tris[tri, k]] for k in range(3))
         sides = [_left_of(u, v, pts) for u, v in ((a, b), (b, c), (c, a))]  # CCW: inside is left of each edge
         assert (np.min(sides, axis=0) >= -1e-9).all()
+
+
+# -- narrow passages (issue 26) ----------------------------------------------------------------
+
+def _slot_world(gap: float, wall_x: float = 5.0) -> WorldConfig:
+    """A 10 x 10 room cut by a wall at x = wall_x, open at one ``gap`` wide slot (y 5 ± gap/2)."""
+    return WorldConfig(((0.0, 0.0), (10.0, 10.0)),
+                       (box_obstacle(wall_x - 0.5, 0.0, wall_x + 0.5, 5.0 - gap / 2),
+                        box_obstacle(wall_x - 0.5, 5.0 + gap / 2, wall_x + 0.5, 10.0)))
+
+
+def test_a_gap_a_turned_body_fits_through_is_open_on_a_narrow_mesh():
+    """0.5 m: closed for a 0.25 m disc, open for a body turned to 0.13 m (real people pass it)."""
+    world = _slot_world(0.5)
+    strict = NavMesh.build(world, 0.25)
+    mesh = NavMesh.build(world, 0.25, narrow=0.13)
+    assert strict.n_components == 2 and mesh.n_components == 1
+    path = mesh.find_path((2.0, 5.0), (8.0, 5.0))
+    np.testing.assert_allclose(path[[0, -1]], [(2.0, 5.0), (8.0, 5.0)])
+    inside = path[:, 0]
+    assert inside.min() <= 4.5 and inside.max() >= 5.5  # through the slot
+    obstacles = obstacles_geometry(world)
+    line = shapely.LineString(path)
+    assert line.distance(obstacles) >= 0.13 - 1e-6  # a turned body's depth from the walls
+    assert mesh.narrow.any() and not mesh.narrow[mesh.locate(np.array([[2.0, 5.0], [8.0, 5.0]]))].any()
+    # a gap even a turned body does not fit stays closed
+    assert NavMesh.build(_slot_world(0.24), 0.25, narrow=0.13).n_components == 2
+    # where the full radius fits, nothing is added
+    wide = _slot_world(0.7)
+    assert NavMesh.build(wide, 0.25, narrow=0.13).area == pytest.approx(NavMesh.build(wide, 0.25).area)
+
+
+def test_a_narrow_passage_costs_more_than_the_way_round():
+    """A* counts metres through a narrow passage NARROW_COST times: a slightly longer way round
+    through a wide gap wins, a much longer one does not."""
+    from pedvr.world.navmesh import NARROW_COST
+
+    def world(detour_gap_y: float) -> WorldConfig:
+        # wall at x 4.5..5.5 with a 0.5 m slot at y = 5 and a 1.2 m gap at y = detour_gap_y
+        return WorldConfig(((0.0, 0.0), (10.0, 20.0)), (
+            box_obstacle(4.5, 0.0, 5.5, 4.75), box_obstacle(4.5, 5.25, 5.5, detour_gap_y - 0.6),
+            box_obstacle(4.5, detour_gap_y + 0.6, 5.5, 20.0)))
+
+    assert NARROW_COST > 1.0
+    near = NavMesh.build(world(7.0), 0.25, narrow=0.13).find_path((3.0, 5.0), (7.0, 5.0))
+    assert near[:, 1].max() > 6.0  # 2 m round beats 1 m narrow at 3x
+    far = NavMesh.build(world(18.0), 0.25, narrow=0.13).find_path((3.0, 5.0), (7.0, 5.0))
+    assert far[:, 1].max() < 5.5  # 26 m round does not
+
+
+def test_narrow_must_be_below_the_clearance():
+    with pytest.raises(NavigationError, match=r"narrow = 0.3: must be a number in \(0, clearance = 0.25\)"):
+        NavMesh.build(_slot_world(0.5), 0.25, narrow=0.3)
