@@ -77,7 +77,10 @@ def test_a_body_s_velocity_is_its_actual_motion(condition: str) -> None:
         moved *= np.minimum(1.0, sim.crowd.max_speed / np.maximum(speed, 1e-12))[:, None]
         np.testing.assert_allclose(sim.crowd.vel[virt], moved[virt], atol=1e-9)
         differs += int(np.count_nonzero(np.linalg.norm(sim._new_vel[virt] - moved[virt], axis=1) > 1e-6))
-    assert differs > 0  # contacts did move bodies other than they were steered
+    if condition == "pedvr":  # contacts did move bodies other than they were steered
+        assert differs > 0
+    # decoupled: ORCA's discs (nobody turns its shoulders there, issue 26) need no contact push
+    # at this entrance, so the steered and the actual motion agree
 
 
 def test_decoupled_mode_ignores_limits() -> None:
