@@ -632,9 +632,24 @@ def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: flo
     target_behind = ty > 0.0 and math.hypot(tx, ty) < rho and math.atan2(ty, tx) > a
     if a < math.radians(20.0) or not behind or target_behind:
         return np.asarray(target, np.float64).reshape(1, 2)
-    phi = math.atan2(ly, lx)
-    return np.stack([fr.polar(rho, phi), fr.polar(rho, a + math.radians(10.0)),
-                     fr.polar(rho, a - math.radians(20.0)), np.asarray(target, np.float64)])
+    return np.concatenate([round_edge(fr, p, a, radius, a - math.radians(20.0)),
+                           np.asarray(target, np.float64).reshape(1, 2)])
+
+
+def round_edge(fr: LeafFrame, p: np.ndarray, a: float, radius: float, to: float) -> np.ndarray:
+    """``(K, 2)`` waypoints from ``p``, behind a leaf open ``a`` (in the pocket between it and the
+    wall), round the leaf's free edge to the angle ``to`` in front of it: out to the swing's circle
+    (its outer radius for a body of ``radius``), along it in legs of at most 20° to abeam of the
+    edge, then on to ``to``.
+    Every leg keeps the body's radius clear of the edge. Before, the path went straight from behind
+    the leaf to the point in front, a chord that passed the edge 3 cm closer than a body's radius;
+    ORCA's line off the edge held a holder walking through there (door_single_flow: 6 s in the
+    pocket while the door swung shut behind the one it had handed over to)."""
+    rho = fr.outer(radius)
+    lx, ly = fr.local(p)
+    phi = max(math.atan2(ly, lx), a + math.radians(10.0))
+    arc = np.linspace(phi, a, max(2, math.ceil((phi - a) / math.radians(20.0)) + 1))  # legs of <= 20°
+    return np.stack([*(fr.polar(rho, float(t)) for t in arc), fr.polar(rho, to)])
 
 
 def _ready(et: EtiquetteCore, f: Walker, crowd: CrowdState) -> bool:
@@ -759,8 +774,8 @@ def _finishing(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
         # from the pull side through to the push side
         out = fr.lane(-(radius + CLEAR + 0.5))
         if ly > 0.0 and math.atan2(ly, lx) > a - math.radians(3.0):  # behind the edge: round it first
-            edge = fr.polar(fr.outer(radius), max(a - math.radians(25.0), math.radians(10.0)))
-            target = np.stack([edge, out])
+            target = np.concatenate([round_edge(fr, p, a, radius, max(a - math.radians(25.0),
+                                                                       math.radians(10.0))), out[None]])
         else:
             target = out
         if holding:

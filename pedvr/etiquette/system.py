@@ -233,6 +233,11 @@ class DoorEtiquette(EtiquetteCore):
             k = w.plan_i + int(np.argmin(np.hypot(*(w.plan[w.plan_i:] - p).T)))
             while k < last and float(np.hypot(*(w.plan[k] - p))) < 0.2:
                 k += 1
+            # a body pushed abreast of its key (within half a metre, level with it or past it along
+            # the way to the next) walks on to the next rather than sideways back to it
+            while k < last and float(np.hypot(*(w.plan[k] - p))) < 0.5 \
+                    and float((p - w.plan[k]) @ (w.plan[k + 1] - w.plan[k])) >= 0.0:
+                k += 1
             # A rigid footprint (a pram) cannot step sideways: a key close beside its pusher (within
             # PURSUIT_LENGTH of the footprint's length, more than PURSUIT_ANGLE off its heading) is
             # passed over for the next, not steered at (that turned the pram across the doorway,

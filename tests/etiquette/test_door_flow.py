@@ -7,8 +7,11 @@ soon as that follower walks to the leaf's edge, so it is closed up when the door
 and nobody starts opening the door while someone passes the other way (a holder walking through
 after letting go included), where before the two met head-on in the doorway and stood for seconds.
 Before them (h-lead-model at e019491) seeds 1-3 passed 27, 28 and 21 of 40 in 90 s; with them 29,
-28 and 31. Passages are counted as the benchmark counts them: crossings of the doorway line, here
-from 0.3 m on one side to 0.3 m on the other.
+28 and 31; and 33, 33 and 29 once a holder walking through from behind the open leaf goes round
+its edge clear of it and a body pushed abreast of its next key walks on to the one after
+(:func:`~pedvr.etiquette.interaction.round_edge`, ``DoorEtiquette.steer``). Passages are counted
+as the benchmark counts them: crossings of the doorway line, here from 0.3 m on one side to
+0.3 m on the other.
 """
 
 from __future__ import annotations
@@ -21,8 +24,8 @@ from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
 
 SEEDS = (1, 2, 3)
-EACH_AT_LEAST = 26  # of 40 in 90 s, in every seed
-ALL_AT_LEAST = 84  # of 120, over the three seeds
+EACH_AT_LEAST = 27  # of 40 in 90 s, in every seed
+ALL_AT_LEAST = 92  # of 120, over the three seeds
 
 
 def _passages(seed: int) -> tuple[int, int]:

@@ -7,7 +7,10 @@ in batches of up to four (:func:`pedvr.etiquette.interaction._batch_side`).
 Before that change (main at e491b88) seed 1 passed 17 and seed 2 passed 19 of 40 in 90 s, and the
 door was opened from shut once for every two passages; the thresholds below are what the change
 reaches (29 and 24 with the bench's count from positions), the lower less two, and at least four
-passages for each opening (README, "Door and doorway etiquette").
+passages for each opening (README, "Door and doorway etiquette"). Later rules of issue 26 (the queue
+moving up, no opening against someone coming through, the way round a leaf's edge, walking on from
+a key one was pushed abreast of) took seeds 1 and 2 from 26 and 26 to 29 and 32; the threshold
+is the lower less two.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from pedvr.scene.loader import load_scene
 from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
 
-THROUGH_AT_LEAST = 22  # of 40 in 90 s
+THROUGH_AT_LEAST = 27  # of 40 in 90 s
 PASSAGES_PER_OPENING = 4.0  # door_passages / times the door was opened from shut
 
 
