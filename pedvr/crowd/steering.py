@@ -218,7 +218,8 @@ class Steering:
         k = int(p.max_neighbors)
         fp = self._footprints(state)
         pos = fp.centre  # footprints are steered about their centres (a pram's lies ahead of its pusher)
-        g = _nb.build_agent_grid(pos, _nb.default_cell_size(p.neighbor_dist))
+        g = _nb.build_agent_grid(pos, _nb.default_cell_size(p.neighbor_dist),
+                                per_item=_nb.NEIGHBOR_CELLS_PER_AGENT)
         kk = max(k, 1)
         idx = np.empty((n, kk), np.int64)
         dsq = np.empty((n, kk))
