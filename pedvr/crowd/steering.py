@@ -116,6 +116,10 @@ class Steering:
         self._scratch_key: tuple[int, int, int] | None = None
         self._bounds = np.zeros(0, np.int64)  # chunk bounds of the last row count
         self._neighbors: tuple[np.ndarray, np.ndarray] | None = None
+        # Verlet lists (pedvr.crowd.neighbors.verlet_candidates_kernel): where the footprint centres
+        # were when they were made, each row's candidates and their count
+        self._candidates: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._cand_cap = 4 * max(int(params.max_neighbors), 1)
         # Coupled: the walking body's turn (its ellipse along the heading, pedvr.crowd.footprint);
         # decoupled: the paper's discs.
         self.walk_turn = _fp.turn_for(params.depth_ratio) if self.coupled else 0.0
@@ -218,17 +222,23 @@ class Steering:
         k = int(p.max_neighbors)
         fp = self._footprints(state)
         pos = fp.centre  # footprints are steered about their centres (a pram's lies ahead of its pusher)
-        g = _nb.build_agent_grid(pos, _nb.default_cell_size(p.neighbor_dist),
-                                per_item=_nb.NEIGHBOR_CELLS_PER_AGENT)
         kk = max(k, 1)
         idx = np.empty((n, kk), np.int64)
         dsq = np.empty((n, kk))
         cnt = np.empty(n, np.int64)
-        # the last lists bound each row's search (the same lists come out; pedvr.crowd.neighbors)
-        prev_idx, prev_cnt = self._neighbors or (_nb.NO_LISTS, _nb.NO_COUNTS)
-        _nb.agent_neighbors_kernel(pos, float(p.neighbor_dist), k, g.origin, g.cell, g.shape[0],
-                                   g.shape[1], g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt, prev_idx,
-                                   prev_cnt)
+        cand = self._candidates
+        if cand is not None and _nb.candidates_hold(pos, cand[0], _nb.VERLET_SKIN):
+            # the same lists as a whole search, among each row's candidates (pedvr.crowd.neighbors)
+            _nb.verlet_neighbors_kernel(pos, float(p.neighbor_dist), k, cand[1], cand[2], idx, dsq, cnt)
+        else:
+            g = _nb.build_agent_grid(pos, _nb.default_cell_size(p.neighbor_dist),
+                                     per_item=_nb.NEIGHBOR_CELLS_PER_AGENT)
+            # the last lists bound each row's search (the same lists come out; pedvr.crowd.neighbors)
+            prev_idx, prev_cnt = self._neighbors or (_nb.NO_LISTS, _nb.NO_COUNTS)
+            _nb.agent_neighbors_kernel(pos, float(p.neighbor_dist), k, g.origin, g.cell, g.shape[0],
+                                       g.shape[1], g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt,
+                                       prev_idx, prev_cnt)
+            self._candidates = (pos.copy(), *self._verlet_candidates(pos, k, dsq, cnt, g))
         self._neighbors = (idx, cnt)
         og = self.obstacle_grid
         obst_count = np.empty(n, np.int64)
@@ -248,6 +258,22 @@ class Steering:
             if need <= self._obst_cap:
                 return out
             self._obst_cap = need  # rare: more obstacle neighbours than room; redo
+
+    def _verlet_candidates(self, pos: np.ndarray, k: int, dsq: np.ndarray, cnt: np.ndarray,
+                           g: _nb.AgentGrid) -> tuple[np.ndarray, np.ndarray]:
+        """Each row's candidates ``(idx (N, C), count (N,))`` (:func:`pedvr.crowd.neighbors.
+        verlet_candidates_kernel`), with room made where a row's did not fit."""
+        n = pos.shape[0]
+        while True:
+            cidx = np.empty((n, self._cand_cap), np.int64)
+            ccnt = np.empty(n, np.int64)
+            _nb.verlet_candidates_kernel(pos, float(self.params.neighbor_dist), k, _nb.VERLET_SKIN, dsq, cnt,
+                                         g.origin, g.cell, g.shape[0], g.shape[1], g.cell_start, g.order,
+                                         g.sorted_pos, cidx, ccnt)
+            need = int(ccnt.max()) if n else 0
+            if need <= self._cand_cap:
+                return cidx, ccnt
+            self._cand_cap = need + need // 4  # a denser crowd: room for it to grow a little
 
     def orca_lines(self, state: CrowdState, dt: float, row: int) -> np.ndarray:
         """The ORCA lines of one row, as :meth:`compute_velocities` builds them from ``state``:
@@ -301,8 +327,9 @@ class Steering:
         return out
 
     def forget_neighbors(self) -> None:
-        """Rows came or went: the last neighbour lists no longer name the same agents."""
+        """Rows came or went: the last neighbour lists and candidates no longer name the same agents."""
         self._neighbors = None
+        self._candidates = None
 
     # ------------------------------------------------------------------ footprints
 

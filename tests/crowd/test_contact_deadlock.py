@@ -133,27 +133,6 @@ def test_grid_neighbours_equal_brute_force() -> None:
         assert idx[i, :cnt[i]].tolist() == want
 
 
-def test_sparse_crowd_grid_grows_cells_and_lists_stay_exact() -> None:
-    """Issue 27: in a sparse crowd (0.2 agents per m², the bench plaza) ORCA's neighbour grid grows
-    its cells to about two agents each instead of a third of the neighbour distance (mostly empty
-    cells); the lists are still the brute-force ones, nearest first."""
-    from pedvr.crowd import neighbors as nb
-
-    rng = np.random.default_rng(27)
-    n = 1000
-    side = np.sqrt(n / 0.2)
-    pos = rng.uniform(0.0, side, (n, 2))
-    g = nb.build_agent_grid(pos, nb.default_cell_size(5.0), per_item=nb.NEIGHBOR_CELLS_PER_AGENT)
-    assert g.cell > 2.0 * nb.default_cell_size(5.0)
-    assert g.shape[0] * g.shape[1] <= nb.NEIGHBOR_CELLS_PER_AGENT * n + 16
-    idx, cnt = agent_neighbors(pos, neighbor_dist=5.0, max_neighbors=10)
-    d2 = ((pos[:, None, :] - pos[None, :, :]) ** 2).sum(axis=2)
-    np.fill_diagonal(d2, np.inf)
-    for i in range(n):
-        order = np.argsort(d2[i], kind="stable")
-        assert idx[i, :cnt[i]].tolist() == [j for j in order[:10] if d2[i, j] < 25.0]
-
-
 def test_last_lists_bound_the_search_and_change_nothing() -> None:
     """Steering starts each row's neighbour search no wider than its last neighbours now are: the
     lists come out exactly as from a full-range search, after the crowd moved, after rows were
