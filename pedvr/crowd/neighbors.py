@@ -322,23 +322,46 @@ def agents_within(i, px, py, range_sq, origin, cell, nx, ny, cell_start, order, 
     return total
 
 
+@row_njit()
+def _sort_by_distance(px, py, pos, rows, m):
+    """``rows[:m]`` sorted nearest first from ``(px, py)`` (insertion sort: a dozen rows)."""
+    for a in range(1, m):
+        j = rows[a]
+        d = (pos[j, 0] - px) ** 2 + (pos[j, 1] - py) ** 2
+        b = a
+        while b > 0 and d < (pos[rows[b - 1], 0] - px) ** 2 + (pos[rows[b - 1], 1] - py) ** 2:
+            rows[b] = rows[b - 1]
+            b -= 1
+        rows[b] = j
+
+
 @parallel_kernel(allocates=False)
-def verlet_candidates_kernel(pos, neighbor_dist, max_neighbors, skin, nbr_dsq, nbr_count, origin, cell, nx,
+def verlet_candidates_kernel(pos, neighbor_dist, max_neighbors, skin, prev_idx, prev_count, origin, cell, nx,
                              ny, cell_start, order, sorted_pos, out_idx, out_count):
-    """Each row's candidates ``out_idx[i, :out_count[i]]``: the rows within ``skin`` beyond its
-    neighbour range now, its ``max_neighbors``-th nearest (``nbr_dsq``/``nbr_count``: the lists
-    of these positions) or, with fewer, ``neighbor_dist``; on the grid of these positions. A count
-    above ``out_idx.shape[1]`` means the row did not fit (the caller makes room and calls again).
-    :func:`verlet_neighbors_kernel` finds the same lists among them as a whole search would for as
-    long as no row has moved ``skin / 4`` from here (:func:`candidates_hold`)."""
+    """Each row's candidates ``out_idx[i, :out_count[i]]``, nearest first: the rows within ``skin``
+    beyond a bound on its neighbour range now, the farthest its last ``max_neighbors`` neighbours
+    (``prev_idx``/``prev_count``, :func:`_bound_from`) are now, or ``neighbor_dist`` where its last
+    list was not full (or there is none); on the grid of these positions. A count above
+    ``out_idx.shape[1]`` means the row did not fit (the caller makes room and calls again).
+    :func:`verlet_neighbors_kernel` finds the lists of these positions among them, and the same
+    lists as a whole search would for as long as no row has moved ``skin / 4`` from here
+    (:func:`candidates_hold`). Sorted nearest first, they stay nearly in order while the crowd
+    moves that little, so its sorted inserts rarely shift and its branches are predictable (4000
+    agents in the bench plaza: 0.65 ms unsorted, 0.11 ms sorted)."""
     cap = out_idx.shape[1]
     for i in prange(pos.shape[0]):
         if max_neighbors <= 0:
             out_count[i] = 0
             continue
-        r = np.sqrt(nbr_dsq[i, max_neighbors - 1]) if nbr_count[i] == max_neighbors else neighbor_dist
-        out_count[i] = agents_within(i, pos[i, 0], pos[i, 1], (r + skin) * (r + skin), origin, cell, nx, ny,
-                                     cell_start, order, sorted_pos, out_idx[i], cap)
+        px = pos[i, 0]
+        py = pos[i, 1]
+        r = np.sqrt(_bound_from(i, px, py, pos, max_neighbors, prev_idx, prev_count,
+                                neighbor_dist * neighbor_dist))
+        m = agents_within(i, px, py, (r + skin) * (r + skin), origin, cell, nx, ny, cell_start, order,
+                          sorted_pos, out_idx[i], cap)
+        out_count[i] = m
+        if m <= cap:
+            _sort_by_distance(px, py, pos, out_idx[i], m)
 
 
 @parallel_kernel(allocates=False)
@@ -349,10 +372,12 @@ def verlet_neighbors_kernel(pos, neighbor_dist, max_neighbors, cand_idx, cand_co
     distances by row (:func:`_closer`), while the candidates still hold them.
 
     Why they do (Verlet lists): let ``D`` be the farthest any row moved since the candidates were
-    made and ``r`` row i's range then. Its ``max_neighbors`` nearest then are now within
-    ``r + 2D``; a row that was not a candidate was ``r + skin`` or farther and is now farther than
-    ``r + skin - 2D``, which is more than ``r + 2D`` while ``4D < skin``: never among the nearest
-    (where the list was not full, ``r`` is ``neighbor_dist``: never in range)."""
+    made and ``r`` row i's range then (the distance of its ``max_neighbors``-th nearest, or
+    ``neighbor_dist`` where it had fewer; the candidates reach ``skin`` beyond a bound on it). Its
+    ``max_neighbors`` nearest then are now within ``r + 2D``; a row that was not a candidate was
+    ``r + skin`` or farther and is now farther than ``r + skin - 2D``, which is more than
+    ``r + 2D`` while ``4D < skin``: never among the nearest (where the list was not full, never
+    in range)."""
     rsq = neighbor_dist * neighbor_dist
     for i in prange(pos.shape[0]):
         px = pos[i, 0]

@@ -79,9 +79,10 @@ def test_candidate_lists_give_the_whole_search_lists_until_a_quarter_skin() -> N
     pos = _crowd_with_ties(rng)
     n = pos.shape[0]
     skin = nb.VERLET_SKIN
-    idx, dsq, cnt, g = _grid_lists(pos, 3.0, 1.0, 4.0)
+    idx, _, cnt, g = _grid_lists(pos, 3.0, 1.0, 4.0)
     cidx, ccnt = np.empty((n, 200), np.int64), np.empty(n, np.int64)
-    nb.verlet_candidates_kernel(pos, 3.0, K, skin, dsq, cnt, g.origin, g.cell, g.shape[0], g.shape[1],
+    # the last lists (here: of these positions) bound how far the candidates reach
+    nb.verlet_candidates_kernel(pos, 3.0, K, skin, idx, cnt, g.origin, g.cell, g.shape[0], g.shape[1],
                                 g.cell_start, g.order, g.sorted_pos, cidx, ccnt)
     assert ccnt.max() <= 200
     for trial in range(4):
