@@ -347,7 +347,7 @@ def verlet_candidates_kernel(pos, neighbor_dist, max_neighbors, skin, prev_idx, 
     lists as a whole search would for as long as no row has moved ``skin / 4`` from here
     (:func:`candidates_hold`). Sorted nearest first, they stay nearly in order while the crowd
     moves that little, so its sorted inserts rarely shift and its branches are predictable (4000
-    agents in the bench plaza: 0.65 ms unsorted, 0.11 ms sorted)."""
+    random agents at 0.2 per m², the kernel alone: 0.65 ms unsorted, 0.11 ms sorted)."""
     cap = out_idx.shape[1]
     for i in prange(pos.shape[0]):
         if max_neighbors <= 0:
