@@ -134,10 +134,33 @@ def copy_pose(src_q, src_p, dst_q, dst_p):  # type: ignore[no-untyped-def]
         dst_p[k] = src_p[k]
 
 
-@njit(cache=True, fastmath=FASTMATH)
-def _dof(style, d, t, amp):  # type: ignore[no-untyped-def]
-    return (style[d, PA] * amp * spow(math.sin(style[d, Pa] * t + style[d, Pb]), style[d, Pp])
-            + style[d, PB])
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def _phase_sin(style, d, t):  # type: ignore[no-untyped-def]
+    """DOF ``d``'s phase argument ``a t + b`` and its sine (for :func:`_dof_shared`)."""
+    x = style[d, Pa] * t + style[d, Pb]
+    return x, math.sin(x)
+
+
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def _dof_shared(style, d, t, amp, xa, sa, xb, sb, xc, sc):  # type: ignore[no-untyped-def]
+    """Ashida's DOF ``d``, ``A amp sin(a t + b)^p + B`` (:mod:`pedvr.body.style`), for less than a
+    sine each: a DOF whose phase argument equals one already taken
+    (``xa``, ``xb``, ``xc`` with sines ``sa``, ``sb``, ``sc``) reuses that sine (Ashida's arm DOFs
+    share the arm swing's phase, the spine's the gait's), and a still DOF (``A = 0``) with a
+    non-zero posture ``B`` is ``B`` (``±0 + B``) without a sine (issue 27: 16 sines a body were
+    a tenth of the pose graph)."""
+    if style[d, PA] == 0.0 and style[d, PB] != 0.0:
+        return style[d, PB]
+    x = style[d, Pa] * t + style[d, Pb]
+    if x == xa:
+        s = sa
+    elif x == xb:
+        s = sb
+    elif x == xc:
+        s = sc
+    else:
+        s = math.sin(x)
+    return style[d, PA] * amp * spow(s, style[d, Pp]) + style[d, PB]
 
 
 @njit(cache=True, fastmath=FASTMATH)
@@ -178,26 +201,31 @@ def loco_row(t, a, style, sc, pelvis_rest, out_q, out_p):  # type: ignore[no-unt
     out_p[1] = pelvis_rest - KNEE_BEND * sc - bob
     out_p[2] = 0.0
     # lower spine: counter-rotate the pelvis (spread over Spine1, Spine2) + style
-    lf = _dof(style, 8, t, a)
-    lb = _dof(style, 9, t, a)
-    lt = _dof(style, 10, t, a)
+    x8, s8 = _phase_sin(style, 8, t)
+    x9, s9 = _phase_sin(style, 9, t)
+    x10, s10 = _phase_sin(style, 10, t)
+    lf = _dof_shared(style, 8, t, a, x8, s8, x8, s8, x8, s8)
+    lb = _dof_shared(style, 9, t, a, x9, s9, x9, s9, x9, s9)
+    lt = _dof_shared(style, 10, t, a, x10, s10, x10, s10, x10, s10)
     q = euler_yxz4(0.5 * (lt - py), 0.5 * (lf - pt), 0.5 * (lb - pl))
     _put(out_q, sk.SPINE1, q)
     _put(out_q, sk.SPINE2, q)
-    uf = _dof(style, 5, t, a)
-    ub = _dof(style, 6, t, a)
-    ut = _dof(style, 7, t, a)
+    uf = _dof_shared(style, 5, t, a, x8, s8, x9, s9, x10, s10)
+    ub = _dof_shared(style, 6, t, a, x8, s8, x9, s9, x10, s10)
+    ut = _dof_shared(style, 7, t, a, x8, s8, x9, s9, x10, s10)
     q = euler_yxz4(0.5 * ut, 0.5 * uf, 0.5 * ub)
     _put(out_q, sk.SPINE3, q)
     _put(out_q, sk.NECK, q)
     for side in range(2):
         ts = t + math.pi * side  # right side: same curve shifted by π
         sgn = 1.0 if side == 0 else -1.0
-        elbow = _dof(style, 0, ts, a)  # DOFs 0..MIRRORED-1 are the mirrored arm DOFs
-        sflex = _dof(style, 1, ts, a)
-        sabd = _dof(style, 2, ts, a)
-        celev = _dof(style, 3, ts, a)
-        cprot = _dof(style, 4, ts, a)
+        x0, s0 = _phase_sin(style, 0, ts)  # DOFs 0..MIRRORED-1 are the mirrored arm DOFs
+        x3, s3 = _phase_sin(style, 3, ts)
+        elbow = _dof_shared(style, 0, ts, a, x0, s0, x0, s0, x0, s0)
+        sflex = _dof_shared(style, 1, ts, a, x0, s0, x3, s3, x3, s3)
+        sabd = _dof_shared(style, 2, ts, a, x0, s0, x3, s3, x3, s3)
+        celev = _dof_shared(style, 3, ts, a, x3, s3, x3, s3, x3, s3)
+        cprot = _dof_shared(style, 4, ts, a, x0, s0, x3, s3, x3, s3)
         c = sk.L_COLLAR if side == 0 else sk.R_COLLAR
         _put(out_q, c, _rot_yz(-sgn * cprot, sgn * celev))
         _put(out_q, c + 1, _rot_xz(-sflex, sgn * sabd))

@@ -48,7 +48,7 @@ from numba import njit, prange
 
 from pedvr.crowd.coincident import COINCIDENT, apart
 from pedvr.crowd.footprint import support
-from pedvr.crowd.neighbors import ObstacleGrid, build_agent_grid_arrays, edges_near
+from pedvr.crowd.neighbors import MAX_CELLS_PER_ITEM, ObstacleGrid, build_agent_grid_arrays, edges_near
 from pedvr.crowd.overlap import pair_overlaps
 from pedvr.kernels import Chooser, parallel_kernel
 
@@ -313,7 +313,7 @@ def _build_lists(pos, radius, skin, vertices, og_origin, og_cell, og_nx, og_ny, 
     for i in range(n):
         rmax = max(rmax, radius[i])
     origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(
-        pos, (2.0 * rmax + skin) * 1.0001)
+        pos, (2.0 * rmax + skin) * 1.0001, MAX_CELLS_PER_ITEM)
     cnt_n = np.empty(n, np.int64)
     cnt_e = np.empty(n, np.int64)
     if parallel:

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from pedvr.crowd.footprint import support
-from pedvr.crowd.neighbors import build_agent_grid_arrays
+from pedvr.crowd.neighbors import MAX_CELLS_PER_ITEM, build_agent_grid_arrays
 
 _COARSE = 36  # directions over a half turn (5° apart) before refining round the best one
 
@@ -80,7 +80,8 @@ def pair_overlaps(pos, radius, depth, facing, tolerance):
     rmax = 0.0
     for i in range(n):
         rmax = max(rmax, radius[i])
-    origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(pos, 2.0 * rmax * 1.0001)
+    origin, cell, nx, ny, cell_start, order, sorted_pos = build_agent_grid_arrays(pos, 2.0 * rmax * 1.0001,
+                                                                                  MAX_CELLS_PER_ITEM)
     inv = 1.0 / cell
     worst = 0.0
     cap = 16

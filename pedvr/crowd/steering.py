@@ -116,6 +116,10 @@ class Steering:
         self._scratch_key: tuple[int, int, int] | None = None
         self._bounds = np.zeros(0, np.int64)  # chunk bounds of the last row count
         self._neighbors: tuple[np.ndarray, np.ndarray] | None = None
+        # Verlet lists (pedvr.crowd.neighbors.verlet_candidates_kernel): where the footprint centres
+        # were when they were made, each row's candidates and their count
+        self._candidates: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._cand_cap = 4 * max(int(params.max_neighbors), 1)
         # Coupled: the walking body's turn (its ellipse along the heading, pedvr.crowd.footprint);
         # decoupled: the paper's discs.
         self.walk_turn = _fp.turn_for(params.depth_ratio) if self.coupled else 0.0
@@ -218,16 +222,17 @@ class Steering:
         k = int(p.max_neighbors)
         fp = self._footprints(state)
         pos = fp.centre  # footprints are steered about their centres (a pram's lies ahead of its pusher)
-        g = _nb.build_agent_grid(pos, _nb.default_cell_size(p.neighbor_dist))
         kk = max(k, 1)
         idx = np.empty((n, kk), np.int64)
         dsq = np.empty((n, kk))
         cnt = np.empty(n, np.int64)
-        # the last lists bound each row's search (the same lists come out; pedvr.crowd.neighbors)
-        prev_idx, prev_cnt = self._neighbors or (_nb.NO_LISTS, _nb.NO_COUNTS)
-        _nb.agent_neighbors_kernel(pos, float(p.neighbor_dist), k, g.origin, g.cell, g.shape[0],
-                                   g.shape[1], g.cell_start, g.order, g.sorted_pos, idx, dsq, cnt, prev_idx,
-                                   prev_cnt)
+        cand = self._candidates
+        if cand is None or not _nb.candidates_hold(pos, cand[0], _nb.VERLET_SKIN):
+            # Verlet lists made afresh, as far beyond each row's last neighbours as the skin
+            cand = (pos.copy(), *self._verlet_candidates(pos, k))
+            self._candidates = cand
+        # the lists a whole search would give, found among each row's candidates (pedvr.crowd.neighbors)
+        _nb.verlet_neighbors_kernel(pos, float(p.neighbor_dist), k, cand[1], cand[2], idx, dsq, cnt)
         self._neighbors = (idx, cnt)
         og = self.obstacle_grid
         obst_count = np.empty(n, np.int64)
@@ -247,6 +252,36 @@ class Steering:
             if need <= self._obst_cap:
                 return out
             self._obst_cap = need  # rare: more obstacle neighbours than room; redo
+
+    def _verlet_candidates(self, pos: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Each row's candidates ``(idx (N, C), count (N,))`` (:func:`pedvr.crowd.neighbors.
+        verlet_candidates_kernel`; the last lists, where they are of these rows, bound how far
+        they reach), with room made where a row's did not fit."""
+        n = pos.shape[0]
+        g = _nb.build_agent_grid(pos, _nb.default_cell_size(self.params.neighbor_dist),
+                                 per_item=_nb.NEIGHBOR_CELLS_PER_AGENT)
+        nd = float(self.params.neighbor_dist)
+        if self._neighbors is not None and self._neighbors[0].shape[0] == n:
+            prev_idx, prev_cnt = self._neighbors
+        else:  # no last lists of these rows: a whole search bounds the candidates (a dense crowd's
+            # would otherwise reach the skin beyond the neighbour distance, hundreds of rows each)
+            kk = max(k, 1)
+            prev_idx, dsq, prev_cnt = np.empty((n, kk), np.int64), np.empty((n, kk)), np.empty(n, np.int64)
+            _nb.agent_neighbors_kernel(pos, nd, k, g.origin, g.cell, g.shape[0], g.shape[1], g.cell_start,
+                                       g.order, g.sorted_pos, prev_idx, dsq, prev_cnt, _nb.NO_LISTS,
+                                       _nb.NO_COUNTS)
+        while True:
+            cidx = np.empty((n, self._cand_cap), np.int64)
+            ccnt = np.empty(n, np.int64)
+            _nb.verlet_candidates_kernel(pos, nd, k, _nb.VERLET_SKIN, prev_idx, prev_cnt, g.origin, g.cell,
+                                         g.shape[0], g.shape[1], g.cell_start, g.order, g.sorted_pos, cidx,
+                                         ccnt)
+            need = int(ccnt.max()) if n else 0
+            fits = need <= self._cand_cap
+            # room for the next ones to grow a little, and no more than that (a crowd thins out)
+            self._cand_cap = max(4 * max(k, 1), need + need // 4)
+            if fits:
+                return cidx, ccnt
 
     def orca_lines(self, state: CrowdState, dt: float, row: int) -> np.ndarray:
         """The ORCA lines of one row, as :meth:`compute_velocities` builds them from ``state``:
@@ -300,8 +335,9 @@ class Steering:
         return out
 
     def forget_neighbors(self) -> None:
-        """Rows came or went: the last neighbour lists no longer name the same agents."""
+        """Rows came or went: the last neighbour lists and candidates no longer name the same agents."""
         self._neighbors = None
+        self._candidates = None
 
     # ------------------------------------------------------------------ footprints
 
