@@ -965,9 +965,24 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
     if fail < n:
         status |= STATUS_DENSE
         rx, ry = linear_program3(lines, n, num_hard, fail, ms, rx, ry, proj)
-        if slack > 0.0:
+        hard_ok = not status & (STATUS_SOFT_OBSTACLES | STATUS_DROPPED_MOTION)
+        if slack > 0.0 and hard_ok and not _near_user_or_leaf(
+                i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
             rx, ry = toward_preferred(lines, n, num_hard, ms, prx, pry, rx, ry, slack)
     return rx, ry, status
+
+
+@row_njit(fastmath=_FM, inline="always")
+def _near_user_or_leaf(i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
+    """Whether agent ``i`` has the user among its neighbours or a door leaf (a moving segment,
+    vertex ``>= n_static``) among its obstacle edges."""
+    for q in range(nbr_count[i]):
+        if is_user[nbr_idx[i, q]]:
+            return True
+    for q in range(n_obst):
+        if obst_idx[q] >= n_static:
+            return True
+    return False
 
 
 @row_njit(fastmath=_FM)
@@ -981,7 +996,14 @@ def toward_preferred(lines, n, num_hard, max_speed, prx, pry, rx, ry, slack):
     and they drifted sideways at 0.3-0.4 m/s while making 0.02 m/s toward the opening. Here the
     agent lines are moved back by that violation plus ``slack`` and the ordinary program is solved
     toward the preferred velocity; the hard lines stay as they are. Returns ``(rx, ry)`` unchanged
-    if that fails (floating point). The agent lines in ``lines`` are left moved."""
+    if that fails (floating point). The agent lines in ``lines`` are left moved.
+
+    :func:`agent_new_velocity` calls it only where the hard prefix (obstacles, motion limits) was
+    feasible, so that no obstacle line is among the moved ones, and never for an agent with the
+    user among its neighbours: the user's line (share 1, its own horizon) is not loosened, and
+    what an agent does near the user stays the encounter model's (``user_responsibility``); nor
+    near a door leaf, where the door etiquette orders who goes (with the slack an early group's
+    member was left behind at ``door_late_group``, seed 2)."""
     worst = 0.0
     for k in range(num_hard, n):
         worst = max(worst, _det(lines[k, 2], lines[k, 3], lines[k, 0] - rx, lines[k, 1] - ry))
