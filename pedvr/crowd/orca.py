@@ -965,7 +965,7 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
     if fail < n:
         status |= STATUS_DENSE
         rx, ry = linear_program3(lines, n, num_hard, fail, ms, rx, ry, proj)
-        hard_ok = not status & (STATUS_SOFT_OBSTACLES | STATUS_DROPPED_MOTION)
+        hard_ok = status == STATUS_DENSE  # every motion limit and obstacle line held as it was
         if slack > 0.0 and hard_ok and not _near_user_or_leaf(
                 i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
             rx, ry = toward_preferred(lines, n, num_hard, ms, prx, pry, rx, ry, slack)
@@ -998,12 +998,12 @@ def toward_preferred(lines, n, num_hard, max_speed, prx, pry, rx, ry, slack):
     toward the preferred velocity; the hard lines stay as they are. Returns ``(rx, ry)`` unchanged
     if that fails (floating point). The agent lines in ``lines`` are left moved.
 
-    :func:`agent_new_velocity` calls it only where the hard prefix (obstacles, motion limits) was
-    feasible, so that no obstacle line is among the moved ones, and never for an agent with the
-    user among its neighbours: the user's line (share 1, its own horizon) is not loosened, and
-    what an agent does near the user stays the encounter model's (``user_responsibility``); nor
-    near a door leaf, where the door etiquette orders who goes (with the slack an early group's
-    member was left behind at ``door_late_group``, seed 2)."""
+    :func:`agent_new_velocity` calls it only where the whole hard prefix (obstacles, motion
+    limits, heading limits) was feasible, so every limit holds and no obstacle line is moved;
+    never for an agent with the user among its neighbours (the user's line, share 1 and its own
+    horizon, is not loosened: near the user the encounter model and ``user_responsibility``
+    decide); and never near a door leaf, where the door etiquette orders who goes (with the
+    slack an early group's member was left behind at ``door_late_group``, seed 2)."""
     worst = 0.0
     for k in range(num_hard, n):
         worst = max(worst, _det(lines[k, 2], lines[k, 3], lines[k, 0] - rx, lines[k, 1] - ry))

@@ -19,6 +19,7 @@ from pedvr.world.obstacles import ObstacleSet
 from tests.crowd._helpers import crowd
 
 DT = 1 / 90
+SLACK = 0.1  # m/s: the value measured in issue 26's benchmark
 
 
 def test_among_the_least_violating_velocities_the_one_nearest_the_goal() -> None:
@@ -52,9 +53,9 @@ def _boxed(params: SteeringParams, *, coupled: bool) -> np.ndarray:
 
 
 def test_a_boxed_in_coupled_agent_keeps_toward_its_goal_decoupled_does_not_change() -> None:
-    off = dataclasses.replace(SteeringParams(), dense_slack=0.0)
-    on = SteeringParams()
-    assert on.dense_slack > 0.0
+    off = SteeringParams()
+    assert off.dense_slack == 0.0  # off by default (see SteeringParams.dense_slack)
+    on = dataclasses.replace(SteeringParams(), dense_slack=SLACK)
     v_off, v_on = _boxed(off, coupled=True), _boxed(on, coupled=True)
     assert v_off[0] < 0.3 - 0.02  # the paper's least violation brakes it (2.5 m/s² a step)
     assert v_on[0] > 0.3 + 0.01  # with the slack it speeds up toward its goal (1.5 m/s² a step)
@@ -78,7 +79,7 @@ def test_a_crowd_at_an_opening_flows_faster() -> None:
     """60 people before the 0.8 m bottleneck (scenes/validation/bottleneck_080): more are out after
     30 s with the slack than with the paper's least violation (seed 1: 37 against 18), and no body
     overlaps another."""
-    new, s = _out_by(SteeringParams(), 30.0)
-    old, _ = _out_by(dataclasses.replace(SteeringParams(), dense_slack=0.0), 30.0)
+    new, s = _out_by(dataclasses.replace(SteeringParams(), dense_slack=SLACK), 30.0)
+    old, _ = _out_by(SteeringParams(), 30.0)
     assert new >= old + 12, (new, old)
     assert s["overlaps_over_1cm"] == 0
