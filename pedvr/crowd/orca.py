@@ -63,6 +63,9 @@ Coupled mode (PedVR §4.1: the body's motion limits in the same program)
 What is relaxed first when the program is infeasible
     1. The agent (neighbour) lines are soft: ``linear_program3`` minimises
        their largest violation, keeping obstacle and motion-limit lines hard.
+       Coupled, with ``[steering] dense_slack`` > 0, the agent then takes the
+       velocity nearest its preferred one among those that violate no agent line
+       by more than that slack beyond the least violation (:func:`toward_preferred`).
     2. If the hard prefix itself is infeasible (e.g. a wall ahead closer than
        the braking distance, or the body's heading jumped so ``v`` violates
        (c)), the heading-relative lines (c) are dropped first.
@@ -919,11 +922,13 @@ def agent_lines(i, pos, vel, radius, depth, facing, rigid, is_user, heading, pre
 def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user,
                        heading, pref_speed, limits, nbr_idx, nbr_count, obst_idx, n_obst,
                        vertices, nxt, prv, direction, convex, n_static, time_horizon,
-                       time_horizon_obst, user_horizon, dt, coupled, lines, proj):
+                       time_horizon_obst, user_horizon, dt, coupled, lines, proj, slack=0.0):
     """New velocity of agent ``i`` (RVO2's ``computeNewVelocity`` plus limits).
 
     ``lines``/``proj`` are scratch of at least ``n_obst + K + MAX_MOTION_LINES``
-    rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags.
+    rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags. ``slack``: the dense
+    case's slack toward the preferred velocity (:func:`toward_preferred`; 0: the paper's least
+    violation).
     """
     n, num_obst, num_vel_lim, num_hard = agent_lines(
         i, pos, vel, radius, depth, facing, rigid, is_user, heading, pref_speed, limits, nbr_idx,
@@ -960,7 +965,56 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
     if fail < n:
         status |= STATUS_DENSE
         rx, ry = linear_program3(lines, n, num_hard, fail, ms, rx, ry, proj)
+        hard_ok = status == STATUS_DENSE  # every motion limit and obstacle line held as it was
+        if slack > 0.0 and hard_ok and not _near_user_or_leaf(
+                i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
+            rx, ry = toward_preferred(lines, n, num_hard, ms, prx, pry, rx, ry, slack)
     return rx, ry, status
+
+
+@row_njit(fastmath=_FM, inline="always")
+def _near_user_or_leaf(i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
+    """Whether agent ``i`` has the user among its neighbours or a door leaf (a moving segment,
+    vertex ``>= n_static``) among its obstacle edges."""
+    for q in range(nbr_count[i]):
+        if is_user[nbr_idx[i, q]]:
+            return True
+    for q in range(n_obst):
+        if obst_idx[q] >= n_static:
+            return True
+    return False
+
+
+@row_njit(fastmath=_FM)
+def toward_preferred(lines, n, num_hard, max_speed, prx, pry, rx, ry, slack):
+    """Dense case (coupled, ``[steering] dense_slack``): among the velocities inside the hard lines
+    that violate no agent line by more than ``slack`` m/s beyond ``linear_program3``'s least
+    largest violation at ``(rx, ry)``, the one nearest the preferred velocity ``(prx, pry)``.
+
+    The paper's §5.3 picks the least-violating velocity whatever the agent's goal; in a crowd
+    pressing on an opening (issue 26) that was 60-70 % of the steps of the people in front of it,
+    and they drifted sideways at 0.3-0.4 m/s while making 0.02 m/s toward the opening. Here the
+    agent lines are moved back by that violation plus ``slack`` and the ordinary program is solved
+    toward the preferred velocity; the hard lines stay as they are. Returns ``(rx, ry)`` unchanged
+    if that fails (floating point). The agent lines in ``lines`` are left moved.
+
+    :func:`agent_new_velocity` calls it only where the whole hard prefix (obstacles, motion
+    limits, heading limits) was feasible, so every limit holds and no obstacle line is moved;
+    never for an agent with the user among its neighbours (the user's line, share 1 and its own
+    horizon, is not loosened: near the user the encounter model and ``user_responsibility``
+    decide); and never near a door leaf, where the door etiquette orders who goes (with the
+    slack an early group's member was left behind at ``door_late_group``, seed 2)."""
+    worst = 0.0
+    for k in range(num_hard, n):
+        worst = max(worst, _det(lines[k, 2], lines[k, 3], lines[k, 0] - rx, lines[k, 1] - ry))
+    shift = worst + slack
+    for k in range(num_hard, n):
+        lines[k, 0] += shift * lines[k, 3]
+        lines[k, 1] -= shift * lines[k, 2]
+    fail, x, y = linear_program2(lines, n, max_speed, prx, pry, False)
+    if fail < n:
+        return rx, ry
+    return x, y
 
 
 # --------------------------------------------------------------------------- batch
@@ -972,7 +1026,7 @@ def orca_kernel(pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_
                 n_static, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
                 og_edge_cells, time_horizon, time_horizon_obst, user_horizon, dt, coupled, chunk_bounds,
                 scratch_lines, scratch_proj, scratch_oidx, scratch_odsq,
-                out_vel, out_status, out_obst_count):
+                out_vel, out_status, out_obst_count, slack=0.0):
     """New velocities of every row, parallel over chunks of agents.
 
     Chunk ``c`` handles rows ``chunk_bounds[c]:chunk_bounds[c+1]`` with its
@@ -1010,7 +1064,7 @@ def orca_kernel(pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_
                 i, pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user, heading,
                 pref_speed, limits, nbr_idx, nbr_count, oidx, n_obst, vertices, nxt, prv,
                 direction, convex, n_static, time_horizon, time_horizon_obst, user_horizon, dt,
-                coupled, lines, proj)
+                coupled, lines, proj, slack)
             out_vel[i, 0] = rx
             out_vel[i, 1] = ry
             out_status[i] = status

@@ -98,6 +98,8 @@ class Steering:
             raise SteeringInputError(f"time_gap = {params.time_gap}: must be >= 0 s")
         if not _fp.DEPTH_RATIO <= params.depth_ratio <= 1.0:
             raise SteeringInputError(f"depth_ratio = {params.depth_ratio}: must be in [{_fp.DEPTH_RATIO}, 1]")
+        if not params.dense_slack >= 0.0:
+            raise SteeringInputError(f"dense_slack = {params.dense_slack}: must be >= 0 m/s")
         if params.time_horizon <= 0.0 or params.time_horizon_obst <= 0.0:
             raise SteeringInputError(
                 f"time_horizon = {params.time_horizon}, time_horizon_obst = "
@@ -126,6 +128,9 @@ class Steering:
         # The late safety step toward the user (pedvr.crowd.encounter): ORCA's line toward
         # the user has this horizon; 0 switches it off.
         self.user_horizon = float(params.user_safety_horizon) if params.user_safety else 0.0
+        # Coupled: in ORCA's dense case an agent keeps toward its goal within this slack
+        # (pedvr.crowd.orca.toward_preferred); decoupled: the paper's least violation.
+        self.dense_slack = float(params.dense_slack) if self.coupled else 0.0
         self.last_status = np.zeros(0, np.int8)
         """Per row, after :meth:`compute_velocities`: ``orca.STATUS_*`` bit flags
         (dense case; heading limits dropped; all motion limits dropped)."""
@@ -247,7 +252,7 @@ class Steering:
                 self._dir, self._convex, self._n_static, og.origin, og.cell, og.shape[0], og.shape[1],
                 og.cell_start, og.cell_edges, og.edge_cells, float(p.time_horizon),
                 float(p.time_horizon_obst), self.user_horizon, float(dt), self.coupled, bounds,
-                lines, proj, oidx, odsq, out, self.last_status, obst_count)
+                lines, proj, oidx, odsq, out, self.last_status, obst_count, self.dense_slack)
             need = int(obst_count.max())
             if need <= self._obst_cap:
                 return out

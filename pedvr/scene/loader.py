@@ -513,7 +513,7 @@ def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
     d = SteeringParams()
     c.known(s, "steering", ("neighbor_dist", "max_neighbors", "time_horizon", "time_horizon_obst",
                             "user_responsibility", "personal_space", "user_safety",
-                            "user_safety_horizon", "depth_ratio", "time_gap"))
+                            "user_safety_horizon", "depth_ratio", "time_gap", "dense_slack"))
     pos = lambda x: x > 0  # noqa: E731
     return SteeringParams(
         neighbor_dist=c.number(s, "neighbor_dist", "steering.neighbor_dist", required=False,
@@ -542,6 +542,9 @@ def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
                         d.depth_ratio),
         time_gap=_or(c.number(s, "time_gap", "steering.time_gap", required=False, default=d.time_gap,
                               check=lambda x: 0 <= x <= 5, expect="in [0, 5] s (0: off)"), d.time_gap),
+        dense_slack=_or(c.number(s, "dense_slack", "steering.dense_slack", required=False,
+                                 default=d.dense_slack, check=lambda x: 0 <= x <= 1,
+                                 expect="in [0, 1] m/s (0: ORCA's least violation)"), d.dense_slack),
     )
 
 
