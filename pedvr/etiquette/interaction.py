@@ -44,6 +44,10 @@ as HOF, the hold the network was willing to give. Two more at a busy door (issue
 follower whose holder decided NH catches the door at its edge as the holder walks through, rather
 than letting it swing shut and opening it again from the BOP (:func:`_catch_nh`, App. B.2–B.3),
 and a single door with a queue on each side passes each side in batches (:func:`_batch_side`).
+Later (issue 26): the next in a queue moves up into a committed follower's place once that one
+walks to the leaf's edge; nobody opens the door while someone comes through the other way (a
+holder walking through after letting go included); and a way out of the pocket behind an open
+leaf goes round its edge clear of it (:func:`round_edge`).
 
 Choices where the paper leaves room (it draws the key poses, Fig. 18, without measuring them):
 positions come from :class:`~pedvr.etiquette.regions.LeafFrame`; NH opens to the smallest angle
