@@ -31,6 +31,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from pedvr.argtypes import count as _non_negative
 from pedvr.argtypes import positive as _positive
 from pedvr.errors import PedvrError, UsageError
 from pedvr.scene.config import CONDITIONS, USER_WALKS
@@ -92,17 +93,6 @@ def _version() -> str:
     return __version__
 
 
-def _seed(text: str) -> int:
-    """A seed: an integer >= 0 (numpy's generators take no negative seeds)."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be an integer >= 0")
-    return v
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="pedvr", description="Virtual pedestrians around a real user.")
     p.add_argument("--version", action="version", version=f"pedvr {_version()}")
@@ -119,7 +109,8 @@ def build_parser() -> argparse.ArgumentParser:
                           "else headless")
     run.add_argument("--duration", type=_positive(float), default=None,
                      help="simulated seconds (default: the scene's duration)")
-    run.add_argument("--seed", type=_seed, default=None, help="an integer >= 0 (default: the scene's seed)")
+    run.add_argument("--seed", type=_non_negative, default=None,
+                     help="an integer >= 0 (default: the scene's seed)")
     run.add_argument("--condition", default="pedvr", choices=CONDITIONS,
                      help="crowd model (see conditions below)")
     run.add_argument("--responsibility", type=_unit, default=None,

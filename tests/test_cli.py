@@ -98,7 +98,7 @@ def test_auto_backend_falls_back_to_headless_and_says_why(tmp_path: Path, monkey
      r"^pedvr: error: run: argument --seed: '-3' must be an integer >= 0; see 'pedvr run --help'$"),
     # the sub-commands' numbers are parsed as pedvr run's are (pedvr.argtypes): inf is refused too
     (["bench", "sweep", "--duration", "inf"], 2, r"argument --duration: 'inf' must be a finite number > 0"),
-    (["bench", "sweep", "--workers", "-1"], 2, r"argument --workers: '-1' must be >= 0"),
+    (["bench", "sweep", "--workers", "-1"], 2, r"argument --workers: '-1' must be an integer >= 0"),
     (["measure", "--cutoff", "inf"], 2, r"argument --cutoff: 'inf' must be a finite number > 0"),
     (["study", "run", "p.toml", "--participant", "P1", "--pace", "nan"], 2,
      r"argument --pace: 'nan' must be a finite number > 0"),
