@@ -69,7 +69,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from pedvr.crowd.neighbors import obstacle_neighbors_of
+from pedvr.crowd.neighbors import cell_span, obstacle_neighbors_of
 from pedvr.kernels import row_njit
 from pedvr.scene.config import TURNED_DEPTH_RATIO
 
@@ -211,11 +211,7 @@ def _passage(px, py, ex, ey, reach, vertices, nxt, n_static, origin, cell, nx, n
     inside = False
     nx_ = 0.0
     ny_ = 0.0
-    inv = 1.0 / cell
-    qx0 = max(int(math.floor((px - reach - origin[0]) * inv)), 0)
-    qx1 = min(int(math.floor((px + reach - origin[0]) * inv)), nx - 1)
-    qy0 = max(int(math.floor((py - reach - origin[1]) * inv)), 0)
-    qy1 = min(int(math.floor((py + reach - origin[1]) * inv)), ny - 1)
+    qx0, qx1, qy0, qy1 = cell_span(px, py, reach, origin, cell, nx, ny)
     for gy in range(qy0, qy1 + 1):
         for gx in range(qx0, qx1 + 1):
             c = gy * nx + gx

@@ -152,6 +152,18 @@ def build_agent_grid(pos: np.ndarray, cell_size: float, *,
 
 
 @row_njit(inline="always")
+def cell_span(px, py, reach, origin, cell, nx, ny):
+    """The grid cells ``(x0, x1, y0, y1)``, inclusive and clipped to the grid, that the square
+    ``(px, py) ± reach`` meets (a grid of ``nx`` × ``ny`` cells of side ``cell`` from ``origin``)."""
+    inv = 1.0 / cell
+    x0 = max(int(np.floor((px - reach - origin[0]) * inv)), 0)
+    x1 = min(int(np.floor((px + reach - origin[0]) * inv)), nx - 1)
+    y0 = max(int(np.floor((py - reach - origin[1]) * inv)), 0)
+    y1 = min(int(np.floor((py + reach - origin[1]) * inv)), ny - 1)
+    return x0, x1, y0, y1
+
+
+@row_njit(inline="always")
 def _box_dist_sq(px, py, x0, y0, x1, y1):
     dx = max(0.0, max(x0 - px, px - x1))
     dy = max(0.0, max(y0 - py, py - y1))
@@ -299,12 +311,7 @@ def max_displacement_sq(pos, ref):
 def agents_within(i, px, py, range_sq, origin, cell, nx, ny, cell_start, order, sorted_pos, out, cap):
     """Rows other than ``i`` strictly within ``range_sq`` of ``(px, py)``: writes the first ``cap``
     to ``out`` and returns how many there are."""
-    inv = 1.0 / cell
-    reach = np.sqrt(range_sq)
-    qx0 = max(int(np.floor((px - reach - origin[0]) * inv)), 0)
-    qx1 = min(int(np.floor((px + reach - origin[0]) * inv)), nx - 1)
-    qy0 = max(int(np.floor((py - reach - origin[1]) * inv)), 0)
-    qy1 = min(int(np.floor((py + reach - origin[1]) * inv)), ny - 1)
+    qx0, qx1, qy0, qy1 = cell_span(px, py, np.sqrt(range_sq), origin, cell, nx, ny)
     total = 0
     for gy in range(qy0, qy1 + 1):
         for gx in range(qx0, qx1 + 1):
@@ -531,15 +538,7 @@ def edges_near(px, py, reach, origin, cell, nx, ny, cell_start, cell_edges, edge
     """
     if cell_start.shape[0] <= 2 and cell_edges.shape[0] == 0:
         return 0
-    inv = 1.0 / cell
-    qx0 = int(np.floor((px - reach - origin[0]) * inv))
-    qx1 = int(np.floor((px + reach - origin[0]) * inv))
-    qy0 = int(np.floor((py - reach - origin[1]) * inv))
-    qy1 = int(np.floor((py + reach - origin[1]) * inv))
-    qx0 = max(qx0, 0)
-    qy0 = max(qy0, 0)
-    qx1 = min(qx1, nx - 1)
-    qy1 = min(qy1, ny - 1)
+    qx0, qx1, qy0, qy1 = cell_span(px, py, reach, origin, cell, nx, ny)
     total = 0
     for gy in range(qy0, qy1 + 1):
         for gx in range(qx0, qx1 + 1):
@@ -568,12 +567,7 @@ def obstacle_neighbors_of(px, py, range_sq, vertices, nxt, origin, cell, nx, ny,
     capacity = out_idx.shape[0]
     if vertices.shape[0] == 0:
         return 0
-    reach = np.sqrt(range_sq)
-    inv = 1.0 / cell
-    qx0 = max(int(np.floor((px - reach - origin[0]) * inv)), 0)
-    qx1 = min(int(np.floor((px + reach - origin[0]) * inv)), nx - 1)
-    qy0 = max(int(np.floor((py - reach - origin[1]) * inv)), 0)
-    qy1 = min(int(np.floor((py + reach - origin[1]) * inv)), ny - 1)
+    qx0, qx1, qy0, qy1 = cell_span(px, py, np.sqrt(range_sq), origin, cell, nx, ny)
     count = 0
     for gy in range(qy0, qy1 + 1):
         for gx in range(qx0, qx1 + 1):

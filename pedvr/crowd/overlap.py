@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from pedvr.crowd.footprint import support
-from pedvr.crowd.neighbors import MAX_CELLS_PER_ITEM, build_agent_grid_arrays
+from pedvr.crowd.neighbors import MAX_CELLS_PER_ITEM, build_agent_grid_arrays, cell_span
 
 _COARSE = 36  # directions over a half turn (5° apart) before refining round the best one
 
@@ -137,17 +137,13 @@ def nearest_edges(pos, reach, p1, p2, origin, cell, shape, start, items, out_dis
     ``start``, ``items``)."""
     nx = shape[0]
     ny = shape[1]
-    inv = 1.0 / cell
     for i in range(pos.shape[0]):
         px = pos[i, 0]
         py = pos[i, 1]
         best = np.inf
         bx = 0.0
         by = 0.0
-        x0 = max(int(math.floor((px - reach - origin[0]) * inv)), 0)
-        x1 = min(int(math.floor((px + reach - origin[0]) * inv)), nx - 1)
-        y0 = max(int(math.floor((py - reach - origin[1]) * inv)), 0)
-        y1 = min(int(math.floor((py + reach - origin[1]) * inv)), ny - 1)
+        x0, x1, y0, y1 = cell_span(px, py, reach, origin, cell, nx, ny)
         for ix in range(x0, x1 + 1):
             for iy in range(y0, y1 + 1):
                 c = ix * ny + iy

@@ -383,7 +383,7 @@ class Steering:
             radius = np.ascontiguousarray(state.radius)
             is_user = np.ascontiguousarray(state.is_user)
             narrow = np.zeros((n, 2))
-            if self.coupled and self._n_static:  # coupled: passages narrower than the shoulders
+            if self._n_static:  # passages narrower than the shoulders (coupled: decoupled returned above)
                 og = self.obstacle_grid
                 _fp.narrow_kernel(pos, np.ascontiguousarray(state.pref_vel), radius, is_user, self._verts,
                                   self._next, self._n_static, og.origin, og.cell, og.shape[0], og.shape[1],
