@@ -198,8 +198,15 @@ def test_the_head_pose_drives_the_user_agent(work: Workspace, qwerty: Service, c
     rec = np.load(next(out.glob("*.npz")))
     user = int(np.flatnonzero(rec["is_user"])[0])
     pos, heading = rec["pos"][:, user], rec["heading"][:, user]
-    turned = float(np.unwrap(heading)[-1] - heading[0])
-    assert -2 * np.pi < turned < -np.radians(10), np.degrees(turned)  # turning left: the 2D heading falls
+    # Monado's qwerty HMD turns a fixed angle per pose update, so how far 0.7 s of a held key turns it depends
+    # on the machine's frame rate (CI's turned 451 degrees, this VM's tens). What does not: each recorded
+    # step of the turn is small (under pi, so unwrap is exact) and turns left, where the 2D heading falls.
+    steps = np.diff(np.unwrap(heading))
+    turning = steps[np.abs(steps) > 1e-4]
+    assert turning.size >= 3, steps
+    assert (turning < 0).mean() > 0.9, np.degrees(turning)
+    assert np.abs(turning).max() < np.pi / 2, np.degrees(turning)
+    assert turning.sum() < -np.radians(10), np.degrees(turning.sum())
     step = pos[-1] - pos[0]
     assert np.linalg.norm(step) > 0.05
     forward = np.array([np.cos(heading[-1]), np.sin(heading[-1])])
