@@ -500,7 +500,8 @@ class Simulation:
         crowd.pref_vel = pref
         if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)
             self.steering.set_moving_segments(self.doors.hinge, self.doors.tips())
-        self._new_vel = self.steering.compute_velocities(crowd, self.dt)
+        self._new_vel = self.steering.compute_velocities(
+            crowd, self.dt, intent=saved, no_slack=None if self.etiquette is None else self.etiquette.at_doors(crowd))
         if self.etiquette is not None:  # revolving-door riders move with their compartment
             self.etiquette.carry(self._new_vel, crowd)
         crowd.pref_vel = saved

@@ -98,6 +98,7 @@ from numba import prange
 
 from pedvr.crowd.coincident import COINCIDENT, apart
 from pedvr.crowd.footprint import support
+from pedvr.crowd.headway import FOLLOW
 from pedvr.crowd.neighbors import obstacle_neighbors_of
 from pedvr.crowd.state import (
     LIMIT_ACCEL,
@@ -922,13 +923,14 @@ def agent_lines(i, pos, vel, radius, depth, facing, rigid, is_user, heading, pre
 def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user,
                        heading, pref_speed, limits, nbr_idx, nbr_count, obst_idx, n_obst,
                        vertices, nxt, prv, direction, convex, n_static, time_horizon,
-                       time_horizon_obst, user_horizon, dt, coupled, lines, proj, slack=0.0):
+                       time_horizon_obst, user_horizon, dt, coupled, lines, proj, intent, slack=0.0):
     """New velocity of agent ``i`` (RVO2's ``computeNewVelocity`` plus limits).
 
     ``lines``/``proj`` are scratch of at least ``n_obst + K + MAX_MOTION_LINES``
     rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags. ``slack``: the dense
     case's slack toward the preferred velocity (:func:`toward_preferred`; 0: the paper's least
-    violation).
+    violation), only against neighbours going the agent's way (``intent``: the velocities the
+    agents mean to walk, before the time gap and the encounters).
     """
     n, num_obst, num_vel_lim, num_hard = agent_lines(
         i, pos, vel, radius, depth, facing, rigid, is_user, heading, pref_speed, limits, nbr_idx,
@@ -968,7 +970,8 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
         hard_ok = status == STATUS_DENSE  # every motion limit and obstacle line held as it was
         if slack > 0.0 and hard_ok and not _near_user_or_leaf(
                 i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
-            rx, ry = toward_preferred(lines, n, num_hard, ms, prx, pry, rx, ry, slack)
+            rx, ry = toward_preferred(lines, n, num_hard, ms, prx, pry, rx, ry, slack,
+                                      nbr_idx[i], intent, pos, pos[i, 0], pos[i, 1])
     return rx, ry, status
 
 
@@ -986,7 +989,7 @@ def _near_user_or_leaf(i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_stati
 
 
 @row_njit(fastmath=_FM)
-def toward_preferred(lines, n, num_hard, max_speed, prx, pry, rx, ry, slack):
+def toward_preferred(lines, n, num_hard, max_speed, prx, pry, rx, ry, slack, nbrs, intent, pos, px, py):
     """Dense case (coupled, ``[steering] dense_slack``): among the velocities inside the hard lines
     that violate no agent line by more than ``slack`` m/s beyond ``linear_program3``'s least
     largest violation at ``(rx, ry)``, the one nearest the preferred velocity ``(prx, pry)``.
@@ -998,6 +1001,18 @@ def toward_preferred(lines, n, num_hard, max_speed, prx, pry, rx, ry, slack):
     toward the preferred velocity; the hard lines stay as they are. Returns ``(rx, ry)`` unchanged
     if that fails (floating point). The agent lines in ``lines`` are left moved.
 
+    Only the lines of neighbours the agent would push the way they go get the slack: ``j =
+    nbrs[k - num_hard]`` whose ``intent[j]`` (what it means to walk, before the time gap) has at
+    least :data:`pedvr.crowd.headway.FOLLOW` m/s along the line from the agent at ``(px, py)`` to
+    it (``pos[j]``). The line of one standing, coming toward the agent or going across its push
+    is moved back by the least violation only: the agent presses no harder on it than the
+    paper's velocity would. (With the slack on every line, people pressing on in
+    ``shibuya_crossing`` shoved a waiting agent backwards at 0.69 m/s and, with standing ones
+    spared, an oncoming walker at 0.80 m/s, past the 0.5 m/s a body steps backwards. Before an
+    opening the one pressed on is nearer the opening and going there. Sparing every neighbour
+    not going the agent's own way, ``intent[j]`` along ``intent[i]``, lost most of the gain:
+    at the mouth of a funnel people come in from the sides, across the way of those behind.)
+
     :func:`agent_new_velocity` calls it only where the whole hard prefix (obstacles, motion
     limits, heading limits) was feasible, so every limit holds and no obstacle line is moved;
     never for an agent with the user among its neighbours (the user's line, share 1 and its own
@@ -1007,8 +1022,14 @@ def toward_preferred(lines, n, num_hard, max_speed, prx, pry, rx, ry, slack):
     worst = 0.0
     for k in range(num_hard, n):
         worst = max(worst, _det(lines[k, 2], lines[k, 3], lines[k, 0] - rx, lines[k, 1] - ry))
-    shift = worst + slack
     for k in range(num_hard, n):
+        j = nbrs[k - num_hard]
+        dx = pos[j, 0] - px
+        dy = pos[j, 1] - py
+        d = math.sqrt(dx * dx + dy * dy)
+        shift = worst
+        if d > 1e-9 and intent[j, 0] * dx + intent[j, 1] * dy >= FOLLOW * d:
+            shift += slack
         lines[k, 0] += shift * lines[k, 3]
         lines[k, 1] -= shift * lines[k, 2]
     fail, x, y = linear_program2(lines, n, max_speed, prx, pry, False)
@@ -1026,7 +1047,7 @@ def orca_kernel(pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_
                 n_static, og_origin, og_cell, og_nx, og_ny, og_cell_start, og_cell_edges,
                 og_edge_cells, time_horizon, time_horizon_obst, user_horizon, dt, coupled, chunk_bounds,
                 scratch_lines, scratch_proj, scratch_oidx, scratch_odsq,
-                out_vel, out_status, out_obst_count, slack=0.0):
+                out_vel, out_status, out_obst_count, intent, slack):
     """New velocities of every row, parallel over chunks of agents.
 
     Chunk ``c`` handles rows ``chunk_bounds[c]:chunk_bounds[c+1]`` with its
@@ -1034,7 +1055,8 @@ def orca_kernel(pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_
     agent of the chunk). ``out_obst_count[i]`` is the true number of obstacle
     neighbours; where it exceeds ``scratch_oidx.shape[1]`` the agent's result
     is invalid and the caller must retry with more room. User rows copy their
-    input velocity.
+    input velocity. ``intent`` ``(N,2)`` and ``slack`` ``(N,)``: what each agent means to
+    walk and its dense slack (:func:`toward_preferred`; 0: the paper's least violation).
     """
     nchunks = chunk_bounds.shape[0] - 1
     for c in prange(nchunks):
@@ -1064,7 +1086,7 @@ def orca_kernel(pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_
                 i, pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user, heading,
                 pref_speed, limits, nbr_idx, nbr_count, oidx, n_obst, vertices, nxt, prv,
                 direction, convex, n_static, time_horizon, time_horizon_obst, user_horizon, dt,
-                coupled, lines, proj, slack)
+                coupled, lines, proj, intent, slack[i])
             out_vel[i, 0] = rx
             out_vel[i, 1] = ry
             out_status[i] = status

@@ -203,12 +203,19 @@ class Steering:
                                    max_neighbors=self.params.max_neighbors)
 
     def compute_velocities(self, state: CrowdState, dt: float,
-                           out: np.ndarray | None = None) -> np.ndarray:
+                           out: np.ndarray | None = None, *,
+                           intent: np.ndarray | None = None,
+                           no_slack: np.ndarray | None = None) -> np.ndarray:
         """New velocities ``(N,2) float64`` m/s for every row of ``state``.
 
         User rows get their input velocity back. ``dt`` (s) matters for the
         collision case of ORCA (cut-off at ``dt``) and for motion limits.
         ``out``, if given, must be ``(N,2) float64`` and is filled and returned.
+        ``intent`` ``(N,2)``: the velocities the agents mean to walk before the time gap and
+        the encounters (default ``state.pref_vel``); the dense slack presses only on neighbours
+        going an agent's way (:func:`pedvr.crowd.orca.toward_preferred`). ``no_slack`` ``(N,)``
+        bool: agents that take the paper's least violation whatever ``dense_slack`` says (those
+        in a door's etiquette: it orders who goes).
         """
         if not dt > 0.0:
             raise SteeringInputError(f"dt = {dt}: must be > 0")
@@ -241,6 +248,11 @@ class Steering:
         self._neighbors = (idx, cnt)
         og = self.obstacle_grid
         obst_count = np.empty(n, np.int64)
+        wants = np.ascontiguousarray(state.pref_vel if intent is None
+                                     else _check("intent", intent, (n, 2), np.float64))
+        slack = np.full(n, self.dense_slack)
+        if no_slack is not None:
+            slack[_check("no_slack", no_slack, (n,), np.bool_)] = 0.0
         while True:
             bounds, lines, proj, oidx, odsq = self._scratch(n, kk)
             _orca.orca_kernel(
@@ -252,7 +264,7 @@ class Steering:
                 self._dir, self._convex, self._n_static, og.origin, og.cell, og.shape[0], og.shape[1],
                 og.cell_start, og.cell_edges, og.edge_cells, float(p.time_horizon),
                 float(p.time_horizon_obst), self.user_horizon, float(dt), self.coupled, bounds,
-                lines, proj, oidx, odsq, out, self.last_status, obst_count, self.dense_slack)
+                lines, proj, oidx, odsq, out, self.last_status, obst_count, wants, slack)
             need = int(obst_count.max())
             if need <= self._obst_cap:
                 return out
