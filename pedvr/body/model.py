@@ -62,7 +62,7 @@ STEP_EVENT_CAP = 4096
 RUNNING_SPEED = 2.2  # m/s: above this the "running" message is posted
 ACTION_TICK = 1.0 / 30.0  # s: the subconscious scheduler runs at the decision rate
 # The pose graph runs serial, or over chunks of bodies in parallel once a serial call takes more
-# than pedvr.kernels.SERIAL_BUDGET_S (past 1000 bodies on a 2-core VM: `pedvr bench sim`):
+# than pedvr.kernels.SERIAL_BUDGET_S (from about 500 bodies on a 2-core VM: `pedvr bench sim`):
 # bodies are independent, so the bytes are the same either way (tests/body/test_threads.py).
 _POSE_CHOOSER = Chooser()
 _IS_ARM_ACTION = np.zeros(ARM_GOALS.shape[0] + 1, np.bool_)  # by action kind: it takes an arm
