@@ -508,6 +508,9 @@ class Simulation:
         self._pinned = self.scheduler.pinned()  # seated bodies do not slide (contacts move the others)
         self._new_vel[self._pinned] = 0.0
         turn, torso = self.steering.turn_shoulders(crowd, self.dt, short_of_room=short, to_user=to_user)
+        if self._pinned.any():  # a seated body keeps its footprint: contacts cannot move it to make room
+            turn[self._pinned] = crowd.turn[self._pinned]
+            torso[self._pinned] = crowd.torso[self._pinned]
         crowd.turn, crowd.torso = turn, torso
 
     def _animate(self) -> None:

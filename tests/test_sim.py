@@ -168,3 +168,23 @@ def test_an_agent_pushed_out_of_sight_of_its_waypoint_replans() -> None:
     assert np.linalg.norm(sim.paths[row][0] - pushed) < 0.2  # replanned from where it was pushed to
     sim.advance_to(sim.t + 16.0)
     assert np.linalg.norm(sim.crowd.pos[row] - [5.0, 0.0]) < 0.5
+
+
+def test_a_seated_body_keeps_its_footprint() -> None:
+    """Seated (pinned) bodies do not move in the contact pass, so they must not change their
+    footprint either: in shopping_mall two seated neighbours turned their shoulders as a walker
+    squeezed past and, once a shorter obstacle horizon let walkers closer (issue 26, branch
+    h-horizon), overlapped each other by 12.5 cm, which no contact could undo. (Before the fix a
+    seated body here was turned past a walker's turn in 2022 of the seated steps over 90 s.)"""
+    sim = Simulation(load_scene(resolve_scene("shopping_mall")), condition="pedvr")
+    seated_steps = 0
+    while sim.t < 60.0:
+        before = dict(zip(sim.crowd.ids.tolist(), sim.crowd.turn.tolist(), strict=True))
+        was = set(sim.crowd.ids[sim._pinned].tolist()) if len(sim._pinned) == len(sim.crowd) else set()
+        sim.step()
+        for k in np.flatnonzero(sim._pinned):
+            i = int(sim.crowd.ids[k])
+            if i in was:
+                seated_steps += 1
+                assert sim.crowd.turn[k] == before[i], (sim.t, i)
+    assert seated_steps > 1000  # people sat there most of the minute
