@@ -2,8 +2,8 @@
 
 The realism benchmark gives the flow; this looks at what sets it. For the real recordings
 (``$PEDVR_REAL_DATA/uni-directional/uo-*.txt``, PedPy's demo data) it prints each file's
-tangential acceleration percentiles, the speed smoothed over 0.5 s and the first and last 0.5 s
-of every track left out (the smoothing's edges put 2-3 m/s² there that nobody walked). For
+tangential acceleration percentiles, the speed smoothed over 0.5 s and the first and last 1 s of
+every track left out (the smoothing's edges put 2-3 m/s² there that nobody walked). For
 uo-070 and ``scenes/validation/uo_070`` run in pedvr it prints, at the line y = 7.5 m (0.5 m
 into the corridor past the entrance, inside the real cameras' view), how many crossed, the
 median speed there and the gaps between crossings; for pedvr also how fast people walk within
@@ -47,16 +47,20 @@ def accelerations(tracks: list[np.ndarray], fps: float) -> dict[str, float]:
     w = max(1, round(SMOOTH_S * fps))
     acc = []
     for t in tracks:
-        if len(t) <= 2 * w + 2:
+        cut = 2 * w  # both smoothings' reach (w/2 each) and the gradients': the tracks' ends left out
+        if len(t) <= 2 * cut + 2:
             continue
         xy = uniform_filter1d(t[:, 1:3], w, axis=0)
         v = np.gradient(xy, 1.0 / fps, axis=0)
         s = uniform_filter1d(np.hypot(v[:, 0], v[:, 1]), w)
-        acc.append(np.gradient(s, 1.0 / fps)[w:-w])
+        acc.append(np.gradient(s, 1.0 / fps)[cut:-cut])
     a = np.concatenate(acc)
     up, down = a[a > 0], -a[a < 0]
-    return {"accel_p95": round(float(np.percentile(up, 95)), 2), "accel_p99": round(float(np.percentile(up, 99)), 2),
-            "decel_p99": round(float(np.percentile(down, 99)), 2)}
+
+    def pct(x: np.ndarray, q: float) -> float:  # none speeding up (or slowing down): 0
+        return round(float(np.percentile(x, q)), 2) if x.size else 0.0
+
+    return {"accel_p95": pct(up, 95), "accel_p99": pct(up, 99), "decel_p99": pct(down, 99)}
 
 
 def crossings(times: list[float], speeds: list[float]) -> dict[str, float]:
@@ -110,18 +114,25 @@ def pedvr_crossings(seed: int, until: float) -> dict[str, float]:
         near_speed.extend(np.hypot(sim.crowd.vel[m, 0], sim.crowd.vel[m, 1]).tolist())
     out = crossings(times, speeds)
     out.update(accelerations([np.asarray(t) for t in track.values()], 1.0 / (every * sim.dt)))
-    out.update(before_mouth_speed=round(float(np.mean(near_speed)), 2), before_mouth_dense=round(dense / max(near, 1), 2))
+    out.update(before_mouth_speed=round(float(np.mean(near_speed)), 2),
+               before_mouth_dense=round(dense / max(near, 1), 2))
     return out
 
 
 def main(argv: list[str] | None = None) -> int:
+    from pedvr.argtypes import count, positive
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", default=os.environ.get("PEDVR_REAL_DATA"), help="real-data folder (PedPy's demo data)")
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1])
-    ap.add_argument("--until", type=float, default=60.0, help="simulated seconds of each pedvr run")
+    ap.add_argument("--data", default=os.environ.get("PEDVR_REAL_DATA"),
+                    help="real-data folder (PedPy's demo data)")
+    ap.add_argument("--seeds", type=count, nargs="+", default=[1])
+    ap.add_argument("--until", type=positive(float), default=60.0, help="simulated seconds of each pedvr run")
     a = ap.parse_args(argv)
     if a.data:
-        files = sorted((Path(a.data).expanduser() / "uni-directional").glob("uo-*.txt"))
+        folder = Path(a.data).expanduser() / "uni-directional"
+        files = sorted(folder.glob("uo-*.txt"))
+        if not files:
+            ap.error(f"--data {a.data}: no {folder}/uo-*.txt (PedPy's notebooks/demo-data has them)")
         for f in files:
             tracks, fps = _tracks(f)
             row = {"real": f.name, **accelerations(tracks, fps)}

@@ -500,17 +500,15 @@ class Simulation:
         crowd.pref_vel = pref
         if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)
             self.steering.set_moving_segments(self.doors.hinge, self.doors.tips())
-        self._new_vel = self.steering.compute_velocities(
-            crowd, self.dt, intent=saved, no_slack=None if self.etiquette is None else self.etiquette.at_doors(crowd))
+        at_doors = None if self.etiquette is None else self.etiquette.at_doors(crowd)
+        self._new_vel = self.steering.compute_velocities(crowd, self.dt, intent=saved, no_slack=at_doors)
         if self.etiquette is not None:  # revolving-door riders move with their compartment
             self.etiquette.carry(self._new_vel, crowd)
         crowd.pref_vel = saved
         self._pinned = self.scheduler.pinned()  # seated bodies do not slide (contacts move the others)
         self._new_vel[self._pinned] = 0.0
-        turn, torso = self.steering.turn_shoulders(crowd, self.dt, short_of_room=short, to_user=to_user)
-        if self._pinned.any():  # a seated body keeps its footprint: contacts cannot move it to make room
-            turn[self._pinned] = crowd.turn[self._pinned]
-            torso[self._pinned] = crowd.torso[self._pinned]
+        turn, torso = self.steering.turn_shoulders(crowd, self.dt, short_of_room=short, to_user=to_user,
+                                                   pinned=self._pinned)
         crowd.turn, crowd.torso = turn, torso
 
     def _animate(self) -> None:
