@@ -501,7 +501,7 @@ class Simulation:
         if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)
             self.steering.set_moving_segments(self.doors.hinge, self.doors.tips())
         at_doors = None if self.etiquette is None else self.etiquette.at_doors(crowd)
-        self._new_vel = self.steering.compute_velocities(crowd, self.dt, intent=saved, no_slack=at_doors)
+        self._new_vel = self.steering.compute_velocities(crowd, self.dt, intent=saved, at_doors=at_doors)
         if self.etiquette is not None:  # revolving-door riders move with their compartment
             self.etiquette.carry(self._new_vel, crowd)
         crowd.pref_vel = saved

@@ -100,10 +100,10 @@ class Steering:
             raise SteeringInputError(f"depth_ratio = {params.depth_ratio}: must be in [{_fp.DEPTH_RATIO}, 1]")
         if not params.dense_slack >= 0.0:
             raise SteeringInputError(f"dense_slack = {params.dense_slack}: must be >= 0 m/s")
-        if params.time_horizon <= 0.0 or params.time_horizon_obst <= 0.0:
+        if min(params.time_horizon, params.time_horizon_obst, params.time_horizon_obst_coupled) <= 0.0:
             raise SteeringInputError(
-                f"time_horizon = {params.time_horizon}, time_horizon_obst = "
-                f"{params.time_horizon_obst}: both must be > 0")
+                f"time_horizon = {params.time_horizon}, time_horizon_obst = {params.time_horizon_obst}, "
+                f"time_horizon_obst_coupled = {params.time_horizon_obst_coupled}: all must be > 0")
         self.params = params
         self.obstacles = obstacles
         self.coupled = bool(coupled)
@@ -131,6 +131,10 @@ class Steering:
         # Coupled: in ORCA's dense case an agent keeps toward its goal within this slack
         # (pedvr.crowd.orca.toward_preferred); decoupled: the paper's least violation.
         self.dense_slack = float(params.dense_slack) if self.coupled else 0.0
+        # Coupled: the obstacle horizon of agents outside a door's etiquette, away from the user and
+        # door leaves (orca.obstacle_horizon); decoupled, and those in it: time_horizon_obst.
+        self.short_obst = float(params.time_horizon_obst_coupled if self.coupled
+                                else params.time_horizon_obst)
         self.last_status = np.zeros(0, np.int8)
         """Per row, after :meth:`compute_velocities`: ``orca.STATUS_*`` bit flags
         (dense case; heading limits dropped; all motion limits dropped)."""
@@ -205,7 +209,7 @@ class Steering:
     def compute_velocities(self, state: CrowdState, dt: float,
                            out: np.ndarray | None = None, *,
                            intent: np.ndarray | None = None,
-                           no_slack: np.ndarray | None = None) -> np.ndarray:
+                           at_doors: np.ndarray | None = None) -> np.ndarray:
         """New velocities ``(N,2) float64`` m/s for every row of ``state``.
 
         User rows get their input velocity back. ``dt`` (s) matters for the
@@ -213,9 +217,11 @@ class Steering:
         ``out``, if given, must be ``(N,2) float64`` and is filled and returned.
         ``intent`` ``(N,2)``: the velocities the agents mean to walk before the time gap and
         the encounters (default ``state.pref_vel``); the dense slack presses only on neighbours
-        going an agent's way (:func:`pedvr.crowd.orca.toward_preferred`). ``no_slack`` ``(N,)``
-        bool: agents that take the paper's least violation whatever ``dense_slack`` says (those
-        in a door's etiquette: it orders who goes).
+        going an agent's way (:func:`pedvr.crowd.orca.toward_preferred`). ``at_doors`` ``(N,)``
+        bool: agents in a door's etiquette, which orders who goes: they take the paper's least
+        violation whatever ``dense_slack`` says, and see obstacles ``time_horizon_obst`` ahead
+        (door leaves swing) where other coupled agents see them ``time_horizon_obst_coupled``
+        ahead, away from the user and door leaves (:func:`pedvr.crowd.orca.obstacle_horizon`).
         """
         if not dt > 0.0:
             raise SteeringInputError(f"dt = {dt}: must be > 0")
@@ -251,8 +257,11 @@ class Steering:
         wants = np.ascontiguousarray(state.pref_vel if intent is None
                                      else _check("intent", intent, (n, 2), np.float64))
         slack = np.full(n, self.dense_slack)
-        if no_slack is not None:
-            slack[_check("no_slack", no_slack, (n,), np.bool_)] = 0.0
+        short_obst = np.full(n, self.short_obst)
+        if at_doors is not None:
+            doors = _check("at_doors", at_doors, (n,), np.bool_)
+            slack[doors] = 0.0
+            short_obst[doors] = float(p.time_horizon_obst)
         while True:
             bounds, lines, proj, oidx, odsq = self._scratch(n, kk)
             _orca.orca_kernel(
@@ -263,7 +272,7 @@ class Steering:
                 np.ascontiguousarray(state.limits), idx, cnt, self._verts, self._next, self._prev,
                 self._dir, self._convex, self._n_static, og.origin, og.cell, og.shape[0], og.shape[1],
                 og.cell_start, og.cell_edges, og.edge_cells, float(p.time_horizon),
-                float(p.time_horizon_obst), self.user_horizon, float(dt), self.coupled, bounds,
+                float(p.time_horizon_obst), short_obst, self.user_horizon, float(dt), self.coupled, bounds,
                 lines, proj, oidx, odsq, out, self.last_status, obst_count, wants, slack)
             need = int(obst_count.max())
             if need <= self._obst_cap:
@@ -305,7 +314,8 @@ class Steering:
         ``(L, 4) float64`` rows ``(point_x, point_y, dir_x, dir_y)``, permitted side on the left
         of the direction (RVO2's ``getAgentORCALine``, with the point first). Obstacle lines
         come first, then (coupled) the motion-limit lines, then one line per neighbour,
-        nearest first. For inspection and tests; not on the step path.
+        nearest first. For inspection and tests; not on the step path. A coupled row sees
+        obstacles as one outside a door's etiquette does (:func:`pedvr.crowd.orca.obstacle_horizon`).
         """
         if not dt > 0.0:
             raise SteeringInputError(f"dt = {dt}: must be > 0")
@@ -321,6 +331,9 @@ class Steering:
         rng = p.time_horizon_obst * float(state.max_speed[row]) + float(fp.radius[row])
         oidx, ocnt = _nb.obstacle_neighbors(pos[row:row + 1], np.array([rng * rng]), self._verts,
                                             self._next, og)
+        is_user = np.ascontiguousarray(state.is_user)
+        tho = _orca.obstacle_horizon(row, float(p.time_horizon_obst), self.short_obst, is_user, idx, cnt,
+                                     np.ascontiguousarray(oidx[0]), int(ocnt[0]), self._n_static)
         lines = np.zeros((int(ocnt[0]) + idx.shape[1] + _orca.MAX_MOTION_LINES, 4))
         count, _, _, _ = _orca.agent_lines(
             row, pos, np.ascontiguousarray(state.vel), fp.radius, fp.depth, fp.facing, fp.rigid,
@@ -328,7 +341,7 @@ class Steering:
             np.ascontiguousarray(state.heading), np.ascontiguousarray(state.pref_speed),
             np.ascontiguousarray(state.limits), idx, cnt, np.ascontiguousarray(oidx[0]), int(ocnt[0]),
             self._verts, self._next, self._prev, self._dir, self._convex, self._n_static,
-            float(p.time_horizon), float(p.time_horizon_obst), self.user_horizon, float(dt), self.coupled,
+            float(p.time_horizon), tho, self.user_horizon, float(dt), self.coupled,
             lines)
         return lines[:count].copy()
 

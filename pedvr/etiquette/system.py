@@ -300,9 +300,11 @@ class DoorEtiquette(EtiquetteCore):
     def at_doors(self, crowd: CrowdState) -> np.ndarray:
         """``(N,)`` agents taking part in any door's etiquette now, approaching included: coupled
         ORCA gives them no dense slack (``[steering] dense_slack``), since the etiquette orders
-        who goes. (With the slack a queue pressed on toward a busy single door: door_single_flow
-        seeds 1-3 passed 27/29/28 of 40 against 33/33/29, and a pram was left behind at a double
-        door in three seeds of ten.)"""
+        who goes, and they see obstacles ``time_horizon_obst`` ahead, not the shorter
+        ``time_horizon_obst_coupled`` (door leaves swing). (With the slack a queue pressed on
+        toward a busy single door: door_single_flow seeds 1-3 passed 27/29/28 of 40 against
+        33/33/29, and a pram was left behind at a double door in three seeds of ten; with the
+        shorter horizon in four.)"""
         out = np.zeros(len(crowd), np.bool_)
         for w in self.walkers.values():
             r = self._row.get(w.id)

@@ -223,6 +223,12 @@ class SteeringParams:
     # and oncoming people were shoved backwards past their limits in shibuya_crossing (0.69 and
     # 0.80 m/s, limit 0.5)
     dense_slack: float = 0.1
+    # Coupled mode (issue 26): the obstacle horizon (s) of agents outside a door's etiquette and
+    # away from the user and door leaves (pedvr.crowd.orca.obstacle_horizon; there, and in
+    # decoupled's plain ORCA, time_horizon_obst; never longer than it). About the time a walker
+    # needs to brake (1.34 m/s at 2.5 m/s²: 0.54 s); with 1 s people slowed at the edges of an
+    # opening a second before they reached them (bottleneck_050 0.80 /s, real 1.16).
+    time_horizon_obst_coupled: float = 0.5
 
 
 @dataclass(frozen=True)

@@ -513,7 +513,8 @@ def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
     d = SteeringParams()
     c.known(s, "steering", ("neighbor_dist", "max_neighbors", "time_horizon", "time_horizon_obst",
                             "user_responsibility", "personal_space", "user_safety",
-                            "user_safety_horizon", "depth_ratio", "time_gap", "dense_slack"))
+                            "user_safety_horizon", "depth_ratio", "time_gap", "dense_slack",
+                            "time_horizon_obst_coupled"))
     pos = lambda x: x > 0  # noqa: E731
     return SteeringParams(
         neighbor_dist=c.number(s, "neighbor_dist", "steering.neighbor_dist", required=False,
@@ -545,6 +546,9 @@ def _steering(c: _Checker, s: dict[str, Any]) -> SteeringParams:
         dense_slack=_or(c.number(s, "dense_slack", "steering.dense_slack", required=False,
                                  default=d.dense_slack, check=lambda x: 0 <= x <= 1,
                                  expect="in [0, 1] m/s (0: ORCA's least violation)"), d.dense_slack),
+        time_horizon_obst_coupled=c.number(
+            s, "time_horizon_obst_coupled", "steering.time_horizon_obst_coupled", required=False,
+            default=d.time_horizon_obst_coupled, check=pos, expect="> 0 s") or d.time_horizon_obst_coupled,
     )
 
 

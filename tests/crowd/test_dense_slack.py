@@ -95,18 +95,32 @@ def _out_by(steering: SteeringParams, until: float) -> tuple[int, dict]:
 
 def test_a_crowd_at_an_opening_flows_faster() -> None:
     """60 people before the 0.8 m bottleneck (scenes/validation/bottleneck_080): more are out after
-    30 s with the slack than with the paper's least violation (seed 1: 37 against 18), and no body
-    overlaps another."""
-    new, s = _out_by(dataclasses.replace(SteeringParams(), dense_slack=SLACK), 30.0)
-    old, _ = _out_by(dataclasses.replace(SteeringParams(), dense_slack=0.0), 30.0)
+    30 s with the slack than with the paper's least violation (seed 1, obstacle horizon 1 s as
+    before issue 26's shorter one: 33 against 18), and no body overlaps another."""
+    base = dataclasses.replace(SteeringParams(), time_horizon_obst_coupled=1.0)
+    new, s = _out_by(dataclasses.replace(base, dense_slack=SLACK), 30.0)
+    old, _ = _out_by(dataclasses.replace(base, dense_slack=0.0), 30.0)
     assert new >= old + 12, (new, old)
     assert s["overlaps_over_1cm"] == 0
 
 
+def test_a_shorter_obstacle_horizon_opens_the_bottleneck() -> None:
+    """Coupled agents outside a door's etiquette see obstacles ``time_horizon_obst_coupled``
+    (0.5 s) ahead: with 1 s the people at the 0.8 m bottleneck slowed at its edges a second before
+    they reached them (seed 1, no slack: 29 out after 30 s against 18), and nobody overlaps a
+    wall or another body."""
+    assert SteeringParams().time_horizon_obst_coupled == 0.5 and SteeringParams().time_horizon_obst == 1.0
+    short, s = _out_by(dataclasses.replace(SteeringParams(), dense_slack=0.0), 30.0)
+    long, _ = _out_by(dataclasses.replace(SteeringParams(), dense_slack=0.0, time_horizon_obst_coupled=1.0), 30.0)
+    assert short >= long + 8, (short, long)
+    assert s["overlaps_over_1cm"] == 0 and s["wall_overlap_max_m"] < 0.01, s
+
+
 def test_no_slack_for_those_in_a_door_s_etiquette() -> None:
     """At a busy single door the etiquette orders who goes: those taking part in it (approaching
-    included, ``DoorEtiquette.at_doors``) take the paper's least violation, as with the slack off,
-    where the slack would have moved some of them (it does, now and then: 11 rows in 60 s here)."""
+    included, ``DoorEtiquette.at_doors``) take the paper's least violation and see obstacles
+    ``time_horizon_obst`` ahead, as with the slack off and the longer horizon for everyone, where
+    the slack and the shorter horizon would have moved some of them."""
     sim = Simulation(load_any("scenes/validation/door_single_flow.toml", seed=1), seed=1, condition="pedvr")
     steer = sim.steering
     assert steer.dense_slack == SLACK
@@ -114,13 +128,13 @@ def test_no_slack_for_those_in_a_door_s_etiquette() -> None:
     while sim.t < 60.0:
         sim.advance_to(sim.t + 0.25)
         at = sim.etiquette.at_doors(sim.crowd)
-        spared = steer.compute_velocities(sim.crowd, sim.dt, no_slack=at)
+        spared = steer.compute_velocities(sim.crowd, sim.dt, at_doors=at)
         everyone = steer.compute_velocities(sim.crowd, sim.dt)
-        steer.dense_slack = 0.0
+        steer.dense_slack, steer.short_obst = 0.0, steer.params.time_horizon_obst
         try:
             off = steer.compute_velocities(sim.crowd, sim.dt)
         finally:
-            steer.dense_slack = SLACK
+            steer.dense_slack, steer.short_obst = SLACK, steer.params.time_horizon_obst_coupled
         np.testing.assert_array_equal(spared[at], off[at])
         mattered += int(np.count_nonzero(np.abs(everyone[at] - off[at]).max(axis=1, initial=0.0) > 0.0))
     assert mattered > 0

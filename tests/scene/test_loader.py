@@ -236,6 +236,7 @@ def test_friends_come_in_pairs(tmp_path: Path) -> None:
     ({"steering": {"time_gap": -0.2}}, r"steering\.time_gap = -0\.2: must be in \[0, 5\] s \(0: off\)"),
     ({"steering": {"depth_ratio": 0.4}}, r"steering\.depth_ratio = 0\.4: must be in \[0\.52, 1\] \(a turned"),
     ({"steering": {"dense_slack": -0.1}}, r"steering\.dense_slack = -0\.1: must be in \[0, 1\] m/s \(0: ORCA's"),
+    ({"steering": {"time_horizon_obst_coupled": 0}}, r"steering\.time_horizon_obst_coupled = 0: must be > 0 s"),
     ({"user__walk": "zigzag"}, r"user\.walk = 'zigzag': expected one of straight, reactive"),
     ({"colour": "blue"}, r"x\.toml: colour = 'blue': unknown key"),
     ({"behavior__states__wait__gestures": {"clips": ["juggle"]}},
