@@ -929,8 +929,9 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
     ``lines``/``proj`` are scratch of at least ``n_obst + K + MAX_MOTION_LINES``
     rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags. ``slack``: the dense
     case's slack toward the preferred velocity (:func:`toward_preferred`; 0: the paper's least
-    violation), only against neighbours going the agent's way (``intent``: the velocities the
-    agents mean to walk, before the time gap and the encounters).
+    violation, which the caller gives near the user or a door leaf: :func:`near_user_or_leaf`),
+    only against neighbours going the agent's way (``intent``: the velocities the agents mean to
+    walk, before the time gap and the encounters).
     """
     n, num_obst, num_vel_lim, num_hard = agent_lines(
         i, pos, vel, radius, depth, facing, rigid, is_user, heading, pref_speed, limits, nbr_idx,
@@ -968,19 +969,18 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
         status |= STATUS_DENSE
         rx, ry = linear_program3(lines, n, num_hard, fail, ms, rx, ry, proj)
         hard_ok = status == STATUS_DENSE  # every motion limit and obstacle line held as it was
-        if slack > 0.0 and hard_ok and not _near_user_or_leaf(
-                i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
+        if slack > 0.0 and hard_ok:
             rx, ry = toward_preferred(lines, n, num_hard, ms, prx, pry, rx, ry, slack,
                                       nbr_idx[i], intent, pos, pos[i, 0], pos[i, 1])
     return rx, ry, status
 
 
-@row_njit(fastmath=_FM)
-def obstacle_horizon(i, time_horizon_obst, short, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
-    """The obstacle horizon (s) agent ``i`` steers with: ``short`` (coupled, outside a door's
-    etiquette: ``[steering] time_horizon_obst_coupled``), but ``time_horizon_obst`` where the
-    user is among its neighbours or a door leaf among its obstacle edges, as the dense slack
-    (:func:`toward_preferred`) keeps away from them.
+@row_njit(fastmath=_FM, inline="always")
+def obstacle_horizon(near, time_horizon_obst, short):
+    """The obstacle horizon (s) an agent steers with: ``short`` (coupled, outside a door's
+    etiquette: ``[steering] time_horizon_obst_coupled``), but ``time_horizon_obst`` where it is
+    ``near`` the user or a door leaf (:func:`near_user_or_leaf`), as the dense slack
+    (:func:`toward_preferred`) keeps away from them; never longer than ``time_horizon_obst``.
 
     Issue 26: with walls seen 1 s ahead people slow at the edges of an opening a second before
     they reach them (bottleneck_050 0.80 /s against the real 1.16). Seen 0.5 s ahead everywhere,
@@ -989,16 +989,16 @@ def obstacle_horizon(i, time_horizon_obst, short, is_user, nbr_idx, nbr_count, o
     ``door_assist`` was left waiting alone at the door until it reached for the handle itself.
     The obstacle neighbours are found with ``time_horizon_obst``'s range in either case, so the
     choice is the same whatever the horizon."""
-    if short >= time_horizon_obst or _near_user_or_leaf(i, is_user, nbr_idx, nbr_count, obst_idx, n_obst,
-                                                       n_static):
+    if near or short >= time_horizon_obst:
         return time_horizon_obst
     return short
 
 
-@row_njit(fastmath=_FM, inline="always")
-def _near_user_or_leaf(i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
+@row_njit(fastmath=_FM)
+def near_user_or_leaf(i, is_user, nbr_idx, nbr_count, obst_idx, n_obst, n_static):
     """Whether agent ``i`` has the user among its neighbours or a door leaf (a moving segment,
-    vertex ``>= n_static``) among its obstacle edges."""
+    vertex ``>= n_static``) among its obstacle edges: there coupled ORCA keeps the paper's
+    least violation and obstacle horizon (:func:`toward_preferred`, :func:`obstacle_horizon`)."""
     for q in range(nbr_count[i]):
         if is_user[nbr_idx[i, q]]:
             return True
@@ -1107,13 +1107,15 @@ def orca_kernel(pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_
                 out_vel[i, 1] = vel[i, 1]
                 out_status[i] = 0
                 continue
-            tho = obstacle_horizon(i, time_horizon_obst, short_obst[i], is_user, nbr_idx, nbr_count, oidx,
-                                   n_obst, n_static)
+            # near the user or a door leaf: the paper's obstacle horizon and least violation
+            near = near_user_or_leaf(i, is_user, nbr_idx, nbr_count, oidx, n_obst, n_static)
+            tho = obstacle_horizon(near, time_horizon_obst, short_obst[i])
+            sl = 0.0 if near else slack[i]
             rx, ry, status = agent_new_velocity(
                 i, pos, vel, pref_vel, radius, depth, facing, rigid, max_speed, is_user, heading,
                 pref_speed, limits, nbr_idx, nbr_count, oidx, n_obst, vertices, nxt, prv,
                 direction, convex, n_static, time_horizon, tho, user_horizon, dt,
-                coupled, lines, proj, intent, slack[i])
+                coupled, lines, proj, intent, sl)
             out_vel[i, 0] = rx
             out_vel[i, 1] = ry
             out_status[i] = status

@@ -332,8 +332,9 @@ class Steering:
         oidx, ocnt = _nb.obstacle_neighbors(pos[row:row + 1], np.array([rng * rng]), self._verts,
                                             self._next, og)
         is_user = np.ascontiguousarray(state.is_user)
-        tho = _orca.obstacle_horizon(row, float(p.time_horizon_obst), self.short_obst, is_user, idx, cnt,
-                                     np.ascontiguousarray(oidx[0]), int(ocnt[0]), self._n_static)
+        near = _orca.near_user_or_leaf(row, is_user, idx, cnt, np.ascontiguousarray(oidx[0]), int(ocnt[0]),
+                                       self._n_static)
+        tho = _orca.obstacle_horizon(near, float(p.time_horizon_obst), self.short_obst)
         lines = np.zeros((int(ocnt[0]) + idx.shape[1] + _orca.MAX_MOTION_LINES, 4))
         count, _, _, _ = _orca.agent_lines(
             row, pos, np.ascontiguousarray(state.vel), fp.radius, fp.depth, fp.facing, fp.rigid,

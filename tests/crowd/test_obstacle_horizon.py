@@ -51,8 +51,11 @@ def test_the_long_horizon_near_a_door_leaf_or_the_user() -> None:
     is_user = np.array([False, False, True])
     nbrs = np.array([[1, 2], [0, 2], [0, 1]], np.int64)
     edges = np.array([3, 9], np.int64)  # vertices 0-7 static, 8 on: door leaves
-    h = orca.obstacle_horizon
-    assert h(0, 1.0, 0.5, is_user, nbrs, np.array([1, 1, 1]), edges, 1, 8) == 0.5  # a wall, a walker
-    assert h(0, 1.0, 0.5, is_user, nbrs, np.array([2, 1, 1]), edges, 1, 8) == 1.0  # the user near
-    assert h(0, 1.0, 0.5, is_user, nbrs, np.array([1, 1, 1]), edges, 2, 8) == 1.0  # a door leaf near
-    assert h(0, 1.0, 2.0, is_user, nbrs, np.array([1, 1, 1]), edges, 1, 8) == 1.0  # never longer
+    def h(count: int, n_obst: int, short: float) -> float:
+        near = orca.near_user_or_leaf(0, is_user, nbrs, np.array([count, 1, 1]), edges, n_obst, 8)
+        return orca.obstacle_horizon(near, 1.0, short)
+
+    assert h(1, 1, 0.5) == 0.5  # a wall, a walker
+    assert h(2, 1, 0.5) == 1.0  # the user near
+    assert h(1, 2, 0.5) == 1.0  # a door leaf near
+    assert h(1, 1, 2.0) == 1.0  # never longer
