@@ -7,9 +7,10 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 
 from pedvr.crowd import orca
-from pedvr.crowd.steering import Steering
+from pedvr.crowd.steering import Steering, SteeringInputError
 from pedvr.scene.config import SteeringParams
 from pedvr.world.obstacles import ObstacleSet
 from tests.crowd._helpers import crowd
@@ -59,3 +60,11 @@ def test_the_long_horizon_near_a_door_leaf_or_the_user() -> None:
     assert h(2, 1, 0.5) == 1.0  # the user near
     assert h(1, 2, 0.5) == 1.0  # a door leaf near
     assert h(1, 1, 2.0) == 1.0  # never longer
+
+
+def test_a_horizon_that_is_not_positive_is_named() -> None:
+    """Parameters made in code (not through a scene file, whose loader checks them) are checked
+    by the steering itself, with every horizon named."""
+    bad = dataclasses.replace(SteeringParams(), time_horizon_obst_coupled=0.0)
+    with pytest.raises(SteeringInputError, match=r"time_horizon_obst_coupled = 0\.0: all must be > 0"):
+        Steering(bad, ObstacleSet.empty(), coupled=True)
