@@ -487,9 +487,12 @@ class Simulation:
         body's limits; then shoulders turn where people squeeze past each other."""
         self.body.fill_limits(self.crowd, self.crowd.limits)
         crowd = self.crowd
+        # the footprints ORCA steers, made once for the headway and ORCA (nothing between the two
+        # moves, turns or adds a body)
+        fp = self.steering.footprints(crowd)
         # coupled: no faster than keeps the time gap to whoever walks ahead (pedvr.crowd.headway);
         # an agent that waits in a queue is waiting, not stuck (its preferred speed is 0)
-        pref = self.steering.headway(crowd, crowd.pref_vel)
+        pref = self.steering.headway(crowd, crowd.pref_vel, footprints=fp)
         pref = self.steering.unstick(crowd.vel, pref, crowd.is_user, self.stuck_time, self.dt)
         pref, short, to_user = self.encounters.steer(
             pos=crowd.pos, vel=crowd.vel, pref_vel=pref, radius=crowd.radius,
@@ -501,7 +504,8 @@ class Simulation:
         if len(self.doors):  # door leaves are obstacles where they stand now (ORCA, then contacts)
             self.steering.set_moving_segments(self.doors.hinge, self.doors.tips())
         at_doors = None if self.etiquette is None else self.etiquette.at_doors(crowd)
-        self._new_vel = self.steering.compute_velocities(crowd, self.dt, intent=saved, at_doors=at_doors)
+        self._new_vel = self.steering.compute_velocities(crowd, self.dt, intent=saved, at_doors=at_doors,
+                                                         footprints=fp)
         if self.etiquette is not None:  # revolving-door riders move with their compartment
             self.etiquette.carry(self._new_vel, crowd)
         crowd.pref_vel = saved

@@ -209,7 +209,8 @@ class Steering:
     def compute_velocities(self, state: CrowdState, dt: float,
                            out: np.ndarray | None = None, *,
                            intent: np.ndarray | None = None,
-                           at_doors: np.ndarray | None = None) -> np.ndarray:
+                           at_doors: np.ndarray | None = None,
+                           footprints: _fp.Footprints | None = None) -> np.ndarray:
         """New velocities ``(N,2) float64`` m/s for every row of ``state``.
 
         User rows get their input velocity back. ``dt`` (s) matters for the
@@ -222,6 +223,9 @@ class Steering:
         violation whatever ``dense_slack`` says, and see obstacles ``time_horizon_obst`` ahead
         (door leaves swing) where other coupled agents see them ``time_horizon_obst_coupled``
         ahead, away from the user and door leaves (:func:`pedvr.crowd.orca.obstacle_horizon`).
+        ``footprints``: :meth:`footprints` of this ``state``, where the caller has them already
+        (the simulation makes them once for :meth:`headway` and this); made afresh when
+        ``None``. Footprints of another state are not detected: the velocities would be wrong.
         """
         if not dt > 0.0:
             raise SteeringInputError(f"dt = {dt}: must be > 0")
@@ -238,7 +242,7 @@ class Steering:
             return out
         p = self.params
         k = int(p.max_neighbors)
-        fp = self._footprints(state)
+        fp = self.footprints(state) if footprints is None else footprints
         pos = fp.centre  # footprints are steered about their centres (a pram's lies ahead of its pusher)
         kk = max(k, 1)
         idx = np.empty((n, kk), np.int64)
@@ -324,7 +328,7 @@ class Steering:
         if not 0 <= row < n:
             raise SteeringInputError(f"row {row}: expected 0 <= row < {n}")
         p = self.params
-        fp = self._footprints(state)
+        fp = self.footprints(state)
         pos = fp.centre
         idx, cnt = self.neighbors(pos)
         og = self.obstacle_grid
@@ -346,17 +350,19 @@ class Steering:
             lines)
         return lines[:count].copy()
 
-    def headway(self, state: CrowdState, pref_vel: np.ndarray) -> np.ndarray:
+    def headway(self, state: CrowdState, pref_vel: np.ndarray, *,
+                footprints: _fp.Footprints | None = None) -> np.ndarray:
         """Preferred velocities ``(N, 2)`` whose speeds keep the time gap ``params.time_gap`` to
         whoever walks ahead in each agent's lane and goes its way (:mod:`pedvr.crowd.headway`):
         coupled mode only; decoupled (plain ORCA), or a time gap of 0, returns them unchanged.
         Uses the neighbour lists of the last :meth:`compute_velocities` when they are of the
-        same rows (the simulation forgets them when rows come or go), else searches afresh."""
+        same rows (the simulation forgets them when rows come or go), else searches afresh.
+        ``footprints`` as for :meth:`compute_velocities`."""
         n = len(state)
         pref_vel = _check("pref_vel", pref_vel, (n, 2), np.float64)
         if n == 0 or not self.coupled or self.params.time_gap <= 0.0:
             return pref_vel.copy()
-        fp = self._footprints(state)
+        fp = self.footprints(state) if footprints is None else footprints
         if self._neighbors is None or self._neighbors[0].shape[0] != n:
             self._neighbors = self.neighbors(np.ascontiguousarray(fp.centre))
         idx, cnt = self._neighbors
@@ -373,7 +379,8 @@ class Steering:
     # ------------------------------------------------------------------ footprints
 
     @staticmethod
-    def _footprints(state: CrowdState) -> _fp.Footprints:
+    def footprints(state: CrowdState) -> _fp.Footprints:
+        """The rows' footprints as steering sees them (:func:`pedvr.crowd.footprint.footprints`)."""
         return _fp.footprints(state.pos, state.radius, state.turn, state.torso, state.heading, state.ahead,
                               state.length)
 

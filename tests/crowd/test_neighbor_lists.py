@@ -115,7 +115,7 @@ def _walk(*, fresh: bool) -> bytes:
     for _ in range(60):
         if fresh:
             s.forget_neighbors()
-        reused += s._candidates is not None and nb.candidates_hold(s._footprints(state).centre,
+        reused += s._candidates is not None and nb.candidates_hold(s.footprints(state).centre,
                                                                    s._candidates[0], nb.VERLET_SKIN)
         d = goals - state.pos
         state.pref_vel = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9) * 1.3
