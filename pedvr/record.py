@@ -18,7 +18,14 @@ import numpy as np
 from numba import njit
 
 from pedvr.crowd.footprint import Footprints, footprints
-from pedvr.crowd.overlap import motion_extremes, nearest_edges, pair_overlaps, user_clearance, wall_overlaps
+from pedvr.crowd.overlap import (
+    body_user_clearance,
+    motion_extremes,
+    nearest_edges,
+    pair_overlaps,
+    user_clearance,
+    wall_overlaps,
+)
 from pedvr.crowd.state import CrowdState
 from pedvr.world.visibility_kernels import EdgeGrid
 
@@ -181,10 +188,8 @@ class Metrics:
         u = _user_row(crowd)
         if u < 0 or len(crowd) < 2:
             return
-        fp = footprints(proposed, crowd.radius, crowd.turn, crowd.torso, crowd.heading, crowd.ahead,
-                        crowd.length)
-        _, clear, _ = user_clearance(proposed, fp.centre, fp.radius, fp.depth, fp.facing, u, crowd.pos[u],
-                                     float(crowd.radius[u]))
+        _, clear, _ = body_user_clearance(proposed, crowd.radius, crowd.turn, crowd.torso, crowd.heading,
+                                          crowd.ahead, crowd.length, u, crowd.pos[u], float(crowd.radius[u]))
         if -clear > OVERLAP_TOLERANCE:
             self.user_contact_steps += 1
 

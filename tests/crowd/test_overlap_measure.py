@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from pedvr.crowd.overlap import pair_overlaps
+from pedvr.crowd.footprint import footprints
+from pedvr.crowd.overlap import body_user_clearance, pair_overlaps, user_clearance
 
 _DIRS = np.stack([np.cos(np.linspace(0.0, 2.0 * np.pi, 7200, endpoint=False)),
                   np.sin(np.linspace(0.0, 2.0 * np.pi, 7200, endpoint=False))], axis=1)
@@ -63,3 +64,25 @@ def test_discs_measure_centre_distance() -> None:
     worst, pairs = pair_overlaps(pos, rad, rad.copy(), facing, 0.01)
     assert math.isclose(worst, 0.05, abs_tol=1e-12)
     assert pairs.tolist() == [[0, 1]]
+
+
+def test_body_user_clearance_is_user_clearance_of_the_footprints() -> None:
+    """The record phase's contact count skips the footprints of rows that cannot be nearest the
+    user (issue 27); it must give what the footprints' arrays give, bit for bit, pushed prams,
+    turned bodies and a body on the user's centre included."""
+    rng = np.random.default_rng(0)
+    for case in range(500):
+        n = int(rng.integers(2, 40))
+        pos = rng.uniform(-3.0, 3.0, (n, 2))
+        u = int(rng.integers(0, n))
+        if case % 5 == 0:
+            pos[(u + 1) % n] = pos[u]
+        radius = rng.uniform(0.2, 0.3, n)
+        turn = rng.uniform(0.0, 1.0, n) * (rng.random(n) < 0.7)
+        torso, heading = rng.uniform(-4.0, 4.0, n), rng.uniform(-4.0, 4.0, n)
+        ahead = np.where(rng.random(n) < 0.1, 0.4, 0.0)
+        length = np.where(ahead > 0.0, 0.8, 0.0)
+        fp = footprints(pos, radius, turn, torso, heading, ahead, length)
+        whole = user_clearance(pos, fp.centre, fp.radius, fp.depth, fp.facing, u, pos[u], float(radius[u]))
+        assert body_user_clearance(pos, radius, turn, torso, heading, ahead, length, u, pos[u],
+                                   float(radius[u])) == whole
