@@ -61,18 +61,17 @@ def headway_kernel(pos, pref_vel, radius, depth, facing, is_user, nbr_idx, nbr_c
         best = math.inf
         for q in range(nbr_count[i]):
             j = nbr_idx[i, q]
-            if is_user[j]:
-                continue
-            if pref_vel[j, 0] * ex + pref_vel[j, 1] * ey < FOLLOW:
-                continue  # not going the agent's way (oncoming, crossing, standing): ORCA's to pass
             dx = pos[j, 0] - pos[i, 0]
             dy = pos[j, 1] - pos[i, 1]
             along = dx * ex + dy * ey
-            if along <= 0.0:
-                continue
             across = abs(-dx * ey + dy * ex)
             wj = support(radius[j], depth[j], facing[j, 0], facing[j, 1], -ey, ex)
-            if across >= wi + wj:
+            # Not going the agent's way (oncoming, crossing, standing: ORCA's to pass), not ahead
+            # of it or not in its lane: one branch (``|``, not ``or``), the lane's extent made for
+            # every neighbour. A branch for each, on new neighbours every step, was mispredicted
+            # often enough that the kernel took 110 µs at 1000 agents, 69 µs this way (issue 27).
+            if is_user[j] | (pref_vel[j, 0] * ex + pref_vel[j, 1] * ey < FOLLOW) | (along <= 0.0) | (
+                    across >= wi + wj):
                 continue
             d = math.sqrt(dx * dx + dy * dy)
             free = d - support(radius[i], depth[i], fx, fy, dx / d, dy / d) - support(
