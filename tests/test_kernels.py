@@ -1,14 +1,19 @@
-"""Parallel kernels and their serial twins give the same bytes."""
+"""Parallel kernels and their serial twins give the same bytes; the kernels' shared helpers give
+the bytes of what they replaced."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
+from numba import njit
 
+from pedvr.body.quat import FASTMATH
 from pedvr.crowd import contact, orca
 from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
-from pedvr.kernels import SERIAL_BUDGET_S, Chooser
+from pedvr.kernels import SERIAL_BUDGET_S, Chooser, wrap_pi
 from pedvr.scene.config import SteeringParams
 from pedvr.world.obstacles import ObstacleSet
 
@@ -147,3 +152,29 @@ def test_a_row_function_that_allocates_does_not_compile() -> None:
     with pytest.raises(numba.core.errors.TypingError):
         row_njit()(grows)(3)
     assert row_njit()(sums)(np.arange(4.0)) == 6.0
+
+
+@pytest.mark.parametrize("fastmath", [False, FASTMATH, {"nsz", "arcp", "contract", "afn"}])
+def test_wrap_pi_is_the_modulo_bit_for_bit(fastmath: object) -> None:
+    """``wrap_pi`` is the modulo expression it replaced, bit for bit, under each set of fastmath
+    flags the kernels compile it with (issue 27: the same bytes, without fmod)."""
+    @njit(fastmath=fastmath)
+    def new(a, out):  # type: ignore[no-untyped-def]
+        for i in range(a.shape[0]):
+            out[i] = wrap_pi(a[i])
+
+    @njit(fastmath=fastmath)
+    def old(a, out):  # type: ignore[no-untyped-def]
+        for i in range(a.shape[0]):
+            out[i] = (a[i] + math.pi) % (2.0 * math.pi) - math.pi
+
+    rng = np.random.default_rng(1)
+    pi = math.pi
+    edges = [0.0, -0.0, pi, -pi, 2 * pi, -2 * pi, 3 * pi, -3 * pi, 1e-300, -1e-300, 5e-324, -5e-324, 1e10, -1e10]
+    edges += [float(np.nextafter(x, t)) for x in (pi, -pi, 3 * pi, -3 * pi) for t in (-10.0, 10.0)]
+    a = np.concatenate([edges, rng.uniform(-10.0, 10.0, 200_000), rng.normal(0.0, 1e-3, 100_000),
+                        rng.integers(-5, 5, 20_000) * pi + rng.normal(0.0, 1e-15, 20_000)])
+    got, want = np.empty_like(a), np.empty_like(a)
+    new(a, got)
+    old(a, want)
+    np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))

@@ -83,6 +83,7 @@ from numba import njit
 
 from pedvr.body.quat import FASTMATH
 from pedvr.crowd.state import LIMIT_BACKWARD, LIMIT_TURN_WALKING
+from pedvr.kernels import wrap_pi
 
 F0 = 1.93  # steps/s at V_REF for the 1.75 m reference adult
 V_REF = 1.35  # m/s
@@ -155,7 +156,7 @@ def step_rate(fwd, lat, speed, scale):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
 def wrap(a):  # type: ignore[no-untyped-def]
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
+    return wrap_pi(a)
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")

@@ -29,7 +29,7 @@ from pedvr.body import skeleton as sk
 from pedvr.body.locomotion import DS, foot_pose_cs
 from pedvr.body.quat import FASTMATH, euler_yxz4, frame_quat, qmul4, qrot3
 from pedvr.body.style import PA, PB, Pa, Pb, Pp
-from pedvr.kernels import row_njit
+from pedvr.kernels import row_njit, wrap_pi
 
 PELVIS_YAW = 0.07  # rad: transverse pelvic rotation at a walk (±4°)
 PELVIS_LIST = 0.05  # rad: pelvic obliquity (±3°)
@@ -332,7 +332,7 @@ def _approach(cur, target, alpha, cap, dt):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def _wrap_pi(a):  # type: ignore[no-untyped-def]
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
+    return wrap_pi(a)
 
 
 @njit(cache=True, fastmath=FASTMATH)

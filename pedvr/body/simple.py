@@ -19,6 +19,7 @@ from numba import njit
 
 from pedvr.body.quat import FASTMATH
 from pedvr.crowd.state import LIMIT_TURN_STANDING, LIMIT_TURN_WALKING, CrowdState
+from pedvr.kernels import wrap_pi
 
 MOVING = 0.05  # m/s: below this the facing follows the preferred facing instead
 
@@ -80,16 +81,16 @@ def root_motion_kernel(pos, vel, heading, pref_heading, pref_speed, limits, is_u
         # Backing away or side-stepping keeps the facing: a person steps back without turning around.
         if moving and math.cos(motion_dir - heading[i]) * speed < 0.0:
             target = pref_heading[i]
-        delta = (target - heading[i] + math.pi) % (2.0 * math.pi) - math.pi
+        delta = wrap_pi(target - heading[i])
         if coupled:
             frac = min(max(speed / max(pref_speed[i], 1e-6), 0.0), 1.0)
             lo, hi = limits[i, LIMIT_TURN_STANDING], limits[i, LIMIT_TURN_WALKING]
             lim = (lo + frac * (hi - lo)) * dt
             delta = min(max(delta, -lim), lim)
             h = heading[i] + delta
-            heading_out[i] = (h + math.pi) % (2.0 * math.pi) - math.pi
+            heading_out[i] = wrap_pi(h)
         elif moving:
             heading_out[i] = motion_dir
         else:
             h = heading[i] + delta
-            heading_out[i] = (h + math.pi) % (2.0 * math.pi) - math.pi
+            heading_out[i] = wrap_pi(h)

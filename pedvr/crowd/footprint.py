@@ -70,7 +70,7 @@ import numpy as np
 from numba import njit
 
 from pedvr.crowd.neighbors import cell_span, obstacle_neighbors_of
-from pedvr.kernels import row_njit
+from pedvr.kernels import row_njit, wrap_pi
 from pedvr.scene.config import TURNED_DEPTH_RATIO
 
 DEPTH_RATIO = TURNED_DEPTH_RATIO  # front-to-back half depth / shoulder half width, turned
@@ -108,7 +108,7 @@ def _toward(torso, fx, fy, turn, dt):
     (``turn <= 0``), so the footprint never jumps (a jump toward a wall would leave the agent
     inside it)."""
     want = math.atan2(fy, fx)
-    delta = (want - torso + math.pi) % (2.0 * math.pi) - math.pi
+    delta = wrap_pi(want - torso)
     if delta > 0.5 * math.pi:
         delta -= math.pi
     elif delta < -0.5 * math.pi:

@@ -16,6 +16,7 @@ from numba import njit
 
 from pedvr.crowd.footprint import depth_of, row_footprint, support
 from pedvr.crowd.neighbors import MAX_CELLS_PER_ITEM, build_agent_grid_arrays, cell_span
+from pedvr.kernels import wrap_pi
 
 _COARSE = 36  # directions over a half turn (5° apart) before refining round the best one
 
@@ -252,7 +253,7 @@ def motion_extremes(vel, prev_vel, heading, prev_heading, is_user, dt):
         total += math.hypot(vel[i, 0], vel[i, 1])
         rows += 1
         acc = max(acc, math.hypot(vel[i, 0] - prev_vel[i, 0], vel[i, 1] - prev_vel[i, 1]) / dt)
-        turn = max(turn, abs((heading[i] - prev_heading[i] + math.pi) % (2.0 * math.pi) - math.pi) / dt)
+        turn = max(turn, abs(wrap_pi(heading[i] - prev_heading[i])) / dt)
     return total, rows, acc, turn
 
 
