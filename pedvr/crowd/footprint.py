@@ -310,10 +310,31 @@ def shoulder_twist(turn: np.ndarray, torso: np.ndarray, heading: np.ndarray) -> 
     """The body's upper-torso yaw relative to the pelvis (rad) for turned footprints: the
     shortest twist that brings the chest to face ``torso`` or its opposite (the footprint
     is the same either way), scaled by ``τ`` and capped at 60° (people squeezing past
-    twist the chest about that much and side-step the rest)."""
-    delta = (torso - heading + np.pi) % (2.0 * np.pi) - np.pi
-    delta = np.where(delta > 0.5 * np.pi, delta - np.pi, np.where(delta < -0.5 * np.pi, delta + np.pi, delta))
-    return np.clip(turn * delta, -SHOULDER_TWIST_LIMIT, SHOULDER_TWIST_LIMIT)
+    twist the chest about that much and side-step the rest). ``(N,)`` arrays."""
+    f64 = np.float64
+    out = np.empty(np.shape(turn)[0])
+    _twist_kernel(np.ascontiguousarray(turn, f64), np.ascontiguousarray(torso, f64),
+                  np.ascontiguousarray(heading, f64), out)
+    return out
+
+
+@njit(cache=True)
+def _twist_kernel(turn, torso, heading, out):  # type: ignore[no-untyped-def]
+    """:func:`shoulder_twist` in one pass: the bytes of the numpy expressions it replaced (numpy's
+    float remainder is CPython's, as numba's; ``np.clip`` keeps a NaN), without their six
+    temporary arrays (issue 27: 34 µs a step at 1000 agents, 7 µs this way)."""
+    for i in range(turn.shape[0]):
+        delta = wrap_pi(torso[i] - heading[i])
+        if delta > 0.5 * math.pi:
+            delta = delta - math.pi
+        elif delta < -0.5 * math.pi:
+            delta = delta + math.pi
+        v = turn[i] * delta
+        if v < -SHOULDER_TWIST_LIMIT:
+            v = -SHOULDER_TWIST_LIMIT
+        elif v > SHOULDER_TWIST_LIMIT:
+            v = SHOULDER_TWIST_LIMIT
+        out[i] = v
 
 
 def footprint_arrays(radius: np.ndarray, turn: np.ndarray,

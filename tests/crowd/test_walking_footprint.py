@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from pedvr.crowd.footprint import DEPTH_RATIO, depth_of, turn_for
+from pedvr.crowd.footprint import DEPTH_RATIO, SHOULDER_TWIST_LIMIT, depth_of, shoulder_twist, turn_for
 from pedvr.crowd.steering import Steering, SteeringInputError
 from pedvr.scene.config import SteeringParams
 from pedvr.world.obstacles import ObstacleSet
@@ -86,3 +86,21 @@ def test_a_body_coming_at_a_slot_askew_lays_its_shoulders_along_the_slot() -> No
     turn, torso = _slot_agent((4.2, 4.9), (1.0, 0.3))
     assert turn == pytest.approx(1.0)
     assert abs(math.remainder(torso - math.pi / 2, math.pi)) < 1e-6
+
+
+def test_shoulder_twist_is_the_numpy_expression_bit_for_bit() -> None:
+    """The twist the body is drawn with is made in one kernel pass (issue 27); it is the numpy
+    expression it replaced, bit for bit, turns beyond [0, 1], whole turns, zeros, NaN and inf
+    included."""
+    rng = np.random.default_rng(3)
+    n = 200_000
+    quarter = rng.integers(-6, 6, n // 4) * (math.pi / 2)
+    torso = np.concatenate([rng.uniform(-20.0, 20.0, n), quarter + rng.normal(0.0, 1e-15, n // 4),
+                            [0.0, -0.0, math.pi, -math.pi, np.nan, np.inf]])
+    heading = np.concatenate([rng.uniform(-20.0, 20.0, n), quarter[::-1], [0.0, 0.0, -math.pi, math.pi, 0.0, 0.0]])
+    turn = np.concatenate([rng.uniform(-1.0, 3.0, n), rng.uniform(0.0, 1.0, n // 4), [1.0, 1.0, -0.0, 0.0, 1.0, 1.0]])
+    with np.errstate(invalid="ignore"):
+        delta = (torso - heading + np.pi) % (2.0 * np.pi) - np.pi
+    delta = np.where(delta > 0.5 * np.pi, delta - np.pi, np.where(delta < -0.5 * np.pi, delta + np.pi, delta))
+    want = np.clip(turn * delta, -SHOULDER_TWIST_LIMIT, SHOULDER_TWIST_LIMIT)
+    np.testing.assert_array_equal(shoulder_twist(turn, torso, heading).view(np.int64), want.view(np.int64))
