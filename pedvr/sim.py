@@ -25,6 +25,7 @@ from pedvr.body import FullBody
 from pedvr.body import skeleton as sk
 from pedvr.body.carry import PRAM_HULL
 from pedvr.body.model import GestureSets
+from pedvr.body.simple import sync_kernel
 from pedvr.crowd.encounter import UserEncounters
 from pedvr.crowd.footprint import covering_discs, enclosing_ellipse, footprints, shoulder_twist
 from pedvr.crowd.state import N_LIMITS, CrowdState
@@ -652,7 +653,6 @@ class Simulation:
     def _sync(self) -> None:
         """The 2D agent takes the position and heading of its body's root (the body is the truth)."""
         crowd = self.crowd
-        virt = ~crowd.is_user
         # The velocity is the body's actual motion, contacts included (position-based dynamics),
         # in both conditions: the next step's ORCA sees a blocked neighbour as blocked, and a
         # coupled body's motion limits start from what it really did. (Until issue 26 a coupled
@@ -661,13 +661,11 @@ class Simulation:
         # at the 0.7 m corridor entrance 18 of 111 passed in 40 s, with this 33.)
         # A push can make it faster than the body walks; it keeps at most its max speed (else its
         # acceleration limits would lie outside what it can walk, and the linear program drop them).
-        moved = (self._root - crowd.pos) / self.dt
-        speed = np.hypot(moved[:, 0], moved[:, 1])
-        over = speed > crowd.max_speed
-        if over.any():
-            moved[over] *= (crowd.max_speed[over] / speed[over])[:, None]
-        vel = np.where(virt[:, None], moved, crowd.vel)
-        crowd.pos = np.where(virt[:, None], self._root, crowd.pos)
+        n = len(crowd)
+        pos, vel = np.empty((n, 2)), np.empty((n, 2))  # new arrays: the old ones may be held
+        sync_kernel(np.ascontiguousarray(self._root, np.float64), crowd.pos, crowd.vel, crowd.max_speed,
+                    crowd.is_user, float(self.dt), pos, vel)
+        crowd.pos = pos
         crowd.vel = vel
         crowd.heading = self._root_heading
         self.t = (self.step_index + 1) * self.dt
