@@ -29,10 +29,12 @@ STEPS = 4  # the third crosses the 30 Hz subconscious-action tick
 
 def body_kernels() -> int:
     """Step a user and three agents' full bodies through what :meth:`pedvr.sim.Simulation.step`
-    asks of the body (gaze rule, limits, root motion, gait, actions, pose graph, skate meter) and
-    the renderer's bone matrices, with the simulation's array types, so numba compiles (or loads)
-    each body kernel a step uses. Returns the number of kernel calls' steps made."""
+    asks of the body (gaze rule, limits, root motion, gait, actions, pose graph, skate meter, the
+    sync phase's commit of the roots) and the renderer's bone matrices, with the simulation's array
+    types, so numba compiles (or loads) each body kernel a step uses. Returns the number of kernel
+    calls' steps made."""
     from pedvr.body import FullBody
+    from pedvr.body.simple import sync_kernel
     from pedvr.crowd.state import N_LIMITS, CrowdState
 
     rng = np.random.default_rng(0)
@@ -59,6 +61,9 @@ def body_kernels() -> int:
         root, heading = body.animate(crowd, vel.copy(), DT, coupled=True)
         body.state.shoulder_turn[:] = np.where(crowd.is_user, 0.0, 0.0 * heading)
         body.compose(crowd, root, heading, dt=DT, t=t + DT, coupled=True, state_names=names)
+        pos, new_vel = np.empty((len(crowd), 2)), np.empty((len(crowd), 2))  # the sync phase's commit
+        sync_kernel(np.ascontiguousarray(root, np.float64), crowd.pos, crowd.vel, crowd.max_speed,
+                    crowd.is_user, DT, pos, new_vel)
         crowd.pos = np.where(crowd.is_user[:, None], crowd.pos, root)
         crowd.vel = vel.copy()
         crowd.heading = heading
