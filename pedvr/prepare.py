@@ -250,6 +250,9 @@ def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
             with forcing(parallel):
                 for _ in range(TWIN_STEPS):
                     sim.step()
+                _line_of_sight(sim)
+        if not twins:
+            _line_of_sight(sim)
         crowd = sim.crowd
         if len(crowd):
             # Fully turned: above any walking body's turn (coupled walkers are ellipses already,
@@ -258,6 +261,16 @@ def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
             crowd.torso[:] = crowd.heading + 0.5 * np.pi
             sim.step()
     return watch.compiled, watch.compile_s
+
+
+def _line_of_sight(sim: Simulation) -> None:
+    """One line-of-sight query of the scene's walls (:meth:`pedvr.world.visibility.Visibility.visible`),
+    as the gaze rule, path following and behaviour trees ask it. A scene's first steps often ask
+    none (nobody near the user yet, no waypoint due), so its kernel compiled mid-run: on a cold
+    cache the first ``pedvr run`` after ``pedvr prepare`` compiled ``visible_batch_grid``'s serial
+    twin seconds into the run. The query reads the world and changes nothing."""
+    pos = sim.crowd.pos[:1] if len(sim.crowd) else np.zeros((1, 2))
+    sim.visibility.visible(pos, pos + 0.5)
 
 
 class CompileLog:

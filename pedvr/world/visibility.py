@@ -33,7 +33,11 @@ def _points(x: object, name: str) -> np.ndarray:
 
 
 def _vec(x: object, n: int, name: str, dtype: type) -> np.ndarray:
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=dtype), (n,)))
+    """``x`` (a scalar or ``(n,)``) as a new writable ``(n,)`` array. Always a copy: a scalar
+    broadcast to one row is already contiguous, and ``ascontiguousarray`` handed the read-only
+    view on, which numba compiles as a second specialisation of the kernel (issue 27: a run's
+    first one-row query compiled it mid-run)."""
+    return np.array(np.broadcast_to(np.asarray(x, dtype=dtype), (n,)), dtype=dtype, order="C")
 
 
 class Visibility:

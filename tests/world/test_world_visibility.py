@@ -125,3 +125,18 @@ def test_every_edge_is_filed_in_every_cell_its_box_touches():
                 c = ix * ny + iy
                 assert k in g.items[g.start[c]:g.start[c + 1]]
     assert g.start[-1] == len(g.items)
+
+
+def test_one_row_or_many_scalar_or_array_radius_is_one_specialisation():
+    """Issue 27 goal 2: a scalar radius broadcast to one row was a read-only array, which numba
+    compiled as a second specialisation of the batch kernel, mid-run after ``pedvr prepare``."""
+    from pedvr.world import visibility_kernels as vk
+
+    vis = Visibility(WorldConfig(bounds=((-5.0, -5.0), (5.0, 5.0)), obstacles=(box_obstacle(-1, -1, 1, 1),)))
+    a = np.array([[-3.0, 0.0], [-3.0, 3.0], [0.0, 3.0]])
+    b = np.array([[3.0, 0.0], [3.0, 3.0], [0.0, -3.0]])
+    got = [vis.visible(a[:1], b[:1]), vis.visible(a, b), vis.visible(a, b, np.full(3, 0.1)),
+           vis.visible(a[:1], b[:1], 0.2)]
+    assert [g.tolist() for g in got] == [[False], [False, True, False], [False, True, False], [False]]
+    sigs = [str(s) for s in vk.visible_batch_grid.serial.signatures]
+    assert sigs and all(", True, aligned" not in s for s in sigs), sigs  # no read-only array: one kind
