@@ -93,39 +93,43 @@ def pair_overlaps(pos, radius, depth, facing, tolerance):
         py = pos[i, 1]
         cx = int((px - origin[0]) * inv)
         cy = int((py - origin[1]) * inv)
+        gx0 = max(cx - 1, 0)
+        gx1 = min(cx + 1, nx - 1)
+        if gx0 > gx1:
+            continue  # beside the grid (its first cell's run would start past the end)
         for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
-            for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
-                c = gy * nx + gx
-                for k in range(cell_start[c], cell_start[c + 1]):
-                    j = order[k]
-                    if j <= i:
-                        continue
-                    dx = sorted_pos[k, 0] - px
-                    dy = sorted_pos[k, 1] - py
-                    d = math.sqrt(dx * dx + dy * dy)
-                    rr = radius[i] + radius[j]
-                    if d >= rr:
-                        continue
-                    ov = rr - d
-                    if d > 1e-12 and (depth[i] < radius[i] or depth[j] < radius[j]):
-                        # along the line of centres first (cheap, and never below the true depth):
-                        # only bodies that may overlap pay for the search over directions
-                        ov = (support(radius[i], depth[i], facing[i, 0], facing[i, 1], dx / d, dy / d)
-                              + support(radius[j], depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d)
-                              - d)
-                        if ov > 0.0:
-                            ov = _ellipse_penetration(radius[i], depth[i], facing[i, 0], facing[i, 1],
-                                                      radius[j], depth[j], facing[j, 0], facing[j, 1], dx, dy)
-                    worst = max(worst, ov)
-                    if ov > tolerance:
-                        if m == cap:
-                            grown = np.empty((2 * cap, 2), np.int64)
-                            grown[:m] = pairs[:m]
-                            pairs = grown
-                            cap *= 2
-                        pairs[m, 0] = i
-                        pairs[m, 1] = j
-                        m += 1
+            # the three cells of a grid row lie side by side in the grid's order: one run of rows
+            # (the same rows in the same order as cell by cell; most cells hold none or one)
+            for k in range(cell_start[gy * nx + gx0], cell_start[gy * nx + gx1 + 1]):
+                j = order[k]
+                if j <= i:
+                    continue
+                dx = sorted_pos[k, 0] - px
+                dy = sorted_pos[k, 1] - py
+                d = math.sqrt(dx * dx + dy * dy)
+                rr = radius[i] + radius[j]
+                if d >= rr:
+                    continue
+                ov = rr - d
+                if d > 1e-12 and (depth[i] < radius[i] or depth[j] < radius[j]):
+                    # along the line of centres first (cheap, and never below the true depth):
+                    # only bodies that may overlap pay for the search over directions
+                    ov = (support(radius[i], depth[i], facing[i, 0], facing[i, 1], dx / d, dy / d)
+                          + support(radius[j], depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d)
+                          - d)
+                    if ov > 0.0:
+                        ov = _ellipse_penetration(radius[i], depth[i], facing[i, 0], facing[i, 1],
+                                                  radius[j], depth[j], facing[j, 0], facing[j, 1], dx, dy)
+                worst = max(worst, ov)
+                if ov > tolerance:
+                    if m == cap:
+                        grown = np.empty((2 * cap, 2), np.int64)
+                        grown[:m] = pairs[:m]
+                        pairs = grown
+                        cap *= 2
+                    pairs[m, 0] = i
+                    pairs[m, 1] = j
+                    m += 1
     return worst, pairs[:m].copy()
 
 
