@@ -135,20 +135,24 @@ def _neighbours_near(i, pos, radius, skin, origin, cell, nx, ny, cell_start, ord
     cx = int((px - origin[0]) * inv)
     cy = int((py - origin[1]) * inv)
     m = 0
+    gx0 = max(cx - 1, 0)
+    gx1 = min(cx + 1, nx - 1)
+    if gx0 > gx1:
+        return 0  # beside the grid (its first cell's run would start past the end)
     for gy in range(max(cy - 1, 0), min(cy + 1, ny - 1) + 1):
-        for gx in range(max(cx - 1, 0), min(cx + 1, nx - 1) + 1):
-            c = gy * nx + gx
-            for k in range(cell_start[c], cell_start[c + 1]):
-                j = order[k]
-                if j == i:
-                    continue
-                dx = px - sorted_pos[k, 0]
-                dy = py - sorted_pos[k, 1]
-                rr = radius[i] + radius[j] + skin
-                if dx * dx + dy * dy < rr * rr:
-                    if write and m < out.shape[0]:
-                        out[m] = j
-                    m += 1
+        # a grid row's three cells lie side by side in the grid's order: one run of rows, the
+        # same rows in the same order as cell by cell, without a loop per (mostly empty) cell
+        for k in range(cell_start[gy * nx + gx0], cell_start[gy * nx + gx1 + 1]):
+            j = order[k]
+            if j == i:
+                continue
+            dx = px - sorted_pos[k, 0]
+            dy = py - sorted_pos[k, 1]
+            rr = radius[i] + radius[j] + skin
+            if dx * dx + dy * dy < rr * rr:
+                if write and m < out.shape[0]:
+                    out[m] = j
+                m += 1
     return m
 
 

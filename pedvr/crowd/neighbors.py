@@ -313,19 +313,21 @@ def agents_within(i, px, py, range_sq, origin, cell, nx, ny, cell_start, order, 
     to ``out`` and returns how many there are."""
     qx0, qx1, qy0, qy1 = cell_span(px, py, np.sqrt(range_sq), origin, cell, nx, ny)
     total = 0
+    if qx0 > qx1:
+        return 0  # the square lies beside the grid (its first cell's run would start past the end)
     for gy in range(qy0, qy1 + 1):
-        for gx in range(qx0, qx1 + 1):
-            c = gy * nx + gx
-            for k in range(cell_start[c], cell_start[c + 1]):
-                j = order[k]
-                if j == i:
-                    continue
-                dx = px - sorted_pos[k, 0]
-                dy = py - sorted_pos[k, 1]
-                if dx * dx + dy * dy < range_sq:
-                    if total < cap:
-                        out[total] = j
-                    total += 1
+        # a grid row's cells qx0..qx1 lie side by side in the grid's order: one run of rows, the
+        # same rows in the same order as cell by cell, without a loop per (mostly empty) cell
+        for k in range(cell_start[gy * nx + qx0], cell_start[gy * nx + qx1 + 1]):
+            j = order[k]
+            if j == i:
+                continue
+            dx = px - sorted_pos[k, 0]
+            dy = py - sorted_pos[k, 1]
+            if dx * dx + dy * dy < range_sq:
+                if total < cap:
+                    out[total] = j
+                total += 1
     return total
 
 
