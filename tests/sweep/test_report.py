@@ -55,7 +55,7 @@ condition = ["decoupled", "pedvr"]
     assert "Mean over seeds and 95 % CI; one line per `steering.time_horizon`." in text
     assert "| measure | steering.time_horizon | condition = decoupled | condition = pedvr |" in text
     # The coupled condition limits acceleration; decoupled ORCA does not: a measure that must vary.
-    assert re.search(r"\| `max_accel_mps2` \| 1\.0 \| [\d.]+ ± [\d.]+ \| 1\.5 ± 0 \|", text), text
+    assert re.search(r"\| `max_accel_mps2` \| 1\.0 \| [\d.]+ ± [\d.]+ \| 2\.2 ± 0 \|", text), text
     for axis in ("condition", "steering.time_horizon"):
         png = out / "report" / "plots" / f"by_{axis}.png"
         assert f"(plots/{png.name})" in text
