@@ -827,6 +827,27 @@ def _rotate_front(lines, first, second, scratch):
 
 
 @row_njit(fastmath=_FM)
+def user_line_at(i, is_user, nbr_idx, nbr_count, user_horizon, first):
+    """Index in ``lines`` of agent ``i``'s line toward the user (its neighbours' lines start at
+    ``first``, in :func:`agent_lines`' order), or -1 where it has none."""
+    if user_horizon <= 0.0:
+        return -1
+    for q in range(nbr_count[i]):
+        if is_user[nbr_idx[i, q]]:
+            return first + q
+    return -1
+
+
+@row_njit(fastmath=_FM)
+def _line_to(lines, src, dst, scratch):
+    """Move line ``src`` to ``dst <= src``, the lines between one row on (order otherwise kept)."""
+    _copy_lines(lines, src, scratch, 0, 1)
+    for k in range(src, dst, -1):
+        _copy_lines(lines, k - 1, lines, k, 1)
+    _copy_lines(scratch, 0, lines, dst, 1)
+
+
+@row_njit(fastmath=_FM)
 def _copy_lines(src, at, dst, to, count):
     for k in range(count):
         dst[to + k, 0] = src[at + k, 0]
@@ -965,6 +986,27 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
                 num_hard = num_obst
                 n = num_hard + num_agent
                 fail, rx, ry = linear_program2(lines, n, ms, prx, pry, False)
+    if coupled and fail < n:
+        at = user_line_at(i, is_user, nbr_idx, nbr_count, user_horizon, n - num_agent)
+        if at >= 0:
+            # No velocity keeps every line: the user's line joins the hard ones where it can, so
+            # the least violation falls on the agents' and the softened walls' lines, never on the
+            # person's body (the contact pass pushes bodies apart and out of walls, never into the
+            # user; with the user's line among the soft ones a squeezed agent was steered 1-2 cm
+            # into the user in corridor_passing)
+            _line_to(lines, at, num_hard, proj)
+            fail2, rx2, ry2 = linear_program2(lines, n, ms, prx, pry, False)
+            if fail2 > num_hard:
+                num_hard += 1
+            else:
+                # not even within the body's limits (the user walks into it faster than it can
+                # step away): the user's line alone stays hard, the limits and walls give for this
+                # step, rather than the contact pass shoving the body out of the user afterwards
+                _line_to(lines, num_hard, 0, proj)
+                num_hard = 1
+                status |= STATUS_DROPPED_MOTION
+                fail2, rx2, ry2 = linear_program2(lines, n, ms, prx, pry, False)
+            fail, rx, ry = fail2, rx2, ry2
     if fail < n:
         status |= STATUS_DENSE
         rx, ry = linear_program3(lines, n, num_hard, fail, ms, rx, ry, proj)
