@@ -61,3 +61,30 @@ def signals_abort() -> Iterator[None]:
     finally:
         for s, h in previous.items():
             signal.signal(s, h)
+
+
+@contextmanager
+def calls_restart() -> Iterator[None]:
+    """Inside the block, Ctrl-C, SIGTERM and SIGHUP no longer interrupt a system call in progress:
+    the kernel restarts it (``SA_RESTART``) and Python's handler runs once it returns (main thread
+    only; each signal's handler is kept).
+
+    For the OpenXR frame loop: a signal landing while Monado's client library waited in ``recvmsg``
+    made that call fail, and the run reported the runtime lost and could no longer end its session
+    politely (the session's last state FOCUSED, not EXITING). Which call a signal lands in is
+    chance, so without this a polite ``kill`` ended the session politely only most of the time.
+    The price: a runtime call that never returns (a runtime hung while alive) cannot be broken by a
+    signal either; a runtime that dies closes its socket, and the call returns.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    numbers = [getattr(signal, n) for n in ("SIGINT", *SIGNALS) if hasattr(signal, n)]
+    for s in numbers:
+        signal.siginterrupt(s, False)
+    try:
+        yield
+    finally:
+        for s in numbers:
+            signal.siginterrupt(s, True)
+

@@ -19,6 +19,7 @@ import argparse
 import json
 import sys
 from collections.abc import Sequence
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -193,7 +194,7 @@ def _run_in(
     stdin: TextIO,
     stdout: TextIO,
 ) -> int:
-    from pedvr.signals import TerminatedBySignal, signals_abort
+    from pedvr.signals import TerminatedBySignal, calls_restart, signals_abort
     from pedvr.study.console import ExperimenterConsole, KeySource, NoKeys, TerminalKeys
     from pedvr.study.presenter import Participant, SimulatedParticipant, TerminalParticipant
     from pedvr.study.protocol import participant_number
@@ -235,7 +236,8 @@ def _run_in(
             simulated=simulated,
         )
         try:
-            with signals_abort():
+            # xr: a signal never fails an OpenXR call in progress (pedvr.signals.calls_restart)
+            with signals_abort(), (calls_restart() if backend == "xr" else nullcontext()):
                 result = session.run()
         except TerminatedBySignal as exc:
             print(

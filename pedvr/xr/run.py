@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -27,6 +28,7 @@ from pedvr.prepare import CompileLog, Prepared, prepare, stderr_say
 from pedvr.render.math3d import EyeView, first_person_eye
 from pedvr.render.snapshot import Snapshot
 from pedvr.scene.config import SceneConfig
+from pedvr.signals import calls_restart
 from pedvr.sim import Simulation
 from pedvr.xr.loop import Presenter, Telemetry, missed_line, run_frames
 
@@ -213,8 +215,11 @@ def run_with_view(
     interrupted: bool | str = False
     tel = Telemetry(backend=presenter.name)
     prepared: Prepared | None = None
+    # XR: a signal never fails a runtime call in progress (pedvr.signals.calls_restart), so a
+    # Ctrl-C or a kill still ends the session politely
+    restart = calls_restart if backend == "xr" else nullcontext
     try:
-        with signals_interrupt():
+        with signals_interrupt(), restart():
             prepared = prepare(built.make_sim, what=f"{scene.name} ({backend})", draw=built.draw,
                                say=stderr_say if progress else None)
             with CompileLog() as later:
@@ -226,7 +231,7 @@ def run_with_view(
     except KeyboardInterrupt as exc:
         interrupted = interrupted_by(exc)
     finally:
-        with signals_interrupt():  # a second signal must not cut the session's end short
+        with signals_interrupt(), restart():  # a second signal must not cut the session's end short
             _finish(presenter)
             presenter.close()
     wall = time.perf_counter() - t0
