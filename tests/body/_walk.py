@@ -9,6 +9,7 @@ import numpy as np
 from pedvr.body import FullBody
 from pedvr.body import skeleton as sk
 from pedvr.crowd.state import CrowdState
+from pedvr.scene.config import MotionLimits
 
 DT = 1.0 / 90.0
 
@@ -59,7 +60,7 @@ def drive(body: FullBody, velocity: Callable[[float], np.ndarray], heading: Call
     return crowd
 
 
-def ramp(vx: float, vy: float, *, accel: float = 1.5, n: int = 1) -> Callable[[float], np.ndarray]:
+def ramp(vx: float, vy: float, *, accel: float = MotionLimits().max_accel, n: int = 1) -> Callable[[float], np.ndarray]:
     """Velocity ``(n,2)`` speeding up from rest at ``accel`` m/s² (the default profile's) to ``(vx, vy)``."""
     speed = float(np.hypot(vx, vy))
 

@@ -79,7 +79,7 @@ def test_planted_knees_straighten(walks: dict[float, tuple[Trace, np.ndarray]]) 
 def test_first_step_from_standing_is_short_and_the_walk_settles_without_a_lunge(height: float) -> None:
     b = bodies(1, heights=np.array([height]))
     tr = Trace()
-    drive(b, ramp(1.35, 0.0), lambda t: np.zeros(1), 6.0, record=tr)  # the default profile's 1.5 m/s²
+    drive(b, ramp(1.35, 0.0), lambda t: np.zeros(1), 6.0, record=tr)  # the default profile's acceleration
     steps = tr.landings(0, np.array([1.0, 0.0]))
     steady = float(np.median(steps[-6:]))
     assert 0.55 * steady <= steps[0] <= 0.8 * steady, (steps, steady)

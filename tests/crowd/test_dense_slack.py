@@ -85,35 +85,40 @@ def test_a_negative_slack_is_refused() -> None:
         Steering(dataclasses.replace(SteeringParams(), dense_slack=-1.0), ObstacleSet.empty(), coupled=True)
 
 
-def _out_by(steering: SteeringParams, until: float) -> tuple[int, dict]:
-    scene = dataclasses.replace(load_any("scenes/validation/bottleneck_080.toml", seed=1), steering=steering)
-    sim = Simulation(scene, seed=1, condition="pedvr")
+def _out_by(steering: SteeringParams, until: float, *, seed: int = 1, case: str = "uo_070") -> tuple[int, dict]:
+    scene = dataclasses.replace(load_any(f"scenes/validation/{case}.toml", seed=seed), steering=steering)
+    sim = Simulation(scene, seed=seed, condition="pedvr")
     sim.advance_to(until)
     s = sim.summary()
     return int(s["sink_agents_removed"]), s
 
 
 def test_a_crowd_at_an_opening_flows_faster() -> None:
-    """60 people before the 0.8 m bottleneck (scenes/validation/bottleneck_080): more are out after
-    30 s with the slack than with the paper's least violation (seed 1, obstacle horizon 1 s as
-    before issue 26's shorter one: 33 against 18), and no body overlaps another."""
-    base = dataclasses.replace(SteeringParams(), time_horizon_obst_coupled=1.0)
-    new, s = _out_by(dataclasses.replace(base, dense_slack=SLACK), 30.0)
-    old, _ = _out_by(dataclasses.replace(base, dense_slack=0.0), 30.0)
-    assert new >= old + 12, (new, old)
+    """111 people through the Jülich corridor's 0.7 m entrance (scenes/validation/uo_070): more are
+    out of the corridor after 60 s with the slack than with the paper's least violation (seed 1:
+    68 against 52), and no body overlaps another. (Until the acceleration limit rose to 2.2 m/s²
+    this was 60 people at the 0.8 m bottleneck after 30 s, 33 against 18; there the two now come
+    out within a few people of each other, seeds 1-3.)"""
+    new, s = _out_by(SteeringParams(), 60.0)
+    old, _ = _out_by(dataclasses.replace(SteeringParams(), dense_slack=0.0), 60.0)
+    assert SteeringParams().dense_slack == SLACK
+    assert new >= old + 10, (new, old)
     assert s["overlaps_over_1cm"] == 0
 
 
 def test_a_shorter_obstacle_horizon_opens_the_bottleneck() -> None:
     """Coupled agents outside a door's etiquette see obstacles ``time_horizon_obst_coupled``
-    (0.5 s) ahead: with 1 s the people at the 0.8 m bottleneck slowed at its edges a second before
-    they reached them (seed 1, no slack: 29 out after 30 s against 18), and nobody overlaps a
-    wall or another body."""
+    (0.5 s) ahead: with 1 s people slow at the edges of an opening a second before they reach
+    them. Out of uo_070's corridor after 60 s, seeds 1-3 together: 205 against 182 with 1 s (per
+    seed 68 / 74 / 63 against 64 / 57 / 61); nobody overlaps a wall or another body."""
     assert SteeringParams().time_horizon_obst_coupled == 0.5 and SteeringParams().time_horizon_obst == 1.0
-    short, s = _out_by(dataclasses.replace(SteeringParams(), dense_slack=0.0), 30.0)
-    long, _ = _out_by(dataclasses.replace(SteeringParams(), dense_slack=0.0, time_horizon_obst_coupled=1.0), 30.0)
-    assert short >= long + 8, (short, long)
-    assert s["overlaps_over_1cm"] == 0 and s["wall_overlap_max_m"] < 0.01, s
+    short = long = 0
+    for seed in (1, 2, 3):
+        n, s = _out_by(SteeringParams(), 60.0, seed=seed)
+        short += n
+        assert s["overlaps_over_1cm"] == 0 and s["wall_overlap_max_m"] < 0.01, s
+        long += _out_by(dataclasses.replace(SteeringParams(), time_horizon_obst_coupled=1.0), 60.0, seed=seed)[0]
+    assert short >= long + 15, (short, long)
 
 
 def test_no_slack_for_those_in_a_door_s_etiquette() -> None:

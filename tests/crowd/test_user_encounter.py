@@ -168,7 +168,7 @@ def test_no_room_at_all_gives_way_into_the_wall_never_into_the_user() -> None:
     sim.advance_to(12.0)
     s = sim.summary()
     assert s["user_overlap_max_m"] <= 0.01, s
-    assert s["wall_overlap_max_m"] > 0.05 and s["overlaps_over_1cm"] >= 1, s
+    assert s["wall_overlap_max_m"] > 0.01 and s["overlaps_over_1cm"] >= 1, s  # more than 1 cm: counted
 
 
 # -- walls where there is room (issue 24, item 10) ------------------------------------------------
