@@ -81,9 +81,14 @@ What is relaxed first when the program is infeasible
     4. If (a), (b) alone are infeasible (a velocity above max speed, which the
        simulation never hands in), all motion-limit lines are dropped and plain
        ORCA (RVO2's behaviour) is solved.
+    5. Coupled, wherever some line still cannot be kept, the user's line (the safety step)
+       joins the hard ones if they allow it; if even they do not (the user walks into an agent
+       pressed against a wall or a crowd faster than its limits let it step away), the user's
+       line alone is hard for that step: the agent steps aside beyond its limits
+       (``STATUS_FOR_USER``) rather than be shoved out of the user by the contact pass.
     ``out_status[i]`` reports what happened as bit flags: ``STATUS_DENSE``
     (step 1 ran), ``STATUS_DROPPED_HEADING`` (step 2), ``STATUS_SOFT_OBSTACLES``
-    (step 3), ``STATUS_DROPPED_MOTION`` (step 4).
+    (step 3), ``STATUS_DROPPED_MOTION`` (step 4), ``STATUS_FOR_USER`` (step 5's last resort).
 
 Decoupled mode (``coupled=False``) is plain ORCA with no motion limits: the
 baseline, and what the oracle test compares against RVO2.
@@ -129,6 +134,7 @@ STATUS_DENSE = 1  # linear_program3 ran: agent lines were softened
 STATUS_DROPPED_HEADING = 2  # hard prefix infeasible: heading-relative limits (c) dropped
 STATUS_DROPPED_MOTION = 4  # still infeasible: every motion limit dropped (plain ORCA)
 STATUS_SOFT_OBSTACLES = 8  # obstacles and (a), (b) infeasible: obstacle lines softened, limits kept
+STATUS_FOR_USER = 16  # the user's line held alone: a step aside beyond the body's limits (coupled)
 
 _FM = {"nsz", "arcp", "contract", "afn"}  # no reassociation, no nnan/ninf (RVO2 uses inf)
 
@@ -1004,7 +1010,7 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
                 # step, rather than the contact pass shoving the body out of the user afterwards
                 _line_to(lines, num_hard, 0, proj)
                 num_hard = 1
-                status |= STATUS_DROPPED_MOTION
+                status |= STATUS_FOR_USER
                 fail2, rx2, ry2 = linear_program2(lines, n, ms, prx, pry, False)
             fail, rx, ry = fail2, rx2, ry2
     if fail < n:
