@@ -87,4 +87,3 @@ def calls_restart() -> Iterator[None]:
     finally:
         for s in numbers:
             signal.siginterrupt(s, True)
-
