@@ -46,8 +46,9 @@ than letting it swing shut and opening it again from the BOP (:func:`_catch_nh`,
 and a single door with a queue on each side passes each side in batches (:func:`_batch_side`).
 Later (issue 26): the next in a queue moves up into a committed follower's place once that one
 walks to the leaf's edge; nobody opens the door while someone comes through the other way (a
-holder walking through after letting go included); and a way out of the pocket behind an open
-leaf goes round its edge clear of it (:func:`round_edge`).
+holder walking through after letting go included); a way out of the pocket behind an open
+leaf goes round its edge clear of it (:func:`round_edge`); and who commits as a holder's follower
+is never someone standing behind people of its own side (:func:`_in_the_way`).
 
 Choices where the paper leaves room (it draws the key poses, Fig. 18, without measuring them):
 positions come from :class:`~pedvr.etiquette.regions.LeafFrame`; NH opens to the smallest angle
@@ -116,8 +117,8 @@ READY_NEAR = 0.4  # m from its close-up place at which a committed follower is r
 PULL_STAND = math.radians(5.0)  # a puller stands this far round from the leaf's edge, passage side
 QUEUE_GAP = 0.8  # m between a committed follower's place and the next in its queue (issue 26)
 QUEUE_ASIDE = 0.45  # m off the lane that next one waits, on the side it came from
-BATCH = 4  # passages in a row from one side of a busy single door (issue 26, _batch_side)
-BATCH_LOAD = 5  # waiting on each side at which a single door is busy
+BATCH = 20  # passages in a row from one side of a busy single door at most (issue 26, _batch_side)
+BATCH_LOAD = 5  # waiting on each side at which a single door is busy (and a batch goes on)
 BATCH_WAIT = 120.0  # s of waiting credited to the side that has the door within a batch: it goes first
 CATCH_RANGE = 4.0  # m from the doorway within which NH's follower catches the door (issue 26)
 
@@ -136,7 +137,7 @@ def decide_hinged(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: Crowd
     _update_waiting(et, walkers, crowd)
     _choose_helpers(et, walkers, crowd)
     # -- ordering ---------------------------------------------------------------------------
-    batch = _batch_side(et, k, walkers)
+    batch = _batch_side(et, k, walkers, crowd)
     cands = []
     for w in walkers:
         if w.role == PASSING or w.id not in et._row or (w.role == HOLDER and w.state == FINISH_DOOR):
@@ -191,26 +192,47 @@ def decide_hinged(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: Crowd
 # -- ordering helpers ----------------------------------------------------------------------------
 
 
-def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker]) -> int:
+def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdState) -> int:
     """The side whose queue keeps a busy single door for a batch (issue 26), or 0.
 
     §6.1 observes groups arriving together interleave at the door, and pedvr's ordering merges the
     two queues like a zipper (:mod:`.ordering`); at a door under load that alternates one by one,
     and every change of direction is a take-over across the doorway (HOL) or a door let go. Real
-    people at a busy door pass in batches: a stream from one side goes on through the held door
-    while the other side waits its turn. pedvr's reading: when :data:`BATCH_LOAD` or more wait on
-    each side of a single door, the side the latest passages came from counts :data:`BATCH_WAIT`
-    s more waiting in the ordering (Alg. 1's ``E``), until :data:`BATCH` passages in a row came
-    from it; then the other side's turn comes by the ordering as before. Fewer waiting (the
-    paper's groups of four, §6.1) alternate as before."""
+    people at a busy narrow door pass in bursts: once some pass one way, those behind them follow,
+    and the direction changes when the crowd on the other side presses harder (the oscillation of
+    the passing direction at bottlenecks that Helbing and Molnár's social force model reproduces,
+    Phys. Rev. E 51, 1995). pedvr's reading: while :data:`BATCH_LOAD` or more wait on each side of
+    a single door, the side the latest passages came from counts :data:`BATCH_WAIT` s more waiting
+    in the ordering (Alg. 1's ``E``), until :data:`BATCH` passages in a row came from it or its
+    queue thins below :data:`BATCH_LOAD`; then the other side's turn comes by the ordering as
+    before. Fewer waiting (the paper's groups of four, §6.1) alternate as before.
+
+    A holder still on its own side passes next, whatever it decides, so its passage counts in the
+    run already: the next it holds for is chosen before it goes through. Counted from passages
+    alone, a holder from side ``a`` chose its follower while the run was the other side's, and a
+    chain of hand-overs alternated one by one however busy the door (door_single_flow seed 2: runs
+    of 1-2 with 12-17 waiting on each side).
+
+    :data:`BATCH` was 4 before that was seen; with the holder counted, door_single_flow and
+    door_rush over seeds 1-8 passed 237 / not run (4), 282 / 301 (6), 272 / 291 (8), 291 / 298
+    (12) and 299 / 316 (20) of 320 in 90 s, and door_rush's 95th-percentile wait fell with 20 (README,
+    "Door and doorway etiquette"): a cap of 20 a side keeps the far side from waiting for ever
+    behind an endless stream."""
     ds = et.dstate[k]
-    if et.doors[k].kind != "single" or ds.run_side == 0 or ds.run_len >= BATCH:
+    if et.doors[k].kind != "single" or ds.run_side == 0:
         return 0
+    run_side, run_len = ds.run_side, ds.run_len
     n = {1: 0, -1: 0}
     for w in walkers:
         if w.role in (APPROACH, FOLLOWER) and not w.is_user and w.side in n:
             n[w.side] += 1
-    return ds.run_side if min(n.values()) >= BATCH_LOAD else 0
+        elif w.role == HOLDER and not w.is_user and w.side in n and w.id in et._row:
+            if float((et.pos(crowd, w.id) - ds.centre) @ ds.n) * w.side > 0:  # not through yet
+                run_len = run_len + 1 if w.side == run_side else 1
+                run_side = w.side
+    if run_len >= BATCH:
+        return 0
+    return run_side if min(n.values()) >= BATCH_LOAD else 0
 
 
 def _update_waiting(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
@@ -359,12 +381,15 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
             return
     if leader is not None and leader.role == HOLDER and leader.state >= HOLDER_DEC \
             and leader.follower == NONE and _accepts(leader):
-        # The leader is a holder in the critical phase: commit as its follower.
-        w.role = FOLLOWER
-        w.holder = leader.id
-        leader.follower = w.id
-        w.plan = None
-        et.set_state(w, FOLLOWER_INIT)
+        # The leader is a holder in the critical phase: commit as its follower, or let the one
+        # standing in the way go first (_in_the_way).
+        f = w if w.helping != NONE else _in_the_way(et, w, by_id, crowd)
+        f.role = FOLLOWER
+        f.holder = leader.id
+        f.leader = leader.id
+        leader.follower = f.id
+        f.plan = None
+        et.set_state(f, FOLLOWER_INIT)
         return
     if leader is not None and leader.role == FOLLOWER and leader.side == w.side:
         lh = by_id.get(leader.holder)
@@ -822,6 +847,44 @@ def _give_up(et: EtiquetteCore, w: Walker, crowd: CrowdState, *, why: str) -> No
         _demote(et.walkers[w.follower])
     w.follower = NONE
     _demote(w)
+
+
+def _in_the_way(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> Walker:
+    """Who commits as a holder's follower when ``w`` would (issue 26): ``w``, or the pedestrian of
+    its own side who stands in its way to the doorway, nearest the door along that way.
+
+    Alg. 2 commits the pedestrian whose leader is the holder, and pedvr's queue puts first whoever
+    waited longest (:mod:`.ordering`, "Who is in front"). At a busy door the waiting crowd is a
+    blob, not a line, and the one who waited longest may stand behind later arrivals who stopped
+    nearer: committed, it had no way through them, they stood (their leaders are ahead of them),
+    and the held door waited for it (door_single_flow seed 6: 6 s at 0.1 m/s behind two people
+    touching shoulders). pedvr's reading: a pedestrian does not walk through people to take a held
+    door; the one in its way nearest the door goes first, and the one who waited keeps its place
+    in the queue and comes next. In its way: on the same side (and leaf), still approaching,
+    between it and the doorway's middle, with the two bodies' discs overlapping across that way."""
+    ds = et.dstate[w.door]
+    cur = w
+    for _ in range(4):
+        p = et.pos(crowd, cur.id)
+        d = ds.centre - p
+        length = float(np.hypot(*d))
+        if length < 1e-6:
+            break
+        u = d / length
+        best, best_s = None, length
+        for o in by_id.values():
+            if (o.id == cur.id or o.is_user or o.role != APPROACH or o.side != cur.side or o.leaf != cur.leaf
+                    or o.id not in et._row or o.helping != NONE):
+                continue
+            q = et.pos(crowd, o.id) - p
+            s = float(q @ u)
+            lateral = abs(float(q[0] * u[1] - q[1] * u[0]))
+            if 0.0 < s < best_s and lateral < et.radius(crowd, cur.id) + et.radius(crowd, o.id):
+                best, best_s = o, s
+        if best is None:
+            break
+        cur = best
+    return cur
 
 
 def _demote(w: Walker) -> None:

@@ -16,7 +16,12 @@ against 232 without it (25-33 a seed either way), so the sum over these three wa
 With the body's acceleration limit at 2.2 m/s² (issue 26, change 10) seeds 1-8 pass 244 (30, 21,
 32, 34, 33, 32, 30, 32) against 234 before it (35, 27, 28, 21, 27, 34, 31, 31): more in all, but
 seed 2 now passes 21 where seed 4 did before, so three seeds no longer tell the door's pace; the
-test takes all eight and holds their sum at 232 and every seed at 20. Passages are counted
+test took all eight and held their sum at 232 and every seed at 20. Stop 35's three busy-door
+rules (a holder still to pass counts in the batch's run, batches of up to 20 while both queues
+stand, and the one standing in a committed follower's way goes first; ``test_busy_door.py``) took
+seeds 1-8 to 312 (38, 40, 39, 36, 40, 40, 37, 42; 42 because a follower pushed over the line
+before taking the door over walked back to it, and each crossing counts), and the test holds the
+sum at 300 and every seed at 34. Passages are counted
 as the benchmark counts them: crossings of the doorway line, here from 0.3 m on one side to
 0.3 m on the other.
 """
@@ -31,8 +36,8 @@ from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
 
 SEEDS = tuple(range(1, 9))
-EACH_AT_LEAST = 20  # of 40 in 90 s, in every seed
-ALL_AT_LEAST = 232  # of 320, over the eight seeds
+EACH_AT_LEAST = 34  # of 40 in 90 s, in every seed
+ALL_AT_LEAST = 300  # of 320, over the eight seeds
 
 
 def _passages(seed: int) -> tuple[int, int]:

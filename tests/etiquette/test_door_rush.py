@@ -2,7 +2,7 @@
 over 20 s) passes people as a busy door does: a follower whose holder decided NH catches the door
 at its edge as the holder walks through, so the door does not swing shut and open again from the
 BOP between close followers (:func:`pedvr.etiquette.interaction._catch_nh`), and each side passes
-in batches of up to four (:func:`pedvr.etiquette.interaction._batch_side`).
+in batches (:func:`pedvr.etiquette.interaction._batch_side`).
 
 Before that change (main at e491b88) seed 1 passed 17 and seed 2 passed 19 of 40 in 90 s, and the
 door was opened from shut once for every two passages; the thresholds below are what the change
@@ -10,7 +10,10 @@ reaches (29 and 24 with the bench's count from positions), the lower less two, a
 passages for each opening (README, "Door and doorway etiquette"). Later rules of issue 26 (the queue
 moving up, no opening against someone coming through, the way round a leaf's edge, walking on from
 a key one was pushed abreast of) took seeds 1 and 2 from 26 and 26 to 29 and 32; the threshold
-is the lower less two.
+is the lower less two. Stop 35 counted a holder still to pass in the batch's run, let batches run
+while both queues stand (up to 20), and had the one standing in a committed follower's way go
+first (:func:`~pedvr.etiquette.interaction._in_the_way`): seeds 1 and 2 pass all 40, opening the
+door from shut 4 times and once; the threshold is 40 less two.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from pedvr.scene.loader import load_scene
 from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
 
-THROUGH_AT_LEAST = 27  # of 40 in 90 s
+THROUGH_AT_LEAST = 38  # of 40 in 90 s
 PASSAGES_PER_OPENING = 4.0  # door_passages / times the door was opened from shut
 
 

@@ -1,0 +1,118 @@
+"""Issue 26, item 3: two rules of a busy single door (:mod:`pedvr.etiquette.interaction`).
+
+* :func:`~pedvr.etiquette.interaction._batch_side` counts a holder still on its own side in the
+  current run of passages: it goes through next, and the next it holds for is chosen before it
+  does. Counted from passages alone, a chain of hand-overs alternated one by one.
+* :func:`~pedvr.etiquette.interaction._in_the_way`: the one who commits as a holder's follower is
+  not someone standing behind people of its own side; the one in its way nearest the door goes.
+
+The whole-scene effect is guarded by ``test_door_flow.py`` and ``test_door_rush.py``; here each
+rule is checked on its own, on a small stand-in for the etiquette's state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+
+import numpy as np
+
+from pedvr.etiquette import interaction as it
+from pedvr.etiquette.core import Walker
+from pedvr.etiquette.vocab import APPROACH, FOLLOWER, HOLDER
+
+
+@dataclass
+class _Door:
+    """The parts of the etiquette's state the two rules read: a single door in the plane x = 0, its
+    +1 side toward +x, and every body's position and radius."""
+
+    pos: dict[int, tuple[float, float]]
+    run_side: int = 0
+    run_len: int = 0
+    radius: float = 0.25
+    kind: str = "single"
+    et: SimpleNamespace = field(init=False)
+
+    def __post_init__(self) -> None:
+        ds = SimpleNamespace(centre=np.zeros(2), n=np.array([1.0, 0.0]), run_side=self.run_side,
+                             run_len=self.run_len)
+        self.et = SimpleNamespace(dstate=[ds], doors=[SimpleNamespace(kind=self.kind)],
+                                  _row={i: i for i in self.pos},
+                                  pos=lambda crowd, i: np.array(self.pos[i], float),
+                                  radius=lambda crowd, i: self.radius)
+
+
+def _walker(i: int, side: int, role: int = APPROACH) -> Walker:
+    return Walker(id=i, door=0, side=side, role=role)
+
+
+def _queues(per_side: int) -> tuple[dict[int, tuple[float, float]], list[Walker]]:
+    pos, walkers = {}, []
+    for k in range(per_side):
+        pos[k] = (2.0 + 0.6 * k, 0.0)
+        walkers.append(_walker(k, +1))
+        pos[100 + k] = (-2.0 - 0.6 * k, 0.0)
+        walkers.append(_walker(100 + k, -1))
+    return pos, walkers
+
+
+def test_a_holder_yet_to_pass_counts_in_the_run() -> None:
+    pos, walkers = _queues(it.BATCH_LOAD)
+    # The last passage came from +1; a holder from -1 holds the door, still on its own side.
+    pos[50] = (-0.6, 0.3)
+    walkers.append(_walker(50, -1, HOLDER))
+    door = _Door(pos, run_side=+1, run_len=1)
+    assert it._batch_side(door.et, 0, walkers, None) == -1
+    # Once it stands beyond the doorway, its passage has been counted: the run is +1's again.
+    pos[50] = (0.6, 0.3)
+    assert it._batch_side(door.et, 0, walkers, None) == +1
+
+
+def test_a_batch_ends_at_its_length_and_needs_a_queue_on_each_side() -> None:
+    pos, walkers = _queues(it.BATCH_LOAD)
+    assert it._batch_side(_Door(pos, run_side=-1, run_len=it.BATCH - 1).et, 0, walkers, None) == -1
+    assert it._batch_side(_Door(pos, run_side=-1, run_len=it.BATCH).et, 0, walkers, None) == 0
+    # a holder from the run's side still to pass brings it to BATCH as well
+    pos[50] = (-0.6, 0.3)
+    held = [*walkers, _walker(50, -1, HOLDER)]
+    assert it._batch_side(_Door(pos, run_side=-1, run_len=it.BATCH - 1).et, 0, held, None) == 0
+    # one short of BATCH_LOAD on one side: no batch, the ordering alone decides
+    short = [w for w in walkers if w.id != 100 + it.BATCH_LOAD - 1]
+    assert it._batch_side(_Door(pos, run_side=-1, run_len=1).et, 0, short, None) == 0
+    # a double door passes both ways at once: no batches
+    assert it._batch_side(_Door(pos, run_side=-1, run_len=1, kind="double").et, 0, walkers, None) == 0
+
+
+def test_the_one_standing_in_the_way_commits_instead() -> None:
+    # door_single_flow seed 6 at 71 s: the committed follower stood 2.3 m out behind two people of
+    # its own side who touched shoulders across its way, and the held door waited 6 s for it.
+    pos = {20: (-2.31, 0.35), 24: (-1.80, 0.23), 26: (-2.05, -0.24), 9: (1.5, 0.1)}
+    ws = {20: _walker(20, -1), 24: _walker(24, -1), 26: _walker(26, -1), 9: _walker(9, +1)}
+    door = _Door(pos)
+    assert it._in_the_way(door.et, ws[20], ws, None).id == 24
+    # nobody between it and the door: it commits itself
+    assert it._in_the_way(door.et, ws[24], ws, None).id == 24
+    # the chain is followed to the one nearest the door
+    pos[30] = (-1.2, 0.1)
+    ws[30] = _walker(30, -1)
+    assert it._in_the_way(_Door(pos).et, ws[20], ws, None).id == 30
+
+
+def test_who_is_not_in_the_way() -> None:
+    pos = {20: (-2.3, 0.0), 21: (-1.5, 0.0)}
+    ws = {20: _walker(20, -1), 21: _walker(21, -1)}
+    door = _Door(pos)
+    assert it._in_the_way(door.et, ws[20], ws, None).id == 21
+    # beside the way, the two discs clear of each other across it
+    pos[21] = (-1.5, 0.51)
+    assert it._in_the_way(door.et, ws[20], ws, None).id == 20
+    pos[21] = (-1.5, 0.0)
+    # from the other side, already committed, or helping a carrier: not a queue-mate standing there
+    for change in ({"side": +1}, {"role": FOLLOWER}, {"helping": 7}):
+        ws[21] = Walker(id=21, door=0, **{"side": -1, "role": APPROACH, **change})
+        assert it._in_the_way(door.et, ws[20], ws, None).id == 20, change
+    # behind it, farther from the door
+    ws[21] = _walker(21, -1)
+    pos[21] = (-2.9, 0.0)
+    assert it._in_the_way(door.et, ws[20], ws, None).id == 20
