@@ -215,9 +215,9 @@ def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdSt
 
     :data:`BATCH` was 4 before that was seen; with the holder counted, door_single_flow and
     door_rush over seeds 1-8 passed 237 / not run (4), 282 / 301 (6), 272 / 291 (8), 291 / 298
-    (12) and 299 / 316 (20) of 320 in 90 s, and door_rush's 95th-percentile wait fell with 20 (README,
-    "Door and doorway etiquette"): a cap of 20 a side keeps the far side from waiting for ever
-    behind an endless stream."""
+    (12) and 299 / 316 (20) of 320 in 90 s, and door_rush's 95th-percentile wait fell with 20
+    (README, "What issue 26 changed", item 11): a cap of 20 a side keeps the far side from waiting
+    for ever behind an endless stream."""
     ds = et.dstate[k]
     if et.doors[k].kind != "single" or ds.run_side == 0:
         return 0
