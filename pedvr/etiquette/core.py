@@ -91,6 +91,7 @@ class DoorState:
     holder: dict[int, int] = field(default_factory=dict)  # leaf -> holding walker
     run_side: int = 0  # the side the latest passages came from (issue 26: batches)
     run_len: int = 0  # how many passages in a row came from it
+    busy: bool = False  # the door passes in batches (queues on both sides; issue 26)
 
 
 class EtiquetteCore:

@@ -118,7 +118,8 @@ PULL_STAND = math.radians(5.0)  # a puller stands this far round from the leaf's
 QUEUE_GAP = 0.8  # m between a committed follower's place and the next in its queue (issue 26)
 QUEUE_ASIDE = 0.45  # m off the lane that next one waits, on the side it came from
 BATCH = 20  # passages in a row from one side of a busy single door at most (issue 26, _batch_side)
-BATCH_LOAD = 5  # waiting on each side at which a single door is busy (and a batch goes on)
+BATCH_LOAD = 5  # waiting on each side at which a single door becomes busy
+BATCH_KEEP = 3  # waiting on each side below which it is no longer busy
 BATCH_WAIT = 120.0  # s of waiting credited to the side that has the door within a batch: it goes first
 CATCH_RANGE = 4.0  # m from the doorway within which NH's follower catches the door (issue 26)
 
@@ -201,11 +202,12 @@ def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdSt
     people at a busy narrow door pass in bursts: once some pass one way, those behind them follow,
     and the direction changes when the crowd on the other side presses harder (the oscillation of
     the passing direction at bottlenecks that Helbing and Molnár's social force model reproduces,
-    Phys. Rev. E 51, 1995). pedvr's reading: while :data:`BATCH_LOAD` or more wait on each side of
-    a single door, the side the latest passages came from counts :data:`BATCH_WAIT` s more waiting
-    in the ordering (Alg. 1's ``E``), until :data:`BATCH` passages in a row came from it or its
-    queue thins below :data:`BATCH_LOAD`; then the other side's turn comes by the ordering as
-    before. Fewer waiting (the paper's groups of four, §6.1) alternate as before.
+    Phys. Rev. E 51, 1995). pedvr's reading: a single door is busy from when :data:`BATCH_LOAD` or
+    more wait on each side until fewer than :data:`BATCH_KEEP` wait on one of them; while it is,
+    the side the latest passages came from counts :data:`BATCH_WAIT` s more waiting in the
+    ordering (Alg. 1's ``E``), until :data:`BATCH` passages in a row came from it; then the other
+    side's turn comes by the ordering as before. Fewer waiting (the paper's groups of four,
+    §6.1) alternate as before.
 
     A holder still on its own side passes next, whatever it decides, so its passage counts in the
     run already: the next it holds for is chosen before it goes through. Counted from passages
@@ -230,9 +232,11 @@ def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdSt
             if float((et.pos(crowd, w.id) - ds.centre) @ ds.n) * w.side > 0:  # not through yet
                 run_len = run_len + 1 if w.side == run_side else 1
                 run_side = w.side
-    if run_len >= BATCH:
-        return 0
-    return run_side if min(n.values()) >= BATCH_LOAD else 0
+    if not ds.busy:
+        ds.busy = min(n.values()) >= BATCH_LOAD
+    elif min(n.values()) < BATCH_KEEP:
+        ds.busy = False
+    return run_side if ds.busy and run_len < BATCH else 0
 
 
 def _update_waiting(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:

@@ -3,6 +3,8 @@
 * :func:`~pedvr.etiquette.interaction._batch_side` counts a holder still on its own side in the
   current run of passages: it goes through next, and the next it holds for is chosen before it
   does. Counted from passages alone, a chain of hand-overs alternated one by one.
+* a door is busy (passes in batches) from when :data:`~pedvr.etiquette.interaction.BATCH_LOAD`
+  wait on each side until fewer than :data:`~pedvr.etiquette.interaction.BATCH_KEEP` do;
 * :func:`~pedvr.etiquette.interaction._in_the_way`: the one who commits as a holder's follower is
   not someone standing behind people of its own side; the one in its way nearest the door goes.
 
@@ -36,7 +38,7 @@ class _Door:
 
     def __post_init__(self) -> None:
         ds = SimpleNamespace(centre=np.zeros(2), n=np.array([1.0, 0.0]), run_side=self.run_side,
-                             run_len=self.run_len)
+                             run_len=self.run_len, busy=False)
         self.et = SimpleNamespace(dstate=[ds], doors=[SimpleNamespace(kind=self.kind)],
                                   _row={i: i for i in self.pos},
                                   pos=lambda crowd, i: np.array(self.pos[i], float),
@@ -116,3 +118,23 @@ def test_who_is_not_in_the_way() -> None:
     ws[21] = _walker(21, -1)
     pos[21] = (-2.9, 0.0)
     assert it._in_the_way(door.et, ws[20], ws, None).id == 20
+
+
+def test_a_busy_door_stays_busy_until_a_queue_thins() -> None:
+    pos, walkers = _queues(it.BATCH_LOAD)
+    door = _Door(pos, run_side=+1, run_len=1)
+
+    def side_with(per_side_left: int) -> int:
+        keep = [w for w in walkers if (w.id % 100) < per_side_left]
+        return it._batch_side(door.et, 0, keep, None)
+
+    assert it.BATCH_KEEP < it.BATCH_LOAD
+    # the paper's groups of four (§6.1) do not make a door busy: they alternate
+    assert side_with(it.BATCH_LOAD - 1) == 0
+    assert side_with(it.BATCH_LOAD) == +1
+    # busy, it stays so while BATCH_KEEP or more wait on each side
+    assert side_with(it.BATCH_KEEP) == +1
+    assert side_with(it.BATCH_KEEP - 1) == 0
+    # and only a queue of BATCH_LOAD on each side makes it busy again
+    assert side_with(it.BATCH_KEEP) == 0
+    assert side_with(it.BATCH_LOAD) == +1

@@ -21,7 +21,9 @@ rules (a holder still to pass counts in the batch's run, batches of up to 20 whi
 stand, and the one standing in a committed follower's way goes first; ``test_busy_door.py``) took
 seeds 1-8 to 312 (38, 40, 39, 36, 40, 40, 37, 42; 42 because a follower pushed over the line
 before taking the door over walked back to it, and each crossing counts), and the test holds the
-sum at 300 and every seed at 34. Passages are counted
+sum at 300 and every seed at 34. Then a door stays busy until fewer than three wait on a side
+(five make it busy, as before): 323 (42, 40, 39, 40, 40, 40, 40, 42), held at 315 and 37.
+Passages are counted
 as the benchmark counts them: crossings of the doorway line, here from 0.3 m on one side to
 0.3 m on the other.
 """
@@ -36,8 +38,8 @@ from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
 
 SEEDS = tuple(range(1, 9))
-EACH_AT_LEAST = 34  # of 40 in 90 s, in every seed
-ALL_AT_LEAST = 300  # of 320, over the eight seeds
+EACH_AT_LEAST = 37  # of 40 in 90 s, in every seed
+ALL_AT_LEAST = 315  # of 320, over the eight seeds
 
 
 def _passages(seed: int) -> tuple[int, int]:
