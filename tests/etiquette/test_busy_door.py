@@ -1,4 +1,4 @@
-"""Issue 26, item 3: two rules of a busy single door (:mod:`pedvr.etiquette.interaction`).
+"""Issue 26, item 3: three rules of a busy single door (:mod:`pedvr.etiquette.interaction`).
 
 * :func:`~pedvr.etiquette.interaction._batch_side` counts a holder still on its own side in the
   current run of passages: it goes through next, and the next it holds for is chosen before it
@@ -26,7 +26,7 @@ from pedvr.etiquette.vocab import APPROACH, FOLLOWER, HOLDER
 
 @dataclass
 class _Door:
-    """The parts of the etiquette's state the two rules read: a single door in the plane x = 0, its
+    """The parts of the etiquette's state the three rules read: a single door in the plane x = 0, its
     +1 side toward +x, and every body's position and radius."""
 
     pos: dict[int, tuple[float, float]]

@@ -12,8 +12,9 @@ moving up, no opening against someone coming through, the way round a leaf's edg
 a key one was pushed abreast of) took seeds 1 and 2 from 26 and 26 to 29 and 32; the threshold
 is the lower less two. Stop 35 counted a holder still to pass in the batch's run, let batches run
 while both queues stand (up to 20), and had the one standing in a committed follower's way go
-first (:func:`~pedvr.etiquette.interaction._in_the_way`): seeds 1 and 2 pass all 40, opening the
-door from shut 4 times and once; the threshold is 40 less two.
+first (:func:`~pedvr.etiquette.interaction._in_the_way`), and kept a door busy until fewer than
+three wait on a side: seeds 1 and 2 pass all 40, opening the door from shut 3 and 2 times; the
+threshold is 40 less two.
 """
 
 from __future__ import annotations
