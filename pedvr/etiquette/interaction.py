@@ -944,6 +944,14 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
             w.leader = NONE
             return
     if w.state == REACH_EDGE:
+        if side_local > 0 and not h.is_user and _past(et, w, crowd):
+            # Pushed through the doorway on its way to the leaf's edge: it has passed, and a pulled
+            # leaf cannot be taken over from its far side. Walking back to take it (and through a
+            # second time) is what it did before; it goes on, and the holder holds for the next.
+            _thank(et, w, h)
+            h.follower = NONE
+            et.finish(w, crowd)
+            return
         a = et.leaf_open(h.leaf, fr)
         if side_local > 0:  # at the leaf's edge on the passage side, where the holder stood
             target = fr.polar(fr.outer(radius), max(a, math.radians(60.0)) - PULL_STAND)
