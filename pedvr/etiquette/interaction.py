@@ -115,6 +115,16 @@ PULL_OPEN_SPEED = 0.9  # rad/s: a pulled leaf opens no faster than the puller st
 PUSH_OPEN_SPEED = 2.0  # rad/s: a pushed one, as the pusher walks in
 READY_NEAR = 0.4  # m from its close-up place at which a committed follower is ready
 PULL_STAND = math.radians(5.0)  # a puller stands this far round from the leaf's edge, passage side
+# A PL follower takes a pulled leaf over this far round from its edge (issue 26, stop 35): at
+# PULL_STAND (5°) the spot lay 2° from where a body counts as behind the edge, the new holder stood
+# at the leaf's tip, and its own way round the edge into the doorway crossed the spot its next
+# follower walked to: in 11 of 33 same-side hand-overs (door_single_flow seeds 1-3) it was pushed
+# behind the edge and got through a median 5.0 s late. Over seeds 1-8 the 35th crossing came at
+# 69.2 / 65.2 / 62.8 / 61.5 / 63.9 s on average with 5 / 10 / 15 / 20 / 25°; 15° is kept (seeds
+# 9-24: 70.9 -> 64.2 s; door_rush 71.1 -> 64.3 s). The hand still reaches the handle (0.45 m).
+# Single doors only: at a double door it left the pram behind (tests/etiquette/test_carriers.py;
+# door_observations' pram at door_double, seeds 1-8, 17 -> 10 passages), so there PULL_STAND stays.
+TAKE_STAND = math.radians(15.0)
 QUEUE_GAP = 0.8  # m between a committed follower's place and the next in its queue (issue 26)
 QUEUE_ASIDE = 0.45  # m off the lane that next one waits, on the side it came from
 BATCH = 20  # passages in a row from one side of a busy single door at most (issue 26, _batch_side)
@@ -954,7 +964,8 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
             return
         a = et.leaf_open(h.leaf, fr)
         if side_local > 0:  # at the leaf's edge on the passage side, where the holder stood
-            target = fr.polar(fr.outer(radius), max(a, math.radians(60.0)) - PULL_STAND)
+            stand = TAKE_STAND if et.doors[w.door].kind == "single" else PULL_STAND
+            target = fr.polar(fr.outer(radius), max(a, math.radians(60.0)) - stand)
             facing = _toward(target, fr.handle(a, 0.92))
             arm, at = RIGHT, 0.92
         else:  # from the push side: at the hinge jamb, beside the lane the holder comes through on
