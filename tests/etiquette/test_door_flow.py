@@ -46,14 +46,17 @@ SEEDS = tuple(range(1, 9))
 EACH_AT_LEAST = 37  # of 40 in 90 s, in every seed
 ALL_AT_LEAST = 315  # of 320, over the eight seeds
 CROSSED_AGAIN_AT_MOST = 1  # people crossing the doorway more than once, over the eight seeds
+LAST_BY_S = 79.0  # the last crossing, on average over the eight seeds (76.3 s; 80.7 s at 5°)
 
 
-def _passages(seed: int) -> tuple[int, int, int]:
-    """Crossings of the doorway line, overlaps over 1 cm, and how many crossed more than once."""
+def _passages(seed: int) -> tuple[int, int, int, float]:
+    """Crossings of the doorway line, overlaps over 1 cm, how many crossed more than once, and
+    when the last crossing was."""
     sim = Simulation(load_any(resolve_scene("validation/door_single_flow"), seed=None), seed=seed)
     side: dict[int, int] = {}
     times: dict[int, int] = {}
     n = 0
+    last = 0.0
     while sim.t < 90.0 - 1e-9:
         sim.step()
         x = sim.crowd.pos[:, 0]
@@ -64,26 +67,34 @@ def _passages(seed: int) -> tuple[int, int, int]:
             if side.get(i, si) != si:
                 n += 1
                 times[i] = times.get(i, 0) + 1
+                last = sim.t
             side[i] = si
     again = sum(1 for k in times.values() if k > 1)
-    return n, int(sim.summary()["overlaps_over_1cm"]), again
+    return n, int(sim.summary()["overlaps_over_1cm"]), again, last
 
 
 @pytest.fixture(scope="module")
-def runs() -> dict[int, tuple[int, int, int]]:
+def runs() -> dict[int, tuple[int, int, int, float]]:
     return {seed: _passages(seed) for seed in SEEDS}
 
 
-def test_a_busy_single_door_passes_a_stream(runs: dict[int, tuple[int, int, int]]) -> None:
-    through = {seed: n for seed, (n, _, _) in runs.items()}
+def test_a_busy_single_door_passes_a_stream(runs: dict[int, tuple[int, int, int, float]]) -> None:
+    through = {seed: n for seed, (n, _, _, _) in runs.items()}
     assert min(through.values()) >= EACH_AT_LEAST, through
     assert sum(through.values()) >= ALL_AT_LEAST, through
-    assert all(o == 0 for _, o, _ in runs.values()), runs
+    assert all(o == 0 for _, o, _, _ in runs.values()), runs
 
 
-def test_nobody_walks_back_through_the_door(runs: dict[int, tuple[int, int, int]]) -> None:
+def test_the_stream_is_through_sooner(runs: dict[int, tuple[int, int, int, float]]) -> None:
+    """Where a pulled leaf changes hands (``TAKE_STAND``): the last crossing comes 76.3 s in on
+    average over seeds 1-8, 80.7 s with the take-over spot at the leaf's edge (5°)."""
+    last = {seed: t for seed, (_, _, _, t) in runs.items()}
+    assert sum(last.values()) / len(last) <= LAST_BY_S, last
+
+
+def test_nobody_walks_back_through_the_door(runs: dict[int, tuple[int, int, int, float]]) -> None:
     """A pull-side follower pushed through the doorway before it took the door over walked back
     to the leaf's edge and through again (seed 8; two people over seeds 1-8 crossed twice). One is
     left: seed 1's, pushed back through by the other side's stream."""
-    again = {seed: a for seed, (_, _, a) in runs.items()}
+    again = {seed: a for seed, (_, _, a, _) in runs.items()}
     assert sum(again.values()) <= CROSSED_AGAIN_AT_MOST, again
