@@ -20,6 +20,8 @@ measures them on ``--seeds`` seeds and prints one JSON line per observation:
 * ``rush``: door_rush (issue 26): a single one-way door, 20 people from each side setting off
   over 20 s: how many are through after 90 s (of 40), when the last one passed, the 95th
   percentile wait at the door, ``door_deadlocks``; median and worst over the seeds;
+* ``single_flow``: the same measures for the realism benchmark's ``validation/door_single_flow``
+  (people arriving from sources at 1 /s a side), plus the mean time of the 35th passage;
 * ``double_queue``: door_double_queue (issue 26, §6.3): a queue of ten (and two the other way) at
   a double door: each leaf's share of the passages (the less used one's is the figure), when the
   last one passed; median and worst;
@@ -33,6 +35,7 @@ and after a change to the etiquette.
 
     python bench/door_observations.py --seeds 10
     python bench/door_observations.py --seeds 6 --only rush double_queue pram
+    python bench/door_observations.py --seeds 16 --first-seed 9 --only single_flow
 """
 
 from __future__ import annotations
@@ -140,11 +143,12 @@ def _med_worst(xs: list[float], worst: str) -> dict[str, float]:
             "worst": round(float(arr.max() if worst == "max" else arr.min()), 3)}
 
 
-def rush(seeds: list[int], seconds: float = 90.0) -> dict[str, Any]:
-    """door_rush: 40 people through one single door (module docstring)."""
-    scene = _scene("door_rush")
-    n = sum(sp.count + len(sp.positions) for sp in scene.spawns)
-    through, last, p95, dead, rate, over = [], [], [], [], [], []
+def rush(seeds: list[int], seconds: float = 90.0, name: str = "door_rush") -> dict[str, Any]:
+    """door_rush (or validation/door_single_flow): 40 people through one single door (module
+    docstring)."""
+    scene = _scene(name)
+    n = sum(sp.count + len(sp.positions) for sp in scene.spawns) + sum(so.max_count for so in scene.sources)
+    through, last, p95, dead, rate, over, t35 = [], [], [], [], [], [], []
     for s in seeds:
         cr, summ = _run_crossings(scene, s, seconds)
         agents = [e for e in cr.events if not e["user"]]
@@ -154,13 +158,16 @@ def rush(seeds: list[int], seconds: float = 90.0) -> dict[str, Any]:
         through.append(len(first))
         t = sorted(e["t"] for e in first.values())
         last.append(t[-1] if len(first) == n else float("inf"))
+        t35.append(t[34] if len(t) > 34 else float("inf"))
         rate.append(60.0 * (len(t) - 1) / max(t[-1] - t[0], 1e-9) if len(t) > 1 else 0.0)
         waits = [e["waited_s"] for e in first.values()]
         p95.append(float(np.percentile(waits, 95)) if waits else 0.0)
         dead.append(int(summ["door_deadlocks"]))
         over.append(int(summ["overlaps_over_1cm"]))
-    return {"observation": "rush", "scene": "door_rush", "agents": n, "seconds": seconds, "seeds": len(seeds),
+    return {"observation": "rush", "scene": name, "agents": n, "seconds": seconds, "seeds": len(seeds),
             "through": _med_worst(through, "min"), "last_pass_s": _med_worst(last, "max"),
+            "last_pass_s_mean": round(float(np.mean(last)), 2),
+            "pass35_s_mean": round(float(np.mean(t35)), 2),
             "passages_per_min": _med_worst(rate, "min"), "wait_s_p95": _med_worst(p95, "max"),
             "door_deadlocks": _med_worst(dead, "max"), "overlaps_over_1cm": int(max(over)),
             "per_seed_through": through}
@@ -309,12 +316,14 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--only", nargs="*", default=None)
+    ap.add_argument("--first-seed", type=int, default=1)
     a = ap.parse_args()
-    seeds = list(range(1, a.seeds + 1))
+    seeds = list(range(a.first_seed, a.first_seed + a.seeds))
     jobs = {"interleave": lambda: interleave(seeds), "late_group": lambda: late_group(seeds),
             "hurried": lambda: hurried(seeds), "double": lambda: double(seeds),
             "revolving": lambda: revolving(seeds), "deadlock6": lambda: deadlock(seeds, 6, 6),
             "deadlock12": lambda: deadlock(seeds, 12, 14), "rush": lambda: rush(seeds),
+            "single_flow": lambda: rush(seeds, name="validation/door_single_flow"),
             "double_queue": lambda: double_queue(seeds), "pram": lambda: pram(seeds)}
     for name, job in jobs.items():
         if a.only and name not in a.only:
