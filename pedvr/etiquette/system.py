@@ -127,6 +127,11 @@ class DoorEtiquette(EtiquetteCore):
         self._path_cache[agent] = (id(path), out)
         return out
 
+    def _before(self, k: int, p: np.ndarray, start: np.ndarray) -> bool:
+        """Whether ``p`` is on the same side of door ``k``'s line as ``start`` (a leg's start)."""
+        ds = self.dstate[k]
+        return float((p - ds.centre) @ ds.n) * float((start - ds.centre) @ ds.n) > 0.0
+
     def _engage(self, crowd: CrowdState, paths: list[np.ndarray], cursor: np.ndarray) -> None:
         """Who takes part in which door's etiquette now (and who is done)."""
         pos = crowd.pos
@@ -148,7 +153,13 @@ class DoorEtiquette(EtiquetteCore):
             w = self.walkers.get(agent)
             path = paths[r]
             c = int(cursor[r])
-            crossing = [(k, i) for k, i in self._path_doors(agent, path) if i >= c]
+            # the doors its path crosses from here on; on the leg it walks now, only while it is
+            # still on the side that leg starts from: someone who walked through as an approacher
+            # (a door its holder let go, NH) has passed, and is not an approacher from the far side
+            # (door_single_flow seed 1: one walked through, was taken for one coming from the
+            # other side, and was sent back through the door to queue)
+            crossing = [(k, i) for k, i in self._path_doors(agent, path)
+                        if i > c or (i == c and self._before(k, pos[r], path[c - 1]))]
             if path.shape[0] >= 2:
                 crossing.extend((int(k), c) for k in np.flatnonzero(leg_cross[r]))
             if w is None:

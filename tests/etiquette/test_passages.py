@@ -143,3 +143,37 @@ def test_a_long_wait_that_does_not_end_is_a_deadlock() -> None:
     stalled = [e for e in et.events if e["event"] == "deadlock"]
     assert stalled and stalled[0]["why"] == "stalled door" and stalled[0]["agent"] == w.id, et.events
     assert sim.summary()["door_deadlocks"] >= 1
+
+
+def test_one_through_the_doorway_is_not_taken_for_one_coming_the_other_way(tmp_path: Path) -> None:
+    """An approacher whose leg crosses the door takes part in its etiquette from the side it stands
+    on; once it stands beyond the door on that leg (it walked through a door its holder let go,
+    NH), it has passed: it is dropped, and not taken up again as one coming from the far side.
+    Taken up again, door_single_flow seed 1 sent it back through the door to queue (it crossed
+    three times, and the door's 35th passage came 8 s later)."""
+    p = tmp_path / "one.toml"
+    p.write_text(ONE_AGENT)
+    sim = Simulation(load_scene(p), seed=1)
+    et = sim.etiquette
+    assert et is not None
+    agent = 1
+    r = et.row(agent)
+    assert r is not None
+    paths = list(sim.paths)
+    paths[r] = np.array([[-3.5, 0.3], [-0.3, 0.1], [4.0, 0.1]])  # its leg from (-0.3, 0.1) crosses x = 0
+    cursor = sim.cursor.copy()
+    cursor[r] = 2
+    sim.crowd.pos[r] = (-0.4, 0.1)  # on that leg, before the door: it comes from the west
+    et._engage(sim.crowd, paths, cursor)
+    w = et.walkers.get(agent)
+    assert w is not None and w.side == 1 and w.door == 0, et.walkers
+    sim.crowd.pos[r] = (0.35, 0.1)  # through, on the same leg: it has passed
+    et._engage(sim.crowd, paths, cursor)
+    assert agent not in et.walkers
+    et._engage(sim.crowd, paths, cursor)  # and it is not taken up again from the east
+    assert agent not in et.walkers
+    # a path that comes back through the door later still takes it up, from where it stands
+    paths[r] = np.array([[-3.5, 0.3], [-0.3, 0.1], [1.5, 0.1], [-3.0, 0.1]])
+    et._engage(sim.crowd, paths, cursor)
+    w = et.walkers.get(agent)
+    assert w is not None and w.side == -1, et.walkers
