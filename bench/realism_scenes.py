@@ -321,11 +321,15 @@ pull_side = [-1.0, 0.0]
 
 {PROFILE}
 {sources}
+# Each room's exit is for the people leaving through it: one queued near where it came in, pushed
+# back into the sink behind it, stays (door_single_flow seed 13 lost one that way, never through).
 [[agents.sinks]]
 region = {{ box = [8.6, -5.0, 9.0, 5.0] }}
+states = ["east"]
 
 [[agents.sinks]]
 region = {{ box = [-9.0, -5.0, -8.6, 5.0] }}
+states = ["west"]
 
 [behavior.states.east]
 goal = {{ selector = "region", box = [8.7, -3.0, 8.9, 3.0] }}

@@ -16,8 +16,9 @@ Contracts:
   with ``CLEARANCE`` to spare, and on the navigation mesh for its radius (never
   inside a wall). When no spot is free it waits and is tried again next step:
   the inflow is delayed, never dropped and never overlapping.
-* A sink removes every virtual agent whose position lies inside its region; the
-  user is never removed.
+* A sink removes every virtual agent whose position lies inside its region (a
+  sink with ``states``: every one in one of those BFSM states); the user is never
+  removed.
 * Everything random is drawn from the generator passed in, in a fixed order: the
   same seed gives the same arrivals.
 """
@@ -125,16 +126,24 @@ class Inflow:
             out.append(spot)
         return out
 
-    def sunk(self, crowd: CrowdState) -> np.ndarray:
-        """Rows ``(N,)`` of virtual agents inside some sink region."""
+    def sunk(self, crowd: CrowdState, state: np.ndarray | None = None,
+             state_names: tuple[str, ...] = ()) -> np.ndarray:
+        """Rows ``(N,)`` of virtual agents inside some sink region (of a sink with ``states``, only
+        those whose BFSM state, ``state_names[state[row]]``, is one of them)."""
         out = np.zeros(len(crowd), np.bool_)
         x, y = crowd.pos[:, 0], crowd.pos[:, 1]
         for sink in self.sinks:
             kind, v = sink.region
             if kind == "box":
-                out |= (x >= v[0]) & (x <= v[2]) & (y >= v[1]) & (y <= v[3])
+                inside = (x >= v[0]) & (x <= v[2]) & (y >= v[1]) & (y <= v[3])
             else:
-                out |= np.hypot(x - v[0], y - v[1]) <= v[2]
+                inside = np.hypot(x - v[0], y - v[1]) <= v[2]
+            if sink.states:
+                if state is None:
+                    raise ValueError("a sink with states needs the agents' BFSM states")
+                ids = [k for k, name in enumerate(state_names) if name in sink.states]
+                inside &= np.isin(state, ids)
+            out |= inside
         return out & ~crowd.is_user
 
     def summary(self, t: float) -> dict[str, object]:

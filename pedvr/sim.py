@@ -713,7 +713,7 @@ class Simulation:
         is free of every body and of the user (else they wait; :mod:`pedvr.inflow`)."""
         inflow = self.inflow
         if inflow.sinks:
-            sunk = inflow.sunk(self.crowd)
+            sunk = inflow.sunk(self.crowd, self.behavior.state, self.bfsm.names)
             if sunk.any():
                 inflow.removed += int(np.count_nonzero(sunk))
                 self._drop_rows(sunk)

@@ -376,9 +376,11 @@ class Sink:
     """An exit region: a virtual agent whose position enters it is removed (it has left the scene).
 
     ``region`` is ``("box", (xmin, ymin, xmax, ymax))`` or ``("disc", (cx, cy, r))``. The user
-    is never removed."""
+    is never removed. ``states``: when not empty, only agents in one of these BFSM states leave
+    by it (an exit for those walking one way; someone of the other stream pushed into it stays)."""
 
     region: tuple[str, tuple[float, ...]]
+    states: tuple[str, ...] = ()
 
 
 USER_WALKS = ("straight", "reactive")

@@ -201,7 +201,7 @@ def parse_scene(data: dict[str, Any], *, source: str, content_hash: str = "",
     declared = (set(profiles_raw), set(_table_keys(data, "behavior", "states")))
     spawns = _spawns(c, agents.get("spawns", MISSING), profiles, behavior, world, declared=declared)
     sources = _sources(c, agents.get("sources", MISSING), profiles, behavior, world, declared=declared)
-    sinks = _sinks(c, agents.get("sinks", MISSING), world)
+    sinks = _sinks(c, agents.get("sinks", MISSING), world, behavior, declared=declared[1])
     user = _user(c, c.table(data, "user", "user", required=True) or {}, world)
     etiquette = _etiquette(c, c.table(data, "etiquette", "etiquette", required=False) or {})
 
@@ -1010,8 +1010,10 @@ def _sources(c: _Checker, raw: object, profiles: dict[str, AgentProfile],
     return tuple(out)
 
 
-def _sinks(c: _Checker, raw: object, world: WorldConfig | None) -> tuple[Sink, ...]:
-    """``[[agents.sinks]]``: exit regions that remove the agents that reach them."""
+def _sinks(c: _Checker, raw: object, world: WorldConfig | None, behavior: BehaviorConfig | None, *,
+           declared: set[str]) -> tuple[Sink, ...]:
+    """``[[agents.sinks]]``: exit regions that remove the agents that reach them (``states``: only
+    those in one of these BFSM states; ``declared`` as for :func:`_spawns`)."""
     if raw is MISSING:
         return ()
     if not isinstance(raw, list) or not all(isinstance(x, dict) for x in raw):
@@ -1021,7 +1023,8 @@ def _sinks(c: _Checker, raw: object, world: WorldConfig | None) -> tuple[Sink, .
     blocked = _blocked(world)
     for i, s in enumerate(raw):
         path = f"agents.sinks[{i}]"
-        c.known(s, path, ("region",))
+        c.known(s, path, ("region", "states"))
+        states = _sink_states(c, s, path, behavior, declared)
         if "region" not in s:
             c.bad(f"{path}.region", MISSING,
                   "required {box = [xmin, ymin, xmax, ymax]} or {disc = [cx, cy, r]}")
@@ -1035,8 +1038,26 @@ def _sinks(c: _Checker, raw: object, world: WorldConfig | None) -> tuple[Sink, .
             c.bad(f"{path}.region", s["region"], "lies outside the walkable area: no agent could reach it")
             continue
         if region is not None:
-            out.append(Sink(region=region))
+            out.append(Sink(region=region, states=states))
     return tuple(out)
+
+
+def _sink_states(c: _Checker, s: dict[str, Any], path: str, behavior: BehaviorConfig | None,
+                 declared: set[str]) -> tuple[str, ...]:
+    """A sink's optional ``states``: a non-empty array of the file's BFSM state names."""
+    raw = s.get("states", MISSING)
+    if raw is MISSING:
+        return ()
+    if not isinstance(raw, list) or not raw or not all(isinstance(x, str) for x in raw):
+        c.bad(f"{path}.states", raw, "expected a non-empty array of state names")
+        return ()
+    known = set(declared) | (set(behavior.states) if behavior is not None else set())
+    unknown = [x for x in raw if x not in known]
+    if unknown:
+        c.bad(f"{path}.states", raw,
+              f"unknown state {unknown[0]!r}; known: {', '.join(sorted(known)) or 'none'}")
+        return ()
+    return tuple(raw)
 
 
 def _region_shape(region: tuple[str, tuple[float, ...]]) -> Any:
