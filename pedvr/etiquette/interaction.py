@@ -48,7 +48,8 @@ Later (issue 26): the next in a queue moves up into a committed follower's place
 walks to the leaf's edge; nobody opens the door while someone comes through the other way (a
 holder walking through after letting go included); a way out of the pocket behind an open
 leaf goes round its edge clear of it (:func:`round_edge`); and who commits as a holder's follower
-is never someone standing behind people of its own side (:func:`_in_the_way`).
+is never someone standing behind people of its own side (:func:`_in_the_way`), nor, blocked on its
+way to take the door over, stays its follower (:func:`_hand_on`).
 
 Choices where the paper leaves room (it draws the key poses, Fig. 18, without measuring them):
 positions come from :class:`~pedvr.etiquette.regions.LeafFrame`; NH opens to the smallest angle
@@ -132,6 +133,7 @@ BATCH_LOAD = 5  # waiting on each side at which a single door becomes busy
 BATCH_KEEP = 3  # waiting on each side below which it is no longer busy
 BATCH_WAIT = 120.0  # s of waiting credited to the side that has the door within a batch: it goes first
 CATCH_RANGE = 4.0  # m from the doorway within which NH's follower catches the door (issue 26)
+HAND_ON_SPEED = 0.3  # m/s: a follower slower than this on its way to take the door over is blocked (_hand_on)
 
 
 def nh_angle(frame: LeafFrame, radius: float) -> float:
@@ -954,6 +956,8 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
             w.leader = NONE
             return
     if w.state == REACH_EDGE:
+        if _hand_on(et, w, h, by_id, crowd):
+            return
         if side_local > 0 and not h.is_user and _past(et, w, crowd):
             # Pushed through the doorway on its way to the leaf's edge: it has passed, and a pulled
             # leaf cannot be taken over from its far side. Walking back to take it (and through a
@@ -984,6 +988,36 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
             _demote(w)
             h.follower = NONE
         return
+
+
+def _hand_on(et: EtiquetteCore, w: Walker, h: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> bool:
+    """Whether a follower on its way to take the door over from a holder of its own side hands that
+    on to the one standing in its way (issue 26), as :func:`_in_the_way` does when it commits.
+
+    The one who committed may not have closed up (a holder decides once it has stood blocked,
+    :func:`_ready`), and the next in the queue moves up to the follower's place meanwhile: it then
+    stands between the follower and the leaf's edge (door_single_flow seed 1 at 39-42 s and seed 7
+    at 33-39 s: the follower worked round it at 0.1-0.4 m/s for 3 and 6 s while the holder waited
+    at the door). Blocked (slower than :data:`HAND_ON_SPEED`), the follower lets the one in its way
+    (:func:`_in_the_way`) take the door over, and keeps its own place in the queue as the next:
+    the same reading as at the commitment, that nobody walks through people to take a held door."""
+    if w.is_user or h.is_user or w.side != h.side or w.helping != NONE:
+        return False
+    r = et._row[w.id]
+    if float(np.hypot(*crowd.vel[r])) >= HAND_ON_SPEED or bool(et.carrying[r]):
+        return False
+    o = _in_the_way(et, w, by_id, crowd)
+    if o is w or bool(et.carrying[et._row[o.id]]):
+        return False
+    _demote(w)
+    o.role = FOLLOWER
+    o.holder = h.id
+    o.leader = h.id
+    o.plan = None
+    h.follower = o.id
+    et.set_state(o, REACH_EDGE)
+    et.log("hand_on", w, to=o.id, holder=h.id)
+    return True
 
 
 def _catch_nh(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState) -> bool:

@@ -6,7 +6,9 @@
 * a door is busy (passes in batches) from when :data:`~pedvr.etiquette.interaction.BATCH_LOAD`
   wait on each side until fewer than :data:`~pedvr.etiquette.interaction.BATCH_KEEP` do;
 * :func:`~pedvr.etiquette.interaction._in_the_way`: the one who commits as a holder's follower is
-  not someone standing behind people of its own side; the one in its way nearest the door goes.
+  not someone standing behind people of its own side; the one in its way nearest the door goes;
+* :func:`~pedvr.etiquette.interaction._hand_on`: a follower blocked on its way to take the door
+  over from a holder of its own side hands it on to the one in its way.
 
 The whole-scene effect is guarded by ``test_door_flow.py`` and ``test_door_rush.py``; here each
 rule is checked on its own, on a small stand-in for the etiquette's state.
@@ -18,6 +20,7 @@ from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from pedvr.etiquette import interaction as it
 from pedvr.etiquette.core import Walker
@@ -138,3 +141,48 @@ def test_a_busy_door_stays_busy_until_a_queue_thins() -> None:
     # and only a queue of BATCH_LOAD on each side makes it busy again
     assert side_with(it.BATCH_KEEP) == 0
     assert side_with(it.BATCH_LOAD) == +1
+
+
+def _handing(pos: dict[int, tuple[float, float]], speed: float) -> tuple[SimpleNamespace, SimpleNamespace]:
+    """The stand-in state with what :func:`~pedvr.etiquette.interaction._hand_on` also reads and
+    writes: each body's speed, who carries something, the state changes and the log."""
+    et = _Door(pos).et
+    rows = max(pos) + 1
+    vel = np.zeros((rows, 2))
+    vel[:, 0] = speed
+    et.carrying = np.zeros(rows, np.bool_)
+    et.log = lambda *a, **k: None
+    et.set_state = lambda w, s: setattr(w, "state", s)
+    return et, SimpleNamespace(vel=vel)
+
+
+def test_a_blocked_follower_hands_the_door_on_to_the_one_in_its_way() -> None:
+    # door_single_flow seed 7 at 34-39 s: the next in the queue moved up to the committed follower's
+    # place, ahead of it, and the follower worked round it for 6 s while the holder held the door.
+    pos = {50: (-0.5, 0.0), 1: (-2.6, 0.1), 2: (-1.8, 0.0)}
+    h = Walker(id=50, door=0, side=-1, role=HOLDER, follower=1)
+    f = Walker(id=1, door=0, side=-1, role=FOLLOWER, holder=50, leader=50, state=it.REACH_EDGE, waited=9.0)
+    nxt = Walker(id=2, door=0, side=-1, role=APPROACH, leader=1, waited=3.0)
+    ws = {50: h, 1: f, 2: nxt}
+    et, crowd = _handing(pos, speed=0.1)
+    assert it._hand_on(et, f, h, ws, crowd)
+    assert (nxt.role, nxt.state, nxt.holder, h.follower) == (FOLLOWER, it.REACH_EDGE, 50, 2)
+    # back in the queue, with its wait: the ordering puts it next (it waited longest)
+    assert f.role == APPROACH and f.holder == it.NONE and f.waited == 9.0
+
+
+@pytest.mark.parametrize("case", ["walking", "nobody_in_the_way", "across_the_door", "carrier"])
+def test_a_follower_keeps_the_door_when_not_blocked(case: str) -> None:
+    pos = {50: (-0.5, 0.0), 1: (-2.6, 0.1), 2: (-1.8, 0.0)}
+    h = Walker(id=50, door=0, side=-1, role=HOLDER, follower=1)
+    f = Walker(id=1, door=0, side=-1, role=FOLLOWER, holder=50, leader=50, state=it.REACH_EDGE)
+    ws = {50: h, 1: f, 2: Walker(id=2, door=0, side=-1, role=APPROACH)}
+    if case == "nobody_in_the_way":
+        pos[2] = (-1.8, 0.8)
+    if case == "across_the_door":  # HOL across the door: its way is past the holder coming through
+        h.side = +1
+    et, crowd = _handing(pos, speed=0.6 if case == "walking" else 0.1)
+    if case == "carrier":
+        et.carrying[1] = True  # a carrier passes first whatever the holder decided (App. B, §4.6)
+    assert not it._hand_on(et, f, h, ws, crowd)
+    assert (f.role, h.follower, ws[2].role) == (FOLLOWER, 1, APPROACH)
