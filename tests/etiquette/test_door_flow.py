@@ -27,7 +27,13 @@ pull-side follower pushed through the doorway before it took the door over now w
 of back to the leaf: 321 (42, 40, 39, 40, 40, 40, 40, 40; seed 1's 42 is someone pushed back
 through the doorway by the other side's stream, who then passed again). With a pulled leaf taken
 over 15° round from its edge (``TAKE_STAND``): 322 (42, 40, 40, 40, 40, 40, 40, 40), the last
-crossing 76.3 s in on average against 80.7 s.
+crossing 76.3 s in on average against 80.7 s. Stop 36: seed 1's 42 was not pushed back; it
+walked through as an approacher (its holder let the door go, NH), was then taken for someone
+coming from the far side, and sent back through the door to queue (``DoorEtiquette._engage``: a
+leg's door counts only while the agent is on the side the leg starts from); and a follower
+blocked on its way to take the door over hands it on to the one in its way (``_hand_on``): 320
+(40 in every seed), nobody crossing twice, the last crossing 72.9 s in on average (range
+66.3-77.9 s) against 76.3 s.
 Passages are counted
 as the benchmark counts them: crossings of the doorway line, here from 0.3 m on one side to
 0.3 m on the other.
@@ -43,10 +49,10 @@ from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
 
 SEEDS = tuple(range(1, 9))
-EACH_AT_LEAST = 37  # of 40 in 90 s, in every seed
-ALL_AT_LEAST = 315  # of 320, over the eight seeds
-CROSSED_AGAIN_AT_MOST = 1  # people crossing the doorway more than once, over the eight seeds
-LAST_BY_S = 79.0  # the last crossing, on average over the eight seeds (76.3 s; 80.7 s at 5°)
+EACH_AT_LEAST = 39  # of 40 in 90 s, in every seed
+ALL_AT_LEAST = 318  # of 320, over the eight seeds
+CROSSED_AGAIN_AT_MOST = 0  # people crossing the doorway more than once, over the eight seeds
+LAST_BY_S = 75.5  # the last crossing, on average over the eight seeds (72.9 s; 76.3 s before _hand_on)
 
 
 def _passages(seed: int) -> tuple[int, int, int, float]:
@@ -86,15 +92,17 @@ def test_a_busy_single_door_passes_a_stream(runs: dict[int, tuple[int, int, int,
 
 
 def test_the_stream_is_through_sooner(runs: dict[int, tuple[int, int, int, float]]) -> None:
-    """Where a pulled leaf changes hands (``TAKE_STAND``): the last crossing comes 76.3 s in on
-    average over seeds 1-8, 80.7 s with the take-over spot at the leaf's edge (5°)."""
+    """Where a pulled leaf changes hands (``TAKE_STAND``): the last crossing came 76.3 s in on
+    average over seeds 1-8, 80.7 s with the take-over spot at the leaf's edge (5°); with the two
+    changes of stop 36 (module docstring) 72.9 s."""
     last = {seed: t for seed, (_, _, _, t) in runs.items()}
     assert sum(last.values()) / len(last) <= LAST_BY_S, last
 
 
 def test_nobody_walks_back_through_the_door(runs: dict[int, tuple[int, int, int, float]]) -> None:
     """A pull-side follower pushed through the doorway before it took the door over walked back
-    to the leaf's edge and through again (seed 8; two people over seeds 1-8 crossed twice). One is
-    left: seed 1's, pushed back through by the other side's stream."""
+    to the leaf's edge and through again (seed 8; two people over seeds 1-8 crossed twice); and an
+    approacher who walked through was sent back to queue from the far side (seed 1). Nobody
+    crosses twice now."""
     again = {seed: a for seed, (_, _, a, _) in runs.items()}
     assert sum(again.values()) <= CROSSED_AGAIN_AT_MOST, again
