@@ -134,6 +134,7 @@ BATCH_KEEP = 3  # waiting on each side below which it is no longer busy
 BATCH_WAIT = 120.0  # s of waiting credited to the side that has the door within a batch: it goes first
 CATCH_RANGE = 4.0  # m from the doorway within which NH's follower catches the door (issue 26)
 HAND_ON_SPEED = 0.3  # m/s: a follower slower than this on its way to take the door over is blocked (_hand_on)
+HAND_ON_AHEAD = 0.2  # m nearer the door than the follower that the one it hands on to stands, at least
 
 
 def nh_angle(frame: LeafFrame, radius: float) -> float:
@@ -1009,6 +1010,10 @@ def _hand_on(et: EtiquetteCore, w: Walker, h: Walker, by_id: dict[int, Walker], 
     o = _in_the_way(et, w, by_id, crowd)
     if o is w or bool(et.carrying[et._row[o.id]]):
         return False
+    centre = et.dstate[w.door].centre
+    if float(np.hypot(*(et.pos(crowd, o.id) - centre))) > float(np.hypot(*(et.pos(crowd, w.id) - centre))) \
+            - HAND_ON_AHEAD:
+        return False  # side by side, each in the other's way: it would only come back (seed 5)
     _demote(w)
     o.role = FOLLOWER
     o.holder = h.id
