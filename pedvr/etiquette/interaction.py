@@ -1001,8 +1001,11 @@ def _hand_on(et: EtiquetteCore, w: Walker, h: Walker, by_id: dict[int, Walker], 
     at 33-39 s: the follower worked round it at 0.1-0.4 m/s for 3 and 6 s while the holder waited
     at the door). Blocked (slower than :data:`HAND_ON_SPEED`), the follower lets the one in its way
     (:func:`_in_the_way`) take the door over, and keeps its own place in the queue as the next:
-    the same reading as at the commitment, that nobody walks through people to take a held door."""
-    if w.is_user or h.is_user or w.side != h.side or w.helping != NONE:
+    the same reading as at the commitment, that nobody walks through people to take a held door.
+    Single doors only: at door_double_queue's leaves it made the last passage later (seeds 1-8,
+    ``bench/door_observations.py --only double_queue``: 29.1 / 33.8 s median / worst against
+    28.6 / 30.6 s), and nothing there was traced to need it."""
+    if w.is_user or h.is_user or w.side != h.side or w.helping != NONE or et.doors[w.door].kind != "single":
         return False
     r = et._row[w.id]
     if float(np.hypot(*crowd.vel[r])) >= HAND_ON_SPEED or bool(et.carrying[r]):

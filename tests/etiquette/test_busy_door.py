@@ -171,7 +171,8 @@ def test_a_blocked_follower_hands_the_door_on_to_the_one_in_its_way() -> None:
     assert f.role == APPROACH and f.holder == it.NONE and f.waited == 9.0
 
 
-@pytest.mark.parametrize("case", ["walking", "nobody_in_the_way", "across_the_door", "carrier", "side_by_side"])
+@pytest.mark.parametrize("case", ["walking", "nobody_in_the_way", "across_the_door", "carrier", "side_by_side",
+                                  "double_door"])
 def test_a_follower_keeps_the_door_when_not_blocked(case: str) -> None:
     pos = {50: (-0.5, 0.0), 1: (-2.6, 0.1), 2: (-1.8, 0.0)}
     h = Walker(id=50, door=0, side=-1, role=HOLDER, follower=1)
@@ -185,6 +186,8 @@ def test_a_follower_keeps_the_door_when_not_blocked(case: str) -> None:
         pos[1], pos[2] = (-2.0, 0.2), (-2.0, -0.2)  # and forth every tick (seed 5, 41.4-41.6 s)
         assert it._in_the_way(_Door(pos).et, f, ws, None).id == 2
     et, crowd = _handing(pos, speed=0.6 if case == "walking" else 0.1)
+    if case == "double_door":
+        et.doors[0].kind = "double"
     if case == "carrier":
         et.carrying[1] = True  # a carrier passes first whatever the holder decided (App. B, §4.6)
     assert not it._hand_on(et, f, h, ws, crowd)
