@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pedvr.etiquette.system import DoorEtiquette
 from pedvr.etiquette.vocab import FINISH_DOOR, HOLDER, OPEN_DOOR
 from pedvr.scene.loader import load_scene
 from pedvr.scenes import resolve_scene
@@ -52,12 +53,17 @@ route = [[6.5, 3.4]]
 """
 
 
-def test_a_finish_door_that_times_out_on_the_near_side_is_no_passage(tmp_path: Path) -> None:
+def _one_agent(tmp_path: Path) -> tuple[Simulation, DoorEtiquette]:
+    """ONE_AGENT's simulation and its door etiquette (agent 1 walks east through the door)."""
     p = tmp_path / "one.toml"
     p.write_text(ONE_AGENT)
     sim = Simulation(load_scene(p), seed=1)
-    et = sim.etiquette
-    assert et is not None
+    assert sim.etiquette is not None
+    return sim, sim.etiquette
+
+
+def test_a_finish_door_that_times_out_on_the_near_side_is_no_passage(tmp_path: Path) -> None:
+    sim, et = _one_agent(tmp_path)
     agent = 1
     while sim.t < 12.0:
         sim.step()
@@ -151,11 +157,7 @@ def test_one_through_the_doorway_is_not_taken_for_one_coming_the_other_way(tmp_p
     NH), it has passed: it is dropped, and not taken up again as one coming from the far side.
     Taken up again, door_single_flow seed 1 sent it back through the door to queue (it crossed
     three times, and the door's 35th passage came 8 s later)."""
-    p = tmp_path / "one.toml"
-    p.write_text(ONE_AGENT)
-    sim = Simulation(load_scene(p), seed=1)
-    et = sim.etiquette
-    assert et is not None
+    sim, et = _one_agent(tmp_path)
     agent = 1
     r = et.row(agent)
     assert r is not None
