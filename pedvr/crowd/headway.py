@@ -22,6 +22,11 @@ The direction is kept: ORCA (``pedvr.crowd.orca``) still chooses the velocity, t
 says how fast the person wants to go. The user never takes part (the encounter model,
 :mod:`pedvr.crowd.encounter`, handles the user), and the user's row is left as it is.
 
+Two whose ways converge can each stand ahead of the other, in its lane, going its way (two
+merging into an opening, or stepping off a doorway); both following, both would stand still for
+good. Only the one further behind the other, ``(x_j - x_i)·e_i > (x_i - x_j)·e_j``, follows
+(ties: the later row), and the other walks on (issue 26, stop 36).
+
 This is pedvr's reading for an ORCA crowd: the CFSM computes the speed of its own
 velocity from the headway; here the headway limits the *preferred* speed, and ORCA's
 reciprocal lines keep the bodies apart. ``T <= 0`` switches it off.
@@ -73,6 +78,22 @@ def headway_kernel(pos, pref_vel, radius, depth, facing, is_user, nbr_idx, nbr_c
             if is_user[j] | (pref_vel[j, 0] * ex + pref_vel[j, 1] * ey < FOLLOW) | (along <= 0.0) | (
                     across >= wi + wj):
                 continue
+            # Each in the other's lane, ahead of it, going its way (ways that converge, as two
+            # people merging into an opening or stepping off a doorway): only the one further
+            # behind follows. Both following, both stood still for good (door_single_flow seed 18:
+            # two just through the door, 12 s, while the held door and its follower waited).
+            qx = pref_vel[j, 0]
+            qy = pref_vel[j, 1]
+            vj = math.sqrt(qx * qx + qy * qy)
+            if vj >= 1e-9 and px * qx + py * qy >= FOLLOW * vj:  # i goes j's way
+                gx = qx / vj
+                gy = qy / vj
+                back = -(dx * gx + dy * gy)  # how far i is ahead of j along j's way
+                lane = support(radius[j], depth[j], facing[j, 0], facing[j, 1], -gy, gx) + support(
+                    radius[i], depth[i], fx, fy, -gy, gx)
+                behind = back > along or (back == along and i < j)  # j is the one further behind
+                if back > 0.0 and abs(dx * gy - dy * gx) < lane and behind:
+                    continue  # j follows i: i walks on
             d = math.sqrt(dx * dx + dy * dy)
             free = d - support(radius[i], depth[i], fx, fy, dx / d, dy / d) - support(
                 radius[j], depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d)

@@ -55,3 +55,25 @@ def test_decoupled_and_a_zero_gap_leave_the_preferred_velocity_alone() -> None:
     np.testing.assert_allclose(_pref(leader, params=dataclasses.replace(PARAMS, time_gap=0.0)), (1.3, 0.0))
     with pytest.raises(SteeringInputError, match=r"time_gap = -1.0: must be >= 0 s"):
         Steering(dataclasses.replace(PARAMS, time_gap=-1.0), ObstacleSet.empty(), coupled=True)
+
+
+def test_of_two_each_ahead_of_the_other_only_the_one_further_behind_follows() -> None:
+    """Ways that converge (two merging into an opening, or stepping off a doorway): each stands
+    ahead of the other, in its lane, going its way. Both following, both stood still for good
+    (door_single_flow seed 18: two people just through the door for 12 s, the held door and its
+    follower waiting behind them). The one further behind the other follows; the other walks on."""
+    e1 = np.array([np.cos(np.radians(-75.0)), np.sin(np.radians(-75.0))])
+    pos = [(0.0, 0.0), (0.35, 0.42)]
+    pref = [(1.3, 0.0), tuple(1.3 * e1)]
+    heading = [0.0, float(np.arctan2(e1[1], e1[0]))]
+    state = crowd(pos, pref, pref, heading=heading)
+    s = Steering(PARAMS, ObstacleSet.empty(), coupled=True)
+    s.compute_velocities(state, 1 / 90)
+    out = s.headway(state, state.pref_vel)
+    d = np.subtract(pos[1], pos[0])
+    assert d @ (1.0, 0.0) > -d @ e1 > 0.0  # 1 is further ahead of 0 than 0 is of 1: 0 is behind
+    assert np.hypot(*out[0]) < 0.3  # 0 keeps its time gap to 1 (near contact: it all but stops)
+    np.testing.assert_allclose(out[1], pref[1])  # 1 is not held back by 0
+    swapped = crowd(pos[::-1], pref[::-1], pref[::-1], heading=heading[::-1])  # row order: the same
+    s.compute_velocities(swapped, 1 / 90)
+    np.testing.assert_allclose(s.headway(swapped, swapped.pref_vel)[::-1], out)
