@@ -93,32 +93,47 @@ def _out_by(steering: SteeringParams, until: float, *, seed: int = 1, case: str 
     return int(s["sink_agents_removed"]), s
 
 
-def test_a_crowd_at_an_opening_flows_faster() -> None:
+OPENING_SEEDS = (1, 2, 3, 4)
+
+
+@pytest.fixture(scope="module")
+def out_of_uo_070() -> dict[str, list[tuple[int, dict]]]:
+    """People out of uo_070's corridor after 60 s, seeds 1-4: the defaults, no dense slack, and
+    coupled agents seeing obstacles 1 s ahead instead of 0.5 s (each with the run's summary)."""
+    variants = {"default": SteeringParams(),
+                "no_slack": dataclasses.replace(SteeringParams(), dense_slack=0.0),
+                "horizon_1s": dataclasses.replace(SteeringParams(), time_horizon_obst_coupled=1.0)}
+    return {k: [_out_by(v, 60.0, seed=seed) for seed in OPENING_SEEDS] for k, v in variants.items()}
+
+
+def test_a_crowd_at_an_opening_flows_faster(out_of_uo_070: dict[str, list[tuple[int, dict]]]) -> None:
     """111 people through the Jülich corridor's 0.7 m entrance (scenes/validation/uo_070): more are
-    out of the corridor after 60 s with the slack than with the paper's least violation (seed 1:
-    68 against 52), and no body overlaps another. (Until the acceleration limit rose to 2.2 m/s²
-    this was 60 people at the 0.8 m bottleneck after 30 s, 33 against 18; there the two now come
-    out within a few people of each other, seeds 1-3.)"""
-    new, s = _out_by(SteeringParams(), 60.0)
-    old, _ = _out_by(dataclasses.replace(SteeringParams(), dense_slack=0.0), 60.0)
+    out of the corridor after 60 s with the slack than with the paper's least violation, and no
+    body overlaps another. Seed 1 alone gave 68 against 52 until stop 36's headway change (of two
+    each ahead of the other, only the one further behind keeps its time gap), which freed part of
+    the same jam: now 67 against 59, and over seeds 1-4 263 against 224 (67 / 66 / 66 / 64 against
+    59 / 62 / 50 / 53). (Until the acceleration limit rose to 2.2 m/s² this was 60 people at the
+    0.8 m bottleneck after 30 s, 33 against 18; there the two now come out within a few people of
+    each other, seeds 1-3.)"""
     assert SteeringParams().dense_slack == SLACK
-    assert new >= old + 10, (new, old)
-    assert s["overlaps_over_1cm"] == 0
+    new = sum(n for n, _ in out_of_uo_070["default"])
+    old = sum(n for n, _ in out_of_uo_070["no_slack"])
+    assert new >= old + 20, (new, old)
+    assert all(s["overlaps_over_1cm"] == 0 for _, s in out_of_uo_070["default"])
 
 
-def test_a_shorter_obstacle_horizon_opens_the_bottleneck() -> None:
+def test_a_shorter_obstacle_horizon_opens_the_bottleneck(out_of_uo_070: dict[str, list[tuple[int, dict]]]) -> None:
     """Coupled agents outside a door's etiquette see obstacles ``time_horizon_obst_coupled``
     (0.5 s) ahead: with 1 s people slow at the edges of an opening a second before they reach
-    them. Out of uo_070's corridor after 60 s, seeds 1-3 together: 205 against 182 with 1 s (per
-    seed 68 / 74 / 63 against 64 / 57 / 61); nobody overlaps a wall or another body."""
+    them. Out of uo_070's corridor after 60 s, seeds 1-3 together: 205 against 182 with 1 s until
+    stop 36's headway change, which freed part of the same jam; now 199 against 189, and over
+    seeds 1-4 263 against 250 (67 / 66 / 66 / 64 against 70 / 63 / 56 / 61: seed 1 the other way).
+    Nobody overlaps a wall or another body."""
     assert SteeringParams().time_horizon_obst_coupled == 0.5 and SteeringParams().time_horizon_obst == 1.0
-    short = long = 0
-    for seed in (1, 2, 3):
-        n, s = _out_by(SteeringParams(), 60.0, seed=seed)
-        short += n
-        assert s["overlaps_over_1cm"] == 0 and s["wall_overlap_max_m"] < 0.01, s
-        long += _out_by(dataclasses.replace(SteeringParams(), time_horizon_obst_coupled=1.0), 60.0, seed=seed)[0]
-    assert short >= long + 15, (short, long)
+    short = sum(n for n, _ in out_of_uo_070["default"])
+    long = sum(n for n, _ in out_of_uo_070["horizon_1s"])
+    assert all(s["overlaps_over_1cm"] == 0 and s["wall_overlap_max_m"] < 0.01 for _, s in out_of_uo_070["default"])
+    assert short >= long + 8, (short, long)
 
 
 def test_no_slack_for_those_in_a_door_s_etiquette() -> None:
