@@ -143,7 +143,8 @@ def _med_worst(xs: list[float], worst: str) -> dict[str, float]:
             "worst": round(float(arr.max() if worst == "max" else arr.min()), 3)}
 
 
-def rush(seeds: list[int], seconds: float = 90.0, name: str = "door_rush") -> dict[str, Any]:
+def rush(seeds: list[int], seconds: float = 90.0, name: str = "door_rush",
+         observation: str = "rush") -> dict[str, Any]:
     """door_rush (or validation/door_single_flow): 40 people through one single door (module
     docstring)."""
     scene = _scene(name)
@@ -164,7 +165,7 @@ def rush(seeds: list[int], seconds: float = 90.0, name: str = "door_rush") -> di
         p95.append(float(np.percentile(waits, 95)) if waits else 0.0)
         dead.append(int(summ["door_deadlocks"]))
         over.append(int(summ["overlaps_over_1cm"]))
-    return {"observation": "rush", "scene": name, "agents": n, "seconds": seconds, "seeds": len(seeds),
+    return {"observation": observation, "scene": name, "agents": n, "seconds": seconds, "seeds": len(seeds),
             "through": _med_worst(through, "min"), "last_pass_s": _med_worst(last, "max"),
             "last_pass_s_mean": round(float(np.mean(last)), 2),
             "pass35_s_mean": round(float(np.mean(t35)), 2),
@@ -323,7 +324,7 @@ def main() -> int:
             "hurried": lambda: hurried(seeds), "double": lambda: double(seeds),
             "revolving": lambda: revolving(seeds), "deadlock6": lambda: deadlock(seeds, 6, 6),
             "deadlock12": lambda: deadlock(seeds, 12, 14), "rush": lambda: rush(seeds),
-            "single_flow": lambda: rush(seeds, name="validation/door_single_flow"),
+            "single_flow": lambda: rush(seeds, name="validation/door_single_flow", observation="single_flow"),
             "double_queue": lambda: double_queue(seeds), "pram": lambda: pram(seeds)}
     for name, job in jobs.items():
         if a.only and name not in a.only:

@@ -55,12 +55,17 @@ class Inflow:
 
     sources: tuple[Source, ...]
     sinks: tuple[Sink, ...]
+    state_names: tuple[str, ...] = ()  # the BFSM's state names (a sink with ``states`` needs them)
     state: list[SourceState] = field(default_factory=list)
     removed: int = 0  # agents removed at sinks
     max_wait: float = 0.0  # s: the longest an owed agent waited for a free spot
+    _sink_states: list[np.ndarray | None] = field(default_factory=list)  # BFSM state ids, per sink
 
     def __post_init__(self) -> None:
         self.state = [SourceState(next_due=s.start) for s in self.sources]
+        self._sink_states = [None if not sink.states else
+                             np.asarray([self.state_names.index(name) for name in sink.states], np.int64)
+                             for sink in self.sinks]
 
     def owed(self, k: int, t: float, rng: np.random.Generator) -> int:
         """How many agents source ``k`` owes at time ``t`` (those due now join the ones still
@@ -126,22 +131,20 @@ class Inflow:
             out.append(spot)
         return out
 
-    def sunk(self, crowd: CrowdState, state: np.ndarray | None = None,
-             state_names: tuple[str, ...] = ()) -> np.ndarray:
+    def sunk(self, crowd: CrowdState, state: np.ndarray | None = None) -> np.ndarray:
         """Rows ``(N,)`` of virtual agents inside some sink region (of a sink with ``states``, only
-        those whose BFSM state, ``state_names[state[row]]``, is one of them)."""
+        those whose BFSM state id, ``state[row]``, is one of them)."""
         out = np.zeros(len(crowd), np.bool_)
         x, y = crowd.pos[:, 0], crowd.pos[:, 1]
-        for sink in self.sinks:
+        for sink, ids in zip(self.sinks, self._sink_states, strict=True):
             kind, v = sink.region
             if kind == "box":
                 inside = (x >= v[0]) & (x <= v[2]) & (y >= v[1]) & (y <= v[3])
             else:
                 inside = np.hypot(x - v[0], y - v[1]) <= v[2]
-            if sink.states:
+            if ids is not None:
                 if state is None:
                     raise ValueError("a sink with states needs the agents' BFSM states")
-                ids = [k for k, name in enumerate(state_names) if name in sink.states]
                 inside &= np.isin(state, ids)
             out |= inside
         return out & ~crowd.is_user

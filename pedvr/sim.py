@@ -173,7 +173,7 @@ class Simulation:
         self.scheduler.ctx.gaze_events = self.metrics.gaze_events  # behaviors' gaze events (demonstrations)
         self.recording = Recording() if record else None
         # [[agents.sources]] / [[agents.sinks]]: agents due at t = 0 enter before the first frame
-        self.inflow = Inflow(scene.sources, scene.sinks)
+        self.inflow = Inflow(scene.sources, scene.sinks, state_names=self.bfsm.names)
         self._sources_and_sinks()
         self._face_unset()
         self.body.pose_at_rest(self.crowd, self.crowd.heading)
@@ -713,7 +713,7 @@ class Simulation:
         is free of every body and of the user (else they wait; :mod:`pedvr.inflow`)."""
         inflow = self.inflow
         if inflow.sinks:
-            sunk = inflow.sunk(self.crowd, self.behavior.state, self.bfsm.names)
+            sunk = inflow.sunk(self.crowd, self.behavior.state)
             if sunk.any():
                 inflow.removed += int(np.count_nonzero(sunk))
                 self._drop_rows(sunk)

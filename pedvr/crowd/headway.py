@@ -89,11 +89,11 @@ def headway_kernel(pos, pref_vel, radius, depth, facing, is_user, nbr_idx, nbr_c
                 gx = qx / vj
                 gy = qy / vj
                 back = -(dx * gx + dy * gy)  # how far i is ahead of j along j's way
-                lane = support(radius[j], depth[j], facing[j, 0], facing[j, 1], -gy, gx) + support(
-                    radius[i], depth[i], fx, fy, -gy, gx)
-                behind = back > along or (back == along and i < j)  # j is the one further behind
-                if back > 0.0 and abs(dx * gy - dy * gx) < lane and behind:
-                    continue  # j follows i: i walks on
+                if back > along or (back == along and i < j):  # j is the one further behind (back > 0)
+                    lane = support(radius[j], depth[j], facing[j, 0], facing[j, 1], -gy, gx) + support(
+                        radius[i], depth[i], fx, fy, -gy, gx)
+                    if abs(dx * gy - dy * gx) < lane:
+                        continue  # j follows i: i walks on
             d = math.sqrt(dx * dx + dy * dy)
             free = d - support(radius[i], depth[i], fx, fy, dx / d, dy / d) - support(
                 radius[j], depth[j], facing[j, 0], facing[j, 1], -dx / d, -dy / d)
