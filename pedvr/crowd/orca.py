@@ -291,9 +291,58 @@ def linear_program3(lines, n, num_hard, begin, radius, rx, ry, proj):
 # --------------------------------------------------------------------------- ORCA lines
 
 
+RIGID_DISCS = 5  # discs along a rigid footprint's long axis that its obstacle lines are made for
+_COVER_SAMPLES = 361  # outline samples (half an ellipse) a covering disc's radius is measured on
+
+
+@row_njit(fastmath=_FM)
+def cover_radius(a, b, x, lo, hi):
+    """The radius of the disc centred ``x`` along the long axis of an ellipse (semi-axes ``a``
+    along, ``b`` across) that holds the part of its outline between ``lo`` and ``hi`` along the
+    axis (the discs of :func:`pedvr.crowd.footprint.covering_discs`: each holds the outline
+    nearest it, the end ones on to the ellipse's ends; measured on 361 samples of the half
+    outline, plus 2 mm for the outline between samples)."""
+    best = 0.0
+    for k in range(_COVER_SAMPLES):
+        t = math.pi * k / (_COVER_SAMPLES - 1)
+        ox = a * math.cos(t)
+        oy = b * math.sin(t)
+        if lo <= ox <= hi:
+            d = math.sqrt((ox - x) * (ox - x) + oy * oy)
+            if d > best:
+                best = d
+    return best + 2e-3
+
+
+@row_njit(fastmath=_FM)
+def rigid_obstacle_lines(lines, px, py, vx, vy, a, b, fx, fy, inv_tho, obst_idx, n_obst, vertices, nxt, prv,
+                         direction, convex, n_static):
+    """Obstacle lines of a rigid footprint (a pushed pram's ellipse, ``a`` along its long axis,
+    ``b`` across, the across direction ``(fx, fy)``; centre ``(px, py)``), as those of
+    :data:`RIGID_DISCS` discs along its long axis that hold it (:func:`cover_radius`), each
+    disc's lines made as a disc's and judged covered only by its own. The ellipse does not turn
+    as it moves in a step, so its velocity obstacle is the union of the discs'. One disc as
+    wide as the ellipse's support toward each edge (:func:`obstacle_lines`) saw a doorway's jamb
+    beside the pram's front as ahead of it, and let it on only at its clearance over the obstacle
+    horizon: a pram 9 cm clear of both jambs crept through a double door's leaf until its
+    passage timed out (issue 26, "no carrier left behind"; tests/crowd/test_pram_doorway.py:
+    through a 1 m opening in 3.9 s, 1.7 s with the discs). Returns the line count."""
+    n = 0
+    ux = -fy  # the long axis (footprint.covering_discs)
+    uy = fx
+    half = a - b
+    gap = half / (RIGID_DISCS - 1)
+    for k in range(RIGID_DISCS):
+        x = -half + 2.0 * gap * k
+        rk = cover_radius(a, b, x, -a if k == 0 else x - gap, a if k == RIGID_DISCS - 1 else x + gap)
+        n = obstacle_lines(lines, n, px + x * ux, py + x * uy, vx, vy, rk, rk, fx, fy, False, inv_tho,
+                           obst_idx, n_obst, vertices, nxt, prv, direction, convex, n_static, n)
+    return n
+
+
 @row_njit(fastmath=_FM)
 def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, rigid, inv_tho, obst_idx, n_obst,
-                   vertices, nxt, prv, direction, convex, n_static):
+                   vertices, nxt, prv, direction, convex, n_static, covered_from=0):
     """Append obstacle ORCA lines (RVO2's first loop) and return the new count.
 
     ``obst_idx[:n_obst]`` are the edges (first-vertex indices) nearest first. The agent's
@@ -302,6 +351,8 @@ def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, rigid, 
     fy)``), so it changes continuously as the agent moves and turns. Edges from vertex
     ``n_static`` on (moving door leaves) see the disc, as the door controller does, unless the
     footprint is ``rigid`` (a pushed pram's, :mod:`pedvr.crowd.footprint`): that one they see as it is.
+    Lines before ``covered_from`` are not taken to cover an edge (another body's, as in
+    :func:`rigid_obstacle_lines`).
     """
     inf = np.inf
     for q in range(n_obst):
@@ -327,7 +378,7 @@ def obstacle_lines(lines, n, px, py, vx, vy, disc_radius, depth, fx, fy, rigid, 
         # Check if velocity obstacle of obstacle is already taken care of by
         # previously constructed obstacle ORCA lines.
         already_covered = False
-        for j in range(n):
+        for j in range(covered_from, n):
             ljx = lines[j, 0]
             ljy = lines[j, 1]
             djx = lines[j, 2]
@@ -899,8 +950,12 @@ def agent_lines(i, pos, vel, radius, depth, facing, rigid, is_user, heading, pre
     b = depth[i]
     fx = facing[i, 0]
     fy = facing[i, 1]
-    n = obstacle_lines(lines, 0, px, py, vx, vy, r, b, fx, fy, rigid[i], 1.0 / time_horizon_obst, obst_idx,
-                       n_obst, vertices, nxt, prv, direction, convex, n_static)
+    if rigid[i] and b < r:
+        n = rigid_obstacle_lines(lines, px, py, vx, vy, r, b, fx, fy, 1.0 / time_horizon_obst, obst_idx,
+                                 n_obst, vertices, nxt, prv, direction, convex, n_static)
+    else:
+        n = obstacle_lines(lines, 0, px, py, vx, vy, r, b, fx, fy, rigid[i], 1.0 / time_horizon_obst,
+                           obst_idx, n_obst, vertices, nxt, prv, direction, convex, n_static)
     num_obst = n
     num_vel_lim = 0
     if coupled:
@@ -953,7 +1008,7 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
                        time_horizon_obst, user_horizon, dt, coupled, lines, proj, intent, slack=0.0):
     """New velocity of agent ``i`` (RVO2's ``computeNewVelocity`` plus limits).
 
-    ``lines``/``proj`` are scratch of at least ``n_obst + K + MAX_MOTION_LINES``
+    ``lines``/``proj`` are scratch of at least ``RIGID_DISCS n_obst + K + MAX_MOTION_LINES``
     rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags. ``slack``: the dense
     case's slack toward the preferred velocity (:func:`toward_preferred`; 0: the paper's least
     violation, which the caller gives near the user or a door leaf: :func:`near_user_or_leaf`),
