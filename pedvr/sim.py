@@ -28,7 +28,7 @@ from pedvr.body.model import GestureSets
 from pedvr.body.simple import sync_kernel
 from pedvr.crowd.encounter import UserEncounters
 from pedvr.crowd.footprint import covering_discs, enclosing_ellipse, footprints, shoulder_twist
-from pedvr.crowd.state import N_LIMITS, CrowdState
+from pedvr.crowd.state import LIMIT_SIDEWAYS, N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
 from pedvr.errors import NavigationError, SceneError, UsageError
@@ -56,6 +56,12 @@ SLOWING_DIST = 0.8  # m: agents slow down linearly inside this distance of their
 LOOKAHEAD = 8  # waypoints checked for visibility ahead of the current one
 LOST_CHECK_S = 0.1  # s: how often each agent checks its waypoint is still in sight (10 Hz)
 STALL_GOAL_DIST = 0.5  # m: an agent this close to its goal (or with none) is not stalled, only waiting
+# A pushed pram wedged against a door leaf backs out (Simulation._prams_back_out):
+PRAM_BACK_AFTER = 2.0  # s stuck (crowd.deadlock's stuck_time) with the footprint against a leaf
+PRAM_BACK_NEAR = 0.05  # m: a footprint this close to a leaf is against it
+PRAM_BACK_S = 1.5  # s it backs up for
+PRAM_BACK_SPEED = 0.4  # m/s
+PRAM_SIDEWAYS = 0.1  # m/s: a pushed pram's sideways speed at most (it steers: body.simple.root_motion_kernel)
 
 
 def _limits_row(p: AgentProfile) -> list[float]:
@@ -132,6 +138,7 @@ class Simulation:
         self.cursor = np.zeros(0, np.int64)
         self.sequences: list[tuple[SequenceGoal, ...]] = []
         self.stuck_time = np.zeros(0)
+        self.backing = np.zeros(0)  # s a wedged pram still backs up for (_prams_back_out)
         # Each row's profile, as an index into list(scene.profiles) (-1: the user); for drawing.
         self.profile_index = np.zeros(0, np.int64)
         self._flat: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -279,6 +286,7 @@ class Simulation:
         self.cursor = np.concatenate([self.cursor, np.ones(n, np.int64)])
         self.sequences.extend(sequence for _ in range(n))
         self.stuck_time = np.concatenate([self.stuck_time, np.zeros(n)])
+        self.backing = np.concatenate([self.backing, np.zeros(n)])
         self.profile_index = np.concatenate([self.profile_index, np.full(n, profile, np.int64)])
         self._flat = None
         if state is not None:
@@ -488,6 +496,10 @@ class Simulation:
         body's limits; then shoulders turn where people squeeze past each other."""
         self.body.fill_limits(self.crowd, self.crowd.limits)
         crowd = self.crowd
+        rigid = crowd.length > 0.0
+        if rigid.any():  # a pram does not go sideways (it steers, body.simple.root_motion_kernel)
+            crowd.limits[rigid, LIMIT_SIDEWAYS] = np.minimum(crowd.limits[rigid, LIMIT_SIDEWAYS],
+                                                             PRAM_SIDEWAYS)
         # the footprints ORCA steers, made once for the headway and ORCA (nothing between the two
         # moves, turns or adds a body)
         fp = self.steering.footprints(crowd)
@@ -495,6 +507,8 @@ class Simulation:
         # an agent that waits in a queue is waiting, not stuck (its preferred speed is 0)
         pref = self.steering.headway(crowd, crowd.pref_vel, footprints=fp)
         pref = self.steering.unstick(crowd.vel, pref, crowd.is_user, self.stuck_time, self.dt)
+        if len(self.doors) and (crowd.length > 0.0).any():
+            pref = self._prams_back_out(pref)
         pref, short, to_user = self.encounters.steer(
             pos=crowd.pos, vel=crowd.vel, pref_vel=pref, radius=crowd.radius,
             responsibility=crowd.responsibility, is_user=crowd.is_user, dt=self.dt,
@@ -591,6 +605,36 @@ class Simulation:
         heading[rows] = c.heading[rows]
         return heading
 
+    def _prams_back_out(self, pref: np.ndarray) -> np.ndarray:
+        """A pushed pram wedged against a door leaf backs out: a rigid footprint that has been stuck
+        (``stuck_time``, :mod:`pedvr.crowd.deadlock`) for :data:`PRAM_BACK_AFTER` s while it wants
+        to move, with its footprint within :data:`PRAM_BACK_NEAR` of a leaf, is steered straight
+        back along its heading at :data:`PRAM_BACK_SPEED` for :data:`PRAM_BACK_S` s (about 0.6 m),
+        keeping its course (:meth:`_pram_keeps_its_course`); then it goes on as its path and the
+        etiquette say. Real pushers back a pram off what it is stuck against; nothing else frees
+        it: it cannot step sideways, it may not turn its front into the leaf
+        (:meth:`_no_turning_into_leaves`), and the leaf's spring holds the leaf on its front.
+        Issue 26, "no carrier left behind", traced at the double door (door_observations' pram,
+        seed 1): a pusher that had followed a holder into the pocket beside the open leaf, and one
+        whose leaf swung back onto its front when the holder let go, each stood still facing the
+        leaf until the passage timed out, over and over, for 90 s. Returns ``pref`` (a copy where a
+        row backs)."""
+        c = self.crowd
+        start = ((c.length > 0.0) & ~c.is_user & (self.backing <= 0.0) & (self.stuck_time >= PRAM_BACK_AFTER)
+                 & (np.hypot(*pref.T) > 0.0))
+        if start.any():
+            start &= self._leaf_depth(c.pos, c.heading, margin=PRAM_BACK_NEAR) > 0.0
+            self.backing[start] = PRAM_BACK_S
+            self.stuck_time[start] = 0.0
+        rows = np.flatnonzero(self.backing > 0.0)
+        if not rows.size:
+            return pref
+        pref = pref.copy()
+        h = c.heading[rows]
+        pref[rows] = -PRAM_BACK_SPEED * np.stack([np.cos(h), np.sin(h)], axis=1)
+        self.backing[rows] = np.maximum(self.backing[rows] - self.dt, 0.0)
+        return pref
+
     def _no_turning_into_leaves(self, root: np.ndarray, heading: np.ndarray) -> np.ndarray:
         """A pushed pram does not swing into a door leaf: a rigid footprint (0.8 m long) whose new
         heading would put it deeper into a leaf than its old one keeps its old heading this step.
@@ -610,10 +654,11 @@ class Simulation:
             heading[back] = c.heading[back]
         return heading
 
-    def _leaf_depth(self, root: np.ndarray, heading: np.ndarray) -> np.ndarray:
-        """How far each body's footprint at ``root`` facing ``heading`` lies inside a door leaf (m)."""
+    def _leaf_depth(self, root: np.ndarray, heading: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """How far each body's footprint at ``root`` facing ``heading``, grown by ``margin``, lies
+        inside a door leaf (m)."""
         discs, rad, owner = self._door_discs(root, heading)
-        pushed, _ = self.doors.push_out(discs, rad, ~self.crowd.is_user[owner])
+        pushed, _ = self.doors.push_out(discs, rad + margin, ~self.crowd.is_user[owner])
         depth = np.zeros(len(self.crowd))
         np.maximum.at(depth, owner, np.hypot(*(pushed - discs).T))
         return depth
@@ -754,6 +799,7 @@ class Simulation:
         self.cursor = self.cursor[keep]
         self.profile_index = self.profile_index[keep]
         self.stuck_time = self.stuck_time[keep]
+        self.backing = self.backing[keep]
         self._flat = None
         self._leaving = np.zeros(len(self.crowd), np.bool_)
 

@@ -54,18 +54,21 @@ class SimpleBody:
         root = np.empty((n, 2))
         heading = np.empty(n)
         root_motion_kernel(crowd.pos, np.ascontiguousarray(new_vel, np.float64), crowd.heading,
-                           crowd.pref_heading, crowd.pref_speed, crowd.limits, crowd.is_user, dt, coupled,
-                           root, heading)
+                           crowd.pref_heading, crowd.pref_speed, crowd.limits, crowd.is_user,
+                           crowd.length > 0.0, dt, coupled, root, heading)
         return root, heading
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def root_motion_kernel(pos, vel, heading, pref_heading, pref_speed, limits, is_user, dt, coupled, root_out,
-                       heading_out):  # type: ignore[no-untyped-def]
+def root_motion_kernel(pos, vel, heading, pref_heading, pref_speed, limits, is_user, steered, dt, coupled,
+                       root_out, heading_out):  # type: ignore[no-untyped-def]
     """:meth:`SimpleBody.animate` for every agent: the root follows the commanded velocity; the
     facing turns toward the motion (or, below ``MOVING`` or backing away, toward the preferred
     facing) no faster than :func:`turn_rate_limit` allows when coupled, snapping to it when not.
-    The user's root and facing are its input's."""
+    A ``steered`` row (a pushed pram, which cannot step sideways: its sideways speed is capped,
+    ``pedvr.sim.PRAM_SIDEWAYS``) turns toward its preferred facing while it moves, as a pusher
+    steers a pram: its motion follows its facing, so turning toward the motion would never turn
+    it. The user's root and facing are its input's."""
     for i in range(pos.shape[0]):
         if is_user[i]:
             root_out[i, 0], root_out[i, 1] = pos[i, 0], pos[i, 1]
@@ -77,7 +80,7 @@ def root_motion_kernel(pos, vel, heading, pref_heading, pref_speed, limits, is_u
         speed = math.sqrt(vx * vx + vy * vy)
         moving = speed > MOVING
         motion_dir = math.atan2(vy, vx)
-        target = motion_dir if moving else pref_heading[i]
+        target = motion_dir if moving and not (coupled and steered[i]) else pref_heading[i]
         # Backing away or side-stepping keeps the facing: a person steps back without turning around.
         if moving and math.cos(motion_dir - heading[i]) * speed < 0.0:
             target = pref_heading[i]
