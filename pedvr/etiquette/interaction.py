@@ -327,6 +327,8 @@ def _double_sides(et: EtiquetteCore, k: int, walkers: list[Walker], cands: list[
                                    wait_credit=et.cfg.wait_credit)
         if leader != NONE and index[leader].leaf >= 0:
             side = index[leader].leaf
+        if not w.is_user and _front_reach(crowd, et._row[w.id]) > 0.0:
+            side = dd.keep_leaf(w.side)  # a pram keeps to its lane (_line_up), whoever holds the other
         side = 0 if side < 0 else side
         c.leaf = side
         if w.role != PASSING and w.leaf != leaf_rows[side]:
@@ -334,7 +336,6 @@ def _double_sides(et: EtiquetteCore, k: int, walkers: list[Walker], cands: list[
                 load[leaf_rows.index(w.leaf)] -= 1
             load[side] += 1
         w.leaf = leaf_rows[side]
-    del crowd
 
 
 # -- Alg. 2: doorway behavior --------------------------------------------------------------------
@@ -407,6 +408,15 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
         leader.follower = f.id
         f.plan = None
         et.set_state(f, FOLLOWER_INIT)
+        return
+    spot = _line_up(et, w, crowd) if leader is not None or holder is not None else None
+    if spot is not None:
+        fr = et.frame(leaf, w.side)
+        facing = _toward(spot, fr.lane(0.0))
+        if float(np.hypot(*(p - spot))) > 0.2:
+            et.go_direct(w, spot, facing=facing, speed=float(crowd.pref_speed[r]))
+        else:
+            et.stand(w, facing)
         return
     if leader is not None and leader.role == FOLLOWER and leader.side == w.side:
         lh = by_id.get(leader.holder)
@@ -1072,16 +1082,62 @@ def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: 
         # On its way: the holder is free for its next follower (the blue routine of Fig. 7), who
         # closes up while this one walks through (pipelined, module docstring).
         h.follower = NONE
-    pts = _pf_points(fr, side_local, radius)
+    pts = _pf_points(fr, side_local, radius, reach=_front_reach(crowd, r), at=et.pos(crowd, w.id))
     via = _via(et, fr, h.leaf, et.pos(crowd, w.id), radius, pts[0])
     et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=fr.heading(0.0, -float(side_local)),
                 speed=float(crowd.pref_speed[r]))
 
 
-def _pf_points(fr: LeafFrame, side_local: int, radius: float) -> np.ndarray:
-    """PF's way through the held door: into the lane on its side, the doorway, out beyond it."""
-    return np.stack([fr.lane(side_local * (radius + 0.35)), fr.lane(0.0),
-                     fr.lane(-side_local * (radius + CLEAR + 0.35))])
+def _pf_points(fr: LeafFrame, side_local: int, radius: float, reach: float = 0.0,
+               at: np.ndarray | None = None) -> np.ndarray:
+    """PF's way through the held door: into the lane on its side, the doorway, out beyond it.
+
+    A body whose footprint reaches ``reach`` m beyond its disc ahead (a pushed pram,
+    :func:`_front_reach`) and that stands ``at`` farther out first lines up with the lane that
+    much farther out, so that its front meets the doorway straight along the lane (issue 26, "no
+    carrier left behind"): a pram that turned into the lane where a walker does had its front in
+    the doorway while its pusher was still converging on the lane, grazing the other leaf's
+    edge, or swinging into the pocket beside the held leaf (door_observations' pram at the
+    double door, seed 1)."""
+    pts = [fr.lane(side_local * (radius + 0.35)), fr.lane(0.0),
+           fr.lane(-side_local * (radius + CLEAR + 0.35))]
+    if reach > 0.0 and at is not None:
+        out = _line_up_out(fr, radius, reach)
+        if fr.local(at)[1] * side_local > out + 0.1:
+            pts.insert(0, fr.lane(side_local * out))
+    return np.stack(pts)
+
+
+def _line_up_out(fr: LeafFrame, radius: float, reach: float) -> float:
+    """How far out on the lane a body whose footprint reaches ``reach`` beyond its disc lines up:
+    its front (when on the lane) out of the leaf's swing."""
+    return max(radius + 0.35, fr.w + radius + 0.2) + reach
+
+
+def _line_up(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> np.ndarray | None:
+    """Where a pushed pram waits its turn at a double door: on its leaf's lane, :func:`_line_up_out`
+    out, so that it walks through straight along the lane (None: not a pram, or not a double
+    door). Issue 26, "no carrier left behind": a pusher that waited where it stopped, beside the
+    lane or in front of the other leaf, had to turn into the lane in front of the doorway, and
+    with its front a metre ahead of it, swung that front into the pocket beside the held leaf or
+    against the other leaf's edge (door_observations' pram at door_double, seed 1: never through
+    in 90 s)."""
+    r = et._row[w.id]
+    reach = _front_reach(crowd, r)
+    ds = et.dstate[w.door]
+    if reach <= 0.0 or et.doors[w.door].kind != "double" or w.leaf not in ds.leaves:
+        return None
+    fr = et.frame(w.leaf, w.side)
+    side_local = 1 if fr.side_of(et.pos(crowd, w.id)) > 0 else -1
+    return fr.lane(side_local * _line_up_out(fr, float(crowd.radius[r]), reach))
+
+
+def _front_reach(crowd: CrowdState, r: int) -> float:
+    """How far row ``r``'s rigid footprint (a pushed pram: ``ahead`` and the half ``length`` of
+    its ellipse, :mod:`pedvr.crowd.footprint`) reaches ahead beyond its disc (0: none)."""
+    if float(crowd.length[r]) <= 0.0:
+        return 0.0
+    return max(float(crowd.ahead[r]) + float(crowd.length[r]) - float(crowd.radius[r]), 0.0)
 
 
 def _take_over(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, *, arm: int, at: float) -> None:
@@ -1160,9 +1216,9 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
     if fr is not None and w.plan is not None and w.leaf in ds.leaves:
         # pushed into the pocket behind the open leaf on its way: out round the leaf's edge first
         side_local = 1 if w.side == (1 if float(fr.m @ ds.n) > 0 else -1) else -1
-        pts = _pf_points(fr, side_local, float(crowd.radius[r]))
+        pts = _pf_points(fr, side_local, float(crowd.radius[r]), reach=_front_reach(crowd, r), at=p)
         via = _via(et, fr, w.leaf, p, float(crowd.radius[r]), pts[0])
-        if via.shape[0] > 1 and w.gait_legs != via.shape[0] + 2:
+        if via.shape[0] > 1 and w.gait_legs != via.shape[0] - 1 + pts.shape[0]:
             et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=w.face, speed=w.speed)
     if rel < -(float(crowd.radius[r]) + CLEAR) or (w.plan is not None and et.arrived(w, crowd, 0.3)):
         if h is not None and h.follower == w.id:

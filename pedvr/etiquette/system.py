@@ -56,8 +56,7 @@ from pedvr.etiquette.vocab import (
     NONE,
     PASS_CONFIRM,
     PASSING,
-    PURSUIT_ANGLE,
-    PURSUIT_LENGTH,
+    PURSUIT_LOOK,
     RIDER,
     RUSH_SPEEDUP,
     SENSE_USER,
@@ -249,21 +248,13 @@ class DoorEtiquette(EtiquetteCore):
             while k < last and float(np.hypot(*(w.plan[k] - p))) < 0.5 \
                     and float((p - w.plan[k]) @ (w.plan[k + 1] - w.plan[k])) >= 0.0:
                 k += 1
-            # A rigid footprint (a pram) cannot step sideways: a key close beside its pusher (within
-            # PURSUIT_LENGTH of the footprint's length, more than PURSUIT_ANGLE off its heading) is
-            # passed over for the next, not steered at (that turned the pram across the doorway,
-            # where it stalled against a leaf's edge).
+            # A rigid footprint (a pram) cannot step sideways: it pursues the point PURSUIT_LOOK
+            # ahead along its keys (pure pursuit), not the keys one by one.
+            target = None
             if crowd.length[r] > 0.0:
-                reach = PURSUIT_LENGTH * float(crowd.length[r])
-                h = float(crowd.heading[r])
-                while k < last:
-                    d = w.plan[k] - p
-                    off = abs((math.atan2(d[1], d[0]) - h + math.pi) % (2 * math.pi) - math.pi)
-                    if float(np.hypot(*d)) >= reach or off <= PURSUIT_ANGLE:
-                        break
-                    k += 1
+                k, target = pursuit_point(w.plan, w.plan_i, p, PURSUIT_LOOK)
             w.plan_i = k
-            d = w.plan[k] - p
+            d = (w.plan[k] if target is None else target) - p
             dist = float(np.hypot(*d))
             speed = min(w.speed * (scale if w.role in (APPROACH, FOLLOWER, ENTRANT, PASSING) else 1.0),
                         float(crowd.max_speed[r]))
@@ -638,3 +629,38 @@ def _point_segment(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     ab = b - a
     t = min(max(float((x - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0), 1.0)
     return float(np.hypot(*(x - (a + t * ab))))
+
+
+def pursuit_point(plan: np.ndarray, start: int, p: np.ndarray, look: float) -> tuple[int, np.ndarray]:
+    """Pure pursuit along the keys ``plan[start:]`` (a polyline) for a body at ``p`` that cannot
+    step sideways (a pram's pusher): the point ``look`` m on along the polyline from the point
+    of it nearest ``p``, and the index of the key that starts its segment (the last key's index
+    where the point is the last key). A pram steered at its keys one by one turned across the
+    doorway at a key beside it, or reached the lane a few centimetres off its middle with its
+    front already in the doorway, against the other leaf's edge (issue 26, "no carrier left
+    behind"; before, keys close beside the pusher and far off its heading were passed over,
+    which did not help where they were not beside it). Pursuing a point ahead turns it onto the
+    line of its keys gradually, and it reaches the line a look-ahead before the doorway."""
+    last = plan.shape[0] - 1
+    if start >= last:
+        return last, plan[last]
+    best_j, best_q, best_d = start, plan[start], math.inf
+    for j in range(start, last):
+        a, b = plan[j], plan[j + 1]
+        ab = b - a
+        l2 = float(ab @ ab)
+        t = 0.0 if l2 < 1e-12 else min(max(float((p - a) @ ab) / l2, 0.0), 1.0)
+        q = a + t * ab
+        dq = float(np.hypot(*(q - p)))
+        if dq < best_d:
+            best_j, best_q, best_d = j, q, dq
+    rem = look
+    q, j = best_q, best_j
+    while j < last:
+        e = plan[j + 1]
+        left = float(np.hypot(*(e - q)))
+        if left >= rem:
+            return j, q + (e - q) * (rem / left)
+        rem -= left
+        q, j = e, j + 1
+    return last, plan[last]

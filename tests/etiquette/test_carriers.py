@@ -47,8 +47,10 @@ def test_a_pram_at_a_double_door_gets_through() -> None:
     """Seeds 0-9: at least 8 prams through in 90 s, none overlapping anyone. Issue 26's crowd model
     passed 7 before a pusher steered past keys beside it and kept its course against a shove
     (``Simulation._pram_keeps_its_course``); main before that model passed 8 (not the same 8).
-    Not every pram gets through yet: over seeds 0-19, 16 of 20 (bench/door_observations.py
-    ``--only pram`` measures it)."""
+    Not every pram gets through yet: over seeds 0-19, 19 of 20 on stop 37's code (seed 9: a pusher
+    alone at the pull side frees a hand and opens a leaf itself, and its pram stands in the leaf's
+    swing; main before stop 37 also 19, seed 1 left), 16 on an earlier machine and code
+    (bench/door_observations.py ``--only pram`` measures it)."""
     results = {seed: _through_at(seed) for seed in range(10)}
     stuck = [s for s, (t, _) in results.items() if t is None]
     assert len(stuck) <= 2, f"prams still on their side after 90 s in seeds {stuck}"
