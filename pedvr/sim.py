@@ -28,7 +28,7 @@ from pedvr.body.model import GestureSets
 from pedvr.body.simple import sync_kernel
 from pedvr.crowd.encounter import UserEncounters
 from pedvr.crowd.footprint import covering_discs, enclosing_ellipse, footprints, shoulder_twist
-from pedvr.crowd.state import LIMIT_SIDEWAYS, N_LIMITS, CrowdState
+from pedvr.crowd.state import N_LIMITS, CrowdState
 from pedvr.crowd.steering import Steering
 from pedvr.crowd.user import ReactiveUser, ScriptedUser, StandingUser, UserAgent, UserInput
 from pedvr.errors import NavigationError, SceneError, UsageError
@@ -65,9 +65,14 @@ PRAM_SIDEWAYS = 0.1  # m/s: a pushed pram's sideways speed at most (it steers: b
 
 
 def _limits_row(p: AgentProfile) -> list[float]:
+    """A profile's motion limits as a crowd row; a pram's pusher goes sideways at most
+    :data:`PRAM_SIDEWAYS` (it steers: body.simple.root_motion_kernel)."""
     m = p.limits
+    sideways = m.max_sideways_speed
+    if p.carrying == "perambulator":
+        sideways = min(sideways, PRAM_SIDEWAYS)
     return [m.max_accel, m.max_decel, m.turn_rate_standing, m.turn_rate_walking,
-            m.max_backward_speed, m.max_sideways_speed]
+            m.max_backward_speed, sideways]
 
 
 class Simulation:
@@ -496,10 +501,6 @@ class Simulation:
         body's limits; then shoulders turn where people squeeze past each other."""
         self.body.fill_limits(self.crowd, self.crowd.limits)
         crowd = self.crowd
-        rigid = crowd.length > 0.0
-        if rigid.any():  # a pram does not go sideways (it steers, body.simple.root_motion_kernel)
-            crowd.limits[rigid, LIMIT_SIDEWAYS] = np.minimum(crowd.limits[rigid, LIMIT_SIDEWAYS],
-                                                             PRAM_SIDEWAYS)
         # the footprints ORCA steers, made once for the headway and ORCA (nothing between the two
         # moves, turns or adds a body)
         fp = self.steering.footprints(crowd)
