@@ -1,7 +1,8 @@
 """Crowd rendering benchmark: pose upload, draw submission and frame time, stereo, offscreen (EGL).
 
-Usage: ``python bench/render.py [--agents 100 500] [--width 1280] [--height 720] [--frames 30]``
-(the same figures as ``pedvr bench render --agents N --json``).
+Usage: ``python bench/render.py [--agents 100 500] [--width 1280] [--height 720] [--frames 30] [--fovy 70]``
+(the same figures as ``pedvr bench render --agents N --json``; a headset: ``--fovy 100`` at its pixels
+per eye).
 """
 
 from __future__ import annotations
@@ -18,10 +19,12 @@ def main() -> None:
     ap.add_argument("--width", type=int, default=1280, help="pixels per eye")
     ap.add_argument("--height", type=int, default=720)
     ap.add_argument("--frames", type=int, default=30)
+    ap.add_argument("--fovy", type=float, default=70.0, help="vertical field of view, degrees")
     args = ap.parse_args()
     for n in args.agents:
         print(
-            json.dumps(run_render_bench(n, width=args.width, height=args.height, frames=args.frames)),
+            json.dumps(run_render_bench(n, width=args.width, height=args.height, frames=args.frames,
+                                        fovy=args.fovy)),
             flush=True,
         )
 

@@ -34,3 +34,14 @@ def count(text: str) -> int:
     if v < 0:
         raise argparse.ArgumentTypeError(f"{text!r} must be an integer >= 0")
     return v
+
+
+def field_of_view(text: str) -> float:
+    """A field of view in degrees, strictly between 0 and 180."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 < v < 180.0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be between 0 and 180 degrees")
+    return v

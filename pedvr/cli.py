@@ -32,6 +32,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from pedvr.argtypes import count as _non_negative
+from pedvr.argtypes import field_of_view
 from pedvr.argtypes import positive as _positive
 from pedvr.errors import PedvrError, UsageError
 from pedvr.scene.config import CONDITIONS, USER_WALKS
@@ -208,6 +209,11 @@ def build_parser() -> argparse.ArgumentParser:
     rb.add_argument("--width", type=_positive(int), default=1280)
     rb.add_argument("--height", type=_positive(int), default=720)
     rb.add_argument("--frames", type=_positive(int), default=30)
+    rb.add_argument("--warmup", type=_non_negative, default=3,
+                    help="untimed frames first (default: %(default)s)")
+    rb.add_argument("--fovy", type=field_of_view, default=70.0,
+                    help="vertical field of view in degrees (default: %(default)s, the desktop's; "
+                         "a headset's is about 90-110)")
     rb.add_argument("--json", action="store_true")
 
     from pedvr.study.cli import add_study_parser
@@ -448,7 +454,8 @@ def _bench(args: argparse.Namespace) -> int:
     if args.bench_command == "render":
         from pedvr.render.bench import run_render_bench
 
-        _print_results([run_render_bench(n, width=args.width, height=args.height, frames=args.frames)
+        _print_results([run_render_bench(n, width=args.width, height=args.height, frames=args.frames,
+                                         warmup=args.warmup, fovy=args.fovy)
                         for n in args.agents or [100, 500]], args.json)
         return 0
     if args.bench_command == "behavior":

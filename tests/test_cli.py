@@ -99,6 +99,9 @@ def test_auto_backend_falls_back_to_headless_and_says_why(tmp_path: Path, monkey
     # the sub-commands' numbers are parsed as pedvr run's are (pedvr.argtypes): inf is refused too
     (["bench", "sweep", "--duration", "inf"], 2, r"argument --duration: 'inf' must be a finite number > 0"),
     (["bench", "sweep", "--workers", "-1"], 2, r"argument --workers: '-1' must be an integer >= 0"),
+    (["bench", "render", "--fovy", "180"], 2, r"argument --fovy: '180' must be between 0 and 180 degrees"),
+    (["bench", "render", "--fovy", "wide"], 2, r"argument --fovy: 'wide' is not a number"),
+    (["bench", "render", "--warmup", "-1"], 2, r"argument --warmup: '-1' must be an integer >= 0"),
     (["measure", "--cutoff", "inf"], 2, r"argument --cutoff: 'inf' must be a finite number > 0"),
     (["study", "run", "p.toml", "--participant", "P1", "--pace", "nan"], 2,
      r"argument --pace: 'nan' must be a finite number > 0"),
