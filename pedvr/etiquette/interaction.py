@@ -73,6 +73,7 @@ from pedvr.etiquette.regions import (
     BOP_PULL_POLAR,
     HOLD_ANGLE,
     LANE_AT,
+    OUTER_MARGIN,
     PULL_HAND_AT,
     PUSH_HAND_AT,
     LeafFrame,
@@ -679,17 +680,53 @@ def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: flo
          target: np.ndarray) -> np.ndarray:
     """``(K, 2)`` waypoints from ``p`` to ``target``: straight, unless ``p`` is in the pocket
     between an open leaf and the wall (the pull side, behind the leaf, inside its swing) and the
-    target is not; then out to the swing's edge and round the leaf's free edge first."""
-    a = et.leaf_open(leaf, fr)
-    lx, ly = fr.local(p)
-    rho = fr.outer(radius)
-    behind = ly > 0.0 and math.hypot(lx, ly) < rho and math.atan2(ly, lx) > a + math.radians(3.0)
-    tx, ty = fr.local(target)
-    target_behind = ty > 0.0 and math.hypot(tx, ty) < rho and math.atan2(ty, tx) > a
-    if a < math.radians(20.0) or not behind or target_behind:
-        return np.asarray(target, np.float64).reshape(1, 2)
-    return np.concatenate([round_edge(fr, p, a, radius, a - math.radians(20.0)),
-                           np.asarray(target, np.float64).reshape(1, 2)])
+    target is not; then out to the swing's edge and round the leaf's free edge first.
+
+    The leaf is ``leaf`` (in ``fr``) or, at a double door, the other leaf (issue 26): one who
+    came up beside the wall behind a leaf someone holds open is in that leaf's pocket on its
+    way to the other leaf's opening place, and went straight for it into the held leaf
+    (door_double with the pram, seed 9: an opener stood behind the open leaf for the state's
+    10 s, twice, and the queue behind it with it)."""
+    end = np.asarray(target, np.float64).reshape(1, 2)
+    ds = et.dstate[int(et.leaves.door[leaf])]
+    pull_side = 1 if float(fr.m @ ds.n) > 0 else -1
+    for k in [leaf, *(o for o in ds.leaves if o != leaf)]:
+        f = fr if k == leaf else et.frame(k, pull_side)
+        a = et.leaf_open(k, f)
+        if a < math.radians(20.0):
+            continue
+        lx, ly = f.local(p)
+        rho = f.outer(radius)
+        tx, ty = f.local(target)
+        target_behind = ty > 0.0 and math.hypot(tx, ty) < rho and math.atan2(ty, tx) > a
+        if ly <= 0.0 or math.atan2(ly, lx) <= a + math.radians(3.0) or target_behind:
+            continue
+        # In the pocket; for the other leaf also beside it, wherever the way on runs into the leaf.
+        tip = (f.w * math.cos(a), f.w * math.sin(a))
+        if math.hypot(lx, ly) < rho or (k != leaf and _segments_apart((lx, ly), (tx, ty), (0.0, 0.0), tip)
+                                        < radius + OUTER_MARGIN):
+            return np.concatenate([round_edge(f, p, a, radius, a - math.radians(20.0)), end])
+    return end
+
+
+def _segments_apart(p0: tuple[float, float], p1: tuple[float, float], q0: tuple[float, float],
+                    q1: tuple[float, float]) -> float:
+    """The least distance between the segments ``p0``–``p1`` and ``q0``–``q1`` (0 where they cross)."""
+    def cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    d1, d2 = cross(q0, q1, p0), cross(q0, q1, p1)
+    d3, d4 = cross(p0, p1, q0), cross(p0, p1, q1)
+    if d1 * d2 < 0.0 and d3 * d4 < 0.0:
+        return 0.0
+
+    def to_seg(x: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+        ab = (b[0] - a[0], b[1] - a[1])
+        L2 = ab[0] * ab[0] + ab[1] * ab[1]
+        t = 0.0 if L2 == 0.0 else max(0.0, min(1.0, ((x[0] - a[0]) * ab[0] + (x[1] - a[1]) * ab[1]) / L2))
+        return math.hypot(x[0] - a[0] - t * ab[0], x[1] - a[1] - t * ab[1])
+
+    return min(to_seg(p0, q0, q1), to_seg(p1, q0, q1), to_seg(q0, p0, p1), to_seg(q1, p0, p1))
 
 
 def round_edge(fr: LeafFrame, p: np.ndarray, a: float, radius: float, to: float) -> np.ndarray:
