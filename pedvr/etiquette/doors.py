@@ -33,7 +33,9 @@ Choices where App. A gives functions, not constants:
   line, laterally inside the leaf, and moving toward that line faster than
   :data:`APPROACH_SPEED` from a side it may be pushed from, opens it at
   :data:`OPEN_SPEED` toward :data:`PASSAGE_ANGLE` and holds it there while such
-  a walker, or one in the doorway, remains.
+  a walker, or one in the doorway, remains. From a one-way leaf's pull side such
+  a walker keeps an open leaf held (it walks into the open doorway), but not one
+  closed within :data:`PULL_CATCH_ANGLE`: that takes a hand, as a closed one does.
 - **Bodies are the p_stop of f_bounce.** A leaf never sweeps through a
   walker's disc: a moving leaf stops :data:`SWEEP_CLEARANCE` short of one, and
   a disc that gets into a leaf pushes it out of the way where the hinge lets
@@ -72,6 +74,11 @@ OPEN_SPEED = 2.5  # rad/s: about 90 degrees in 0.6 s
 HAND_SPEED = 4.0  # rad/s: the fastest a hand swings a leaf it holds
 CLOSE_TIME = 0.8  # s, the closer's time constant
 CLOSED_EPS = math.radians(1.0)  # below this a closing leaf latches shut
+# A one-way leaf closed nearer than this is shut for one on its pull side without a hand on it: its
+# edge stands too near the frame to walk into, so walking at it does not hold it (issue 26: a pram
+# on the pull side, 1.4 m out, held a leaf 1.8° from latching, which swung open toward it, round the
+# pram's front, and swept the pram into the pocket behind it; test_carriers' seed 17).
+PULL_CATCH_ANGLE = math.radians(10.0)
 REACH = 0.8  # m from the doorway line (plus the walker's radius) at which a hand reaches the leaf
 APPROACH_SPEED = 0.1  # m/s toward the doorway line: slower walkers are not opening the door
 USER_SWEEP_MAX = 0.009  # m a step: the user turns a panel tip no faster with others at the drum
@@ -398,8 +405,8 @@ def _step_leaves(hinge, base, length, angle, side, phase, target, swing, panel, 
                 r = radius[j]
                 if along < -r or along > w + r:
                     continue
-                if sw != 0 and across * sw > 0 and abs(a) < CLOSED_EPS:
-                    continue  # on the pull side of a closed one-way leaf: it takes a hand
+                if sw != 0 and across * sw > 0 and abs(a) < PULL_CATCH_ANGLE:
+                    continue  # on the pull side of a (nearly) closed one-way leaf: it takes a hand
                 in_doorway = abs(across) < r
                 closing_in = -(-vel[j, 0] * s + vel[j, 1] * c) * math.copysign(1.0, across)
                 if in_doorway or (abs(across) < REACH + r and closing_in > APPROACH_SPEED):

@@ -49,7 +49,8 @@ def test_a_pram_at_a_double_door_gets_through() -> None:
     (``Simulation._pram_keeps_its_course``); main before that model passed 8 (not the same 8).
     Not every pram gets through yet: over seeds 0-19, 19 of 20 on stop 37's code (seed 9: a pusher
     alone at the pull side frees a hand and opens a leaf itself, and its pram stands in the leaf's
-    swing; main before stop 37 also 19, seed 1 left), 16 on an earlier machine and code
+    swing; main before stop 37 also 19, seed 1 left), 16 on an earlier machine and code; 19 of 20
+    since issue 26's change 15 (seed 9 through; seed 17 left, the same way as seed 9 was)
     (bench/door_observations.py ``--only pram`` measures it)."""
     results = {seed: _through_at(seed) for seed in range(10)}
     stuck = [s for s, (t, _) in results.items() if t is None]

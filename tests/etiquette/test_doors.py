@@ -11,6 +11,7 @@ import pytest
 from pedvr.etiquette.doors import (
     BOUNCE_ANGLE,
     CLOSED,
+    CLOSING,
     HAND_SPEED,
     HELD,
     MAX_ANGLE,
@@ -198,6 +199,33 @@ def test_nobody_walks_through_a_closed_one_way_leaf_from_its_pull_side() -> None
         pos, _ = leaves.push_out(pos, rad, np.array([True]))
     assert leaves.angle[0] == 0.0  # never opened: it takes a hand from this side
     assert pos[0, 1] >= R - 1e-9  # and the walker is still on its side of the closed leaf
+
+
+@pytest.mark.parametrize("ajar_deg, held", [(5.0, False), (9.0, False), (40.0, True)])
+def test_walking_at_a_one_way_leaf_from_its_pull_side_holds_it_only_when_open(ajar_deg: float,
+                                                                            held: bool) -> None:
+    """Issue 26: a leaf closing within PULL_CATCH_ANGLE is shut for one on its pull side without a
+    hand (a pram walking at a leaf 1.8° from latching swung it open toward itself, round its front);
+    one still open is held for whoever walks into the doorway from that side, as before."""
+    leaves = _leaves(swing="one_way", pull=1)
+    leaves.angle[0] = math.radians(ajar_deg)
+    leaves.side[0] = 1
+    leaves.phase[0] = CLOSING
+    pos = np.array([[0.68, 1.6]])  # at the latch end, beyond the leaf's swing (hinge at x = -0.5)
+    v = np.array([[0.0, -1.0]])
+    rad = np.array([R])
+    widest = leaves.angle[0]
+    for _ in range(round(3.0 / DT)):
+        if pos[0, 1] <= 0.5:  # it stops 0.5 m out, within a hand's reach of the doorway line
+            v[:] = 0.0
+        pos = pos + v * DT
+        leaves.step(DT, pos, v, rad)
+        widest = max(widest, leaves.angle[0])
+    if held:
+        assert widest >= math.radians(70.0)  # held open toward the passage angle
+    else:
+        assert widest <= math.radians(ajar_deg) + 1e-12  # never opened further
+        assert leaves.angle[0] == 0.0  # and it latched
 
 
 def test_mirrored_double_door_leaves_open_the_same_way() -> None:
