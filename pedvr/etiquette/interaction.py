@@ -711,7 +711,10 @@ def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: flo
 
 def _segments_apart(p0: tuple[float, float], p1: tuple[float, float], q0: tuple[float, float],
                     q1: tuple[float, float]) -> float:
-    """The least distance between the segments ``p0``–``p1`` and ``q0``–``q1`` (0 where they cross)."""
+    """The least distance between the segments ``p0``–``p1`` and ``q0``–``q1`` (0 where they cross).
+    Plain arithmetic rather than shapely: it runs per walker and tick at a double door, and two
+    geometries built per call would cost more than the test itself."""
+
     def cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
         return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
