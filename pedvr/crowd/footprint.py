@@ -425,31 +425,57 @@ def enclosing_ellipse(radius: float, hull: np.ndarray) -> tuple[float, float]:
     return float(centres[best]), float(max(need[best], radius))
 
 
-COVER_DISCS = 5  # discs along a rigid footprint's axis that hold it, for the door controller
+COVER_DISCS = 5  # discs along a rigid footprint's long axis that hold it (door controller and ORCA)
+_COVER_SAMPLES = 361  # outline samples (half an ellipse) a covering disc's radius is measured on
+# The ORCA kernels' flags (pedvr.crowd.orca), so that their lines and the door controller's discs agree.
+_COVER_FM = {"nsz", "arcp", "contract", "afn"}
+
+
+@row_njit(fastmath=_COVER_FM)
+def cover_radius(a: float, b: float, x: float, lo: float, hi: float) -> float:
+    """The radius of the disc centred ``x`` along the long axis of an ellipse (semi-axes ``a``
+    along, ``b`` across) that holds the part of its outline between ``lo`` and ``hi`` along the
+    axis, measured on 361 samples of the half outline, plus 2 mm for the outline between samples."""
+    best = 0.0
+    for k in range(_COVER_SAMPLES):
+        t = math.pi * k / (_COVER_SAMPLES - 1)
+        ox = a * math.cos(t)
+        oy = b * math.sin(t)
+        if lo <= ox <= hi:
+            d = math.sqrt((ox - x) * (ox - x) + oy * oy)
+            if d > best:
+                best = d
+    return best + 2e-3
+
+
+@row_njit(fastmath=_COVER_FM)
+def cover_disc(a: float, b: float, k: int) -> tuple[float, float]:
+    """Covering disc ``k`` of :data:`COVER_DISCS` of an ellipse (semi-axes ``a`` along, ``b``
+    across): its centre's offset along the long axis (evenly from one end's ``-(a - b)`` to the
+    other's) and its radius, as large as the farthest point of the outline nearest to it along
+    the axis (:func:`cover_radius`). The union holds the whole ellipse (every chord across the
+    axis lies in the triangle of its disc's centre and the chord's ends)."""
+    half = max(a - b, 0.0)
+    gap = half / (COVER_DISCS - 1)
+    x = -half + 2.0 * gap * k
+    lo = -a if k == 0 else x - gap
+    hi = a if k == COVER_DISCS - 1 else x + gap
+    return x, cover_radius(a, b, x, lo, hi)
 
 
 def covering_discs(fp: Footprints, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Discs whose union holds the rigid footprints of ``rows``, for the door controller, which
-    sees bodies as discs (:mod:`pedvr.etiquette.doors`): :data:`COVER_DISCS` centres evenly along
-    each ellipse's long axis, each as large as the farthest point of the ellipse's outline that
-    is nearest to it along the axis. The union holds the whole ellipse (every chord across the
-    axis lies in the triangle of its disc's centre and the chord's ends). Returns ``pos (R·K,
-    2)``, ``radius (R·K,)`` and each disc's row ``owner (R·K,)``."""
+    """Discs whose union holds the rigid footprints of ``rows`` (:func:`cover_disc`), for the door
+    controller, which sees bodies as discs (:mod:`pedvr.etiquette.doors`); ORCA makes a rigid
+    footprint's obstacle lines from the same discs (``orca.rigid_obstacle_lines``). Returns ``pos
+    (R·K, 2)``, ``radius (R·K,)`` and each disc's row ``owner (R·K,)``."""
     rows = np.asarray(rows, np.int64)
     k = COVER_DISCS
-    t = np.linspace(0.0, 2.0 * np.pi, 721)[:-1]
-    pos, rad, own = [], [], []
-    for i in rows.tolist():
+    pos = np.zeros((len(rows) * k, 2))
+    rad = np.zeros(len(rows) * k)
+    for n, i in enumerate(rows.tolist()):
         a, b = float(fp.radius[i]), float(fp.depth[i])
         u = np.array([-fp.facing[i, 1], fp.facing[i, 0]])  # the long axis (kernels' a)
-        x = np.linspace(-(a - b), a - b, k) if a > b else np.zeros(k)
-        bx, by = a * np.cos(t), b * np.sin(t)  # outline, axis frame
-        near = np.abs(bx[:, None] - x[None, :]).argmin(axis=1)
-        r = np.zeros(k)
-        np.maximum.at(r, near, np.hypot(bx - x[near], by))
-        pos.append(fp.centre[i] + x[:, None] * u)
-        rad.append(r + 2e-3)  # the outline between samples bulges by less than this
-        own.append(np.full(k, i))
-    if not pos:
-        return np.zeros((0, 2)), np.zeros(0), np.zeros(0, np.int64)
-    return np.concatenate(pos), np.concatenate(rad), np.concatenate(own)
+        for j in range(k):
+            x, rad[n * k + j] = cover_disc(a, b, j)
+            pos[n * k + j] = fp.centre[i] + x * u
+    return pos, rad, np.repeat(rows, k)

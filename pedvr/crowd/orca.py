@@ -102,7 +102,7 @@ import numpy as np
 from numba import prange
 
 from pedvr.crowd.coincident import COINCIDENT, apart
-from pedvr.crowd.footprint import support
+from pedvr.crowd.footprint import COVER_DISCS, cover_disc, support
 from pedvr.crowd.headway import FOLLOW
 from pedvr.crowd.neighbors import obstacle_neighbors_of
 from pedvr.crowd.state import (
@@ -291,35 +291,12 @@ def linear_program3(lines, n, num_hard, begin, radius, rx, ry, proj):
 # --------------------------------------------------------------------------- ORCA lines
 
 
-RIGID_DISCS = 5  # discs along a rigid footprint's long axis that its obstacle lines are made for
-_COVER_SAMPLES = 361  # outline samples (half an ellipse) a covering disc's radius is measured on
-
-
-@row_njit(fastmath=_FM)
-def cover_radius(a, b, x, lo, hi):
-    """The radius of the disc centred ``x`` along the long axis of an ellipse (semi-axes ``a``
-    along, ``b`` across) that holds the part of its outline between ``lo`` and ``hi`` along the
-    axis (the discs of :func:`pedvr.crowd.footprint.covering_discs`: each holds the outline
-    nearest it, the end ones on to the ellipse's ends; measured on 361 samples of the half
-    outline, plus 2 mm for the outline between samples)."""
-    best = 0.0
-    for k in range(_COVER_SAMPLES):
-        t = math.pi * k / (_COVER_SAMPLES - 1)
-        ox = a * math.cos(t)
-        oy = b * math.sin(t)
-        if lo <= ox <= hi:
-            d = math.sqrt((ox - x) * (ox - x) + oy * oy)
-            if d > best:
-                best = d
-    return best + 2e-3
-
-
 @row_njit(fastmath=_FM)
 def rigid_obstacle_lines(lines, px, py, vx, vy, a, b, fx, fy, inv_tho, obst_idx, n_obst, vertices, nxt, prv,
                          direction, convex, n_static):
     """Obstacle lines of a rigid footprint (a pushed pram's ellipse, ``a`` along its long axis,
-    ``b`` across, the across direction ``(fx, fy)``; centre ``(px, py)``), as those of
-    :data:`RIGID_DISCS` discs along its long axis that hold it (:func:`cover_radius`), each
+    ``b`` across, the across direction ``(fx, fy)``; centre ``(px, py)``), as those of the
+    discs that hold it (:func:`pedvr.crowd.footprint.cover_disc`, the door controller's), each
     disc's lines made as a disc's and judged covered only by its own. The ellipse does not turn
     as it moves in a step, so its velocity obstacle is the union of the discs'. One disc as
     wide as the ellipse's support toward each edge (:func:`obstacle_lines`) saw a doorway's jamb
@@ -330,11 +307,8 @@ def rigid_obstacle_lines(lines, px, py, vx, vy, a, b, fx, fy, inv_tho, obst_idx,
     n = 0
     ux = -fy  # the long axis (footprint.covering_discs)
     uy = fx
-    half = a - b
-    gap = half / (RIGID_DISCS - 1)
-    for k in range(RIGID_DISCS):
-        x = -half + 2.0 * gap * k
-        rk = cover_radius(a, b, x, -a if k == 0 else x - gap, a if k == RIGID_DISCS - 1 else x + gap)
+    for k in range(COVER_DISCS):
+        x, rk = cover_disc(a, b, k)
         n = obstacle_lines(lines, n, px + x * ux, py + x * uy, vx, vy, rk, rk, fx, fy, False, inv_tho,
                            obst_idx, n_obst, vertices, nxt, prv, direction, convex, n_static, n)
     return n
@@ -1008,7 +982,7 @@ def agent_new_velocity(i, pos, vel, pref_vel, radius, depth, facing, rigid, max_
                        time_horizon_obst, user_horizon, dt, coupled, lines, proj, intent, slack=0.0):
     """New velocity of agent ``i`` (RVO2's ``computeNewVelocity`` plus limits).
 
-    ``lines``/``proj`` are scratch of at least ``RIGID_DISCS n_obst + K + MAX_MOTION_LINES``
+    ``lines``/``proj`` are scratch of at least ``COVER_DISCS n_obst + K + MAX_MOTION_LINES``
     rows. Returns ``(vx, vy, status)`` with ``STATUS_*`` bit flags. ``slack``: the dense
     case's slack toward the preferred velocity (:func:`toward_preferred`; 0: the paper's least
     violation, which the caller gives near the user or a door leaf: :func:`near_user_or_leaf`),

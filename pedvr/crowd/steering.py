@@ -166,7 +166,7 @@ class Steering:
         if self._bounds.shape[0] != chunks + 1 or self._bounds[-1] != n:
             self._bounds = np.linspace(0, n, chunks + 1).astype(np.int64)
         if self._scratch_key != key:
-            cap = _orca.RIGID_DISCS * self._obst_cap + k + _orca.MAX_MOTION_LINES  # a pram: lines a disc
+            cap = _fp.COVER_DISCS * self._obst_cap + k + _orca.MAX_MOTION_LINES  # a pram: lines a disc
             self._lines = np.zeros((chunks, cap, 4))
             self._proj = np.zeros((chunks, cap, 4))
             self._oidx = np.zeros((chunks, self._obst_cap), np.int64)
@@ -339,7 +339,7 @@ class Steering:
         near = _orca.near_user_or_leaf(row, is_user, idx, cnt, np.ascontiguousarray(oidx[0]), int(ocnt[0]),
                                        self._n_static)
         tho = _orca.obstacle_horizon(near, float(p.time_horizon_obst), self.short_obst)
-        lines = np.zeros((_orca.RIGID_DISCS * int(ocnt[0]) + idx.shape[1] + _orca.MAX_MOTION_LINES, 4))
+        lines = np.zeros((_fp.COVER_DISCS * int(ocnt[0]) + idx.shape[1] + _orca.MAX_MOTION_LINES, 4))
         count, _, _, _ = _orca.agent_lines(
             row, pos, np.ascontiguousarray(state.vel), fp.radius, fp.depth, fp.facing, fp.rigid,
             np.ascontiguousarray(state.is_user),

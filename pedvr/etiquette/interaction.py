@@ -77,6 +77,7 @@ from pedvr.etiquette.regions import (
     PULL_HAND_AT,
     PUSH_HAND_AT,
     LeafFrame,
+    point_segment,
     waiting_radii,
 )
 from pedvr.etiquette.vocab import (
@@ -702,34 +703,22 @@ def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: flo
         if ly <= 0.0 or math.atan2(ly, lx) <= a + math.radians(3.0) or target_behind:
             continue
         # In the pocket; for the other leaf also beside it, wherever the way on runs into the leaf.
-        tip = (f.w * math.cos(a), f.w * math.sin(a))
-        if math.hypot(lx, ly) < rho or (k != leaf and _segments_apart((lx, ly), (tx, ty), (0.0, 0.0), tip)
-                                        < radius + OUTER_MARGIN):
+        tip = f.polar(f.w, a)
+        if math.hypot(lx, ly) < rho or (k != leaf and _segments_apart(np.asarray(p, np.float64), end[0],
+                                                                      f.hinge, tip) < radius + OUTER_MARGIN):
             return np.concatenate([round_edge(f, p, a, radius, a - math.radians(20.0)), end])
     return end
 
 
-def _segments_apart(p0: tuple[float, float], p1: tuple[float, float], q0: tuple[float, float],
-                    q1: tuple[float, float]) -> float:
-    """The least distance between the segments ``p0``–``p1`` and ``q0``–``q1`` (0 where they cross).
-    Plain arithmetic rather than shapely: it runs per walker and tick at a double door, and two
-    geometries built per call would cost more than the test itself."""
+def _segments_apart(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> float:
+    """The least distance between the segments ``p0``–``p1`` and ``q0``–``q1`` (0 where they cross)."""
+    def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
 
-    def cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    d1, d2 = cross(q0, q1, p0), cross(q0, q1, p1)
-    d3, d4 = cross(p0, p1, q0), cross(p0, p1, q1)
-    if d1 * d2 < 0.0 and d3 * d4 < 0.0:
+    if cross(q0, q1, p0) * cross(q0, q1, p1) < 0.0 and cross(p0, p1, q0) * cross(p0, p1, q1) < 0.0:
         return 0.0
-
-    def to_seg(x: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
-        ab = (b[0] - a[0], b[1] - a[1])
-        L2 = ab[0] * ab[0] + ab[1] * ab[1]
-        t = 0.0 if L2 == 0.0 else max(0.0, min(1.0, ((x[0] - a[0]) * ab[0] + (x[1] - a[1]) * ab[1]) / L2))
-        return math.hypot(x[0] - a[0] - t * ab[0], x[1] - a[1] - t * ab[1])
-
-    return min(to_seg(p0, q0, q1), to_seg(p1, q0, q1), to_seg(q0, p0, p1), to_seg(q1, p0, p1))
+    return min(point_segment(p0, q0, q1), point_segment(p1, q0, q1), point_segment(q0, p0, p1),
+               point_segment(q1, p0, p1))
 
 
 def round_edge(fr: LeafFrame, p: np.ndarray, a: float, radius: float, to: float) -> np.ndarray:

@@ -159,3 +159,10 @@ def enter_region(p: np.ndarray, goal: np.ndarray, circles: list[tuple[np.ndarray
         if 0.0 <= t < best:
             best = t
     return best
+
+
+def point_segment(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """The distance from the point ``x`` to the segment ``a``–``b`` (2D)."""
+    ab = b - a
+    t = min(max(float((x - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0), 1.0)
+    return float(np.hypot(*(x - (a + t * ab))))

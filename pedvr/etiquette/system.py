@@ -38,7 +38,7 @@ from pedvr.etiquette.core import DoorState, EtiquetteCore, Walker
 from pedvr.etiquette.doors import OPEN, hand_angle, hand_point
 from pedvr.etiquette.interaction import decide_hinged
 from pedvr.etiquette.objects import DoorObject
-from pedvr.etiquette.regions import HAND_HEIGHT, HOLD_ANGLE
+from pedvr.etiquette.regions import HAND_HEIGHT, HOLD_ANGLE, point_segment
 from pedvr.etiquette.revolving import carried, carry_riders, decide_revolving
 from pedvr.etiquette.vocab import (
     APPROACH,
@@ -412,7 +412,7 @@ class DoorEtiquette(EtiquetteCore):
             if lv.panel[leaf]:
                 continue
             tip = lv.tips()[leaf]
-            d = _point_segment(reach, lv.hinge[leaf], tip)
+            d = point_segment(reach, lv.hinge[leaf], tip)
             k = int(lv.door[leaf])
             holder = self.dstate[k].holder.get(leaf, self.dstate[k].mutex.get(leaf))
             if d < best_d and (holder is None or holder == self.user_id):
@@ -623,12 +623,6 @@ def _segments_cross_kernel(a, b, px, py, qx, qy, out):  # noqa: ANN001, ANN202
         o3 = (qx - px) * (ay - py) - (qy - py) * (ax - px)
         o4 = (qx - px) * (by - py) - (qy - py) * (bx - px)
         out[i] = o1 * o2 <= 0.0 and o3 * o4 < 0.0
-
-
-def _point_segment(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    ab = b - a
-    t = min(max(float((x - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0), 1.0)
-    return float(np.hypot(*(x - (a + t * ab))))
 
 
 def pursuit_point(plan: np.ndarray, start: int, p: np.ndarray, look: float) -> tuple[int, np.ndarray]:

@@ -22,8 +22,7 @@ from pedvr.sim import Simulation
 
 def _clearance(path: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     """The least distance between the polyline ``path`` and the segment ``a``–``b``."""
-    return min(_segments_apart(tuple(p), tuple(q), tuple(a), tuple(b)) for p, q in zip(path[:-1], path[1:],
-                                                                                      strict=True))
+    return min(_segments_apart(p, q, a, b) for p, q in zip(path[:-1], path[1:], strict=True))
 
 
 @pytest.fixture(scope="module")
@@ -32,9 +31,12 @@ def et():  # type: ignore[no-untyped-def]
 
 
 def test_segments_apart() -> None:
-    assert _segments_apart((0.0, 0.0), (2.0, 0.0), (1.0, -1.0), (1.0, 1.0)) == 0.0  # crossing
-    assert _segments_apart((0.0, 0.0), (2.0, 0.0), (0.0, 0.5), (2.0, 0.5)) == pytest.approx(0.5)  # parallel
-    assert _segments_apart((0.0, 0.0), (1.0, 0.0), (2.0, 1.0), (3.0, 1.0)) == pytest.approx(math.sqrt(2.0))
+    def seg(*xy: float) -> tuple[np.ndarray, np.ndarray]:
+        return np.array(xy[:2]), np.array(xy[2:])
+
+    assert _segments_apart(*seg(0.0, 0.0, 2.0, 0.0), *seg(1.0, -1.0, 1.0, 1.0)) == 0.0  # crossing
+    assert _segments_apart(*seg(0.0, 0.0, 2.0, 0.0), *seg(0.0, 0.5, 2.0, 0.5)) == pytest.approx(0.5)  # parallel
+    assert _segments_apart(*seg(0.0, 0.0, 1.0, 0.0), *seg(2.0, 1.0, 3.0, 1.0)) == pytest.approx(math.sqrt(2.0))
 
 
 def test_the_way_from_beside_the_other_open_leaf_goes_round_its_edge(et) -> None:  # type: ignore[no-untyped-def]
