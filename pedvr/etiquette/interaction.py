@@ -395,7 +395,7 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
     for lf in ds.leaves:  # caught in the pocket behind an open leaf: out round its edge first
         fr_lf = et.frame(lf, w.side)
         out = fr_lf.lane(fr_lf.side_of(p) * (radius + 1.1))
-        way = _via(et, fr_lf, lf, p, radius, out)
+        way = _via(et, fr_lf, lf, p, radius, out, beyond=True)
         if way.shape[0] > 1:
             et.walk_to(w, crowd, way, facing=face_door, speed=float(crowd.pref_speed[r]))
             return
@@ -678,7 +678,7 @@ def _behind(fr: LeafFrame, radius: float, side_local: int) -> np.ndarray:
 
 
 def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: float,
-         target: np.ndarray) -> np.ndarray:
+         target: np.ndarray, *, beyond: bool = False) -> np.ndarray:
     """``(K, 2)`` waypoints from ``p`` to ``target``: straight, unless ``p`` is in the pocket
     between an open leaf and the wall (the pull side, behind the leaf, inside its swing) and the
     target is not; then out to the swing's edge and round the leaf's free edge first.
@@ -687,7 +687,11 @@ def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: flo
     came up beside the wall behind a leaf someone holds open is in that leaf's pocket on its
     way to the other leaf's opening place, and went straight for it into the held leaf
     (door_double with the pram, seed 9: an opener stood behind the open leaf for the state's
-    10 s, twice, and the queue behind it with it)."""
+    10 s, twice, and the queue behind it with it). Behind a leaf counts beyond its swing
+    too, wherever the way on runs into it: walkers coming along the wall toward an open leaf's
+    back stood packed there, one behind another out to 1.5 m from the hinge, the ones beyond
+    the swing going straight for the lane into the leaf (the realism bench's double door, the
+    ``decoupled`` model: a holder and four waiting 10–20 s each from 50 s on)."""
     end = np.asarray(target, np.float64).reshape(1, 2)
     ds = et.dstate[int(et.leaves.door[leaf])]
     pull_side = 1 if float(fr.m @ ds.n) > 0 else -1
@@ -702,10 +706,12 @@ def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: flo
         target_behind = ty > 0.0 and math.hypot(tx, ty) < rho and math.atan2(ty, tx) > a
         if ly <= 0.0 or math.atan2(ly, lx) <= a + math.radians(3.0) or target_behind:
             continue
-        # In the pocket; for the other leaf also beside it, wherever the way on runs into the leaf.
+        # In the pocket (inside the swing), or behind the leaf farther out, wherever the way on runs
+        # into the leaf.
         tip = f.polar(f.w, a)
-        if math.hypot(lx, ly) < rho or (k != leaf and _segments_apart(np.asarray(p, np.float64), end[0],
-                                                                      f.hinge, tip) < radius + OUTER_MARGIN):
+        along = float((p - f.hinge) @ (tip - f.hinge)) / f.w  # behind the leaf's back, not past its tip
+        if math.hypot(lx, ly) < rho or ((k != leaf or (beyond and along < f.w + radius)) and _segments_apart(
+                np.asarray(p, np.float64), end[0], f.hinge, tip) < radius + OUTER_MARGIN):
             return np.concatenate([round_edge(f, p, a, radius, a - math.radians(20.0)), end])
     return end
 
