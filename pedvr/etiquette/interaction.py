@@ -395,7 +395,7 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
     for lf in ds.leaves:  # caught in the pocket behind an open leaf: out round its edge first
         fr_lf = et.frame(lf, w.side)
         out = fr_lf.lane(fr_lf.side_of(p) * (radius + 1.1))
-        way = _via(et, fr_lf, lf, p, radius, out, beyond=True)
+        way = _via(et, fr_lf, lf, p, radius, out, beyond=True, crowd=crowd)
         if way.shape[0] > 1:
             et.walk_to(w, crowd, way, facing=face_door, speed=float(crowd.pref_speed[r]))
             return
@@ -486,7 +486,7 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
         w.frame = fr
         w.waiting = False
         target, facing = fr.bop_pull(radius) if pull else fr.bop_push(radius)
-        et.set_plan(w, crowd, _via(et, fr, leaf, p, radius, target), facing=facing, lock=False)
+        et.set_plan(w, crowd, _via(et, fr, leaf, p, radius, target, crowd=crowd), facing=facing, lock=False)
         et.set_state(w, OPENER_INIT)
         return
     et.approach(w)  # along its own path
@@ -678,7 +678,7 @@ def _behind(fr: LeafFrame, radius: float, side_local: int) -> np.ndarray:
 
 
 def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: float,
-         target: np.ndarray, *, beyond: bool = False) -> np.ndarray:
+         target: np.ndarray, *, beyond: bool = False, crowd: CrowdState | None = None) -> np.ndarray:
     """``(K, 2)`` waypoints from ``p`` to ``target``: straight, unless ``p`` is in the pocket
     between an open leaf and the wall (the pull side, behind the leaf, inside its swing) and the
     target is not; then out to the swing's edge and round the leaf's free edge first.
@@ -691,7 +691,10 @@ def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: flo
     too, wherever the way on runs into it: walkers coming along the wall toward an open leaf's
     back stood packed there, one behind another out to 1.5 m from the hinge, the ones beyond
     the swing going straight for the lane into the leaf (the realism bench's double door, the
-    ``decoupled`` model: a holder and four waiting 10–20 s each from 50 s on)."""
+    ``decoupled`` model: a holder and four waiting 10–20 s each from 50 s on).
+
+    Given ``crowd``, a holder standing beyond the leaf's free edge (HOF's key pose, on the leaf's
+    back) widens the way round to pass outside the holder too (:func:`_round_holder`)."""
     end = np.asarray(target, np.float64).reshape(1, 2)
     ds = et.dstate[int(et.leaves.door[leaf])]
     pull_side = 1 if float(fr.m @ ds.n) > 0 else -1
@@ -706,14 +709,38 @@ def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: flo
         target_behind = ty > 0.0 and math.hypot(tx, ty) < rho and math.atan2(ty, tx) > a
         if ly <= 0.0 or math.atan2(ly, lx) <= a + math.radians(3.0) or target_behind:
             continue
+        if crowd is not None:
+            rho = max(rho, _round_holder(et, crowd, k, f, a, p, radius))
         # In the pocket (inside the swing), or behind the leaf farther out, wherever the way on runs
         # into the leaf.
         tip = f.polar(f.w, a)
         along = float((p - f.hinge) @ (tip - f.hinge)) / f.w  # behind the leaf's back, not past its tip
         if math.hypot(lx, ly) < rho or ((k != leaf or (beyond and along < f.w + radius)) and _segments_apart(
                 np.asarray(p, np.float64), end[0], f.hinge, tip) < radius + OUTER_MARGIN):
-            return np.concatenate([round_edge(f, p, a, radius, a - math.radians(20.0)), end])
+            return np.concatenate([round_edge(f, p, a, radius, a - math.radians(20.0), rho=rho), end])
     return end
+
+
+def _round_holder(et: EtiquetteCore, crowd: CrowdState, leaf: int, fr: LeafFrame, a: float, p: np.ndarray,
+                  radius: float) -> float:
+    """How far from the hinge a way round ``leaf``'s free edge keeps a body of ``radius`` clear of
+    the leaf's holder where that holder stands beyond the edge on the leaf's back (HOF's key pose,
+    :meth:`~pedvr.etiquette.regions.LeafFrame.hold_beyond_tip`); 0 where none does, or the body at
+    ``p`` is the holder. Issue 26, door_single_flow seed 11: a pusher who had walked through held
+    the door from beyond its edge for the other side's batch; a follower coming along the wall
+    behind the leaf went round the edge between the holder and the leaf, 0.35 m apart, stuck
+    there from 45 s to 79 s, and the last passage came at 86 s."""
+    ds = et.dstate[int(et.leaves.door[leaf])]
+    h = ds.holder.get(leaf)
+    if h is None or h not in et._row:
+        return 0.0
+    q = et.pos(crowd, h)
+    if float(np.hypot(*(q - p))) < 1e-6:
+        return 0.0
+    qx, qy = fr.local(q)
+    if qy <= 0.0 or math.atan2(qy, qx) <= a:
+        return 0.0
+    return math.hypot(qx, qy) + et.radius(crowd, h) + radius + OUTER_MARGIN
 
 
 def _segments_apart(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> float:
@@ -727,7 +754,8 @@ def _segments_apart(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarr
                point_segment(q1, p0, p1))
 
 
-def round_edge(fr: LeafFrame, p: np.ndarray, a: float, radius: float, to: float) -> np.ndarray:
+def round_edge(fr: LeafFrame, p: np.ndarray, a: float, radius: float, to: float, *,
+               rho: float | None = None) -> np.ndarray:
     """``(K, 2)`` waypoints from ``p``, behind a leaf open ``a`` (in the pocket between it and the
     wall), round the leaf's free edge to the angle ``to`` in front of it: out to the swing's circle
     (its outer radius for a body of ``radius``), along it in legs of at most 20° to abeam of the
@@ -735,8 +763,9 @@ def round_edge(fr: LeafFrame, p: np.ndarray, a: float, radius: float, to: float)
     Every leg keeps the body's radius clear of the edge. Before, the path went straight from behind
     the leaf to the point in front, a chord that passed the edge 3 cm closer than a body's radius;
     ORCA's line off the edge held a holder walking through there (door_single_flow: 6 s in the
-    pocket while the door swung shut behind the one it had handed over to)."""
-    rho = fr.outer(radius)
+    pocket while the door swung shut behind the one it had handed over to). ``rho``: a wider
+    circle than the swing's (round a holder standing beyond the edge, :func:`_round_holder`)."""
+    rho = fr.outer(radius) if rho is None else rho
     lx, ly = fr.local(p)
     phi = max(math.atan2(ly, lx), a + math.radians(10.0))
     arc = np.linspace(phi, a, max(2, math.ceil((phi - a) / math.radians(20.0)) + 1))  # legs of <= 20°
@@ -978,8 +1007,9 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
         if h.action == "" or h.state < HOLDER_DEC:
             spot = _close_up(et, w, h, fr, radius, side_local)
             far = float(np.hypot(*(p - et.pos(crowd, h.id)))) > CATCH_UP_AT
-            et.walk_to(w, crowd, _via(et, fr, h.leaf, p, radius, spot), facing=_toward(spot, fr.lane(0.0)),
-                         speed=float(crowd.pref_speed[r]) * (CATCH_UP if far else 1.0))
+            et.walk_to(w, crowd, _via(et, fr, h.leaf, p, radius, spot, crowd=crowd),
+                       facing=_toward(spot, fr.lane(0.0)),
+                       speed=float(crowd.pref_speed[r]) * (CATCH_UP if far else 1.0))
             if age > STATE_TIMEOUT + 6.0:
                 _demote(w)
                 h.follower = NONE
@@ -1021,7 +1051,7 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
         else:  # from the push side: at the hinge jamb, beside the lane the holder comes through on
             target, facing = fr.world(0.6 * radius, -(radius + 0.1)), fr.heading(0.0, 1.0)
             arm, at = LEFT, 0.35
-        et.walk_to(w, crowd, _via(et, fr, h.leaf, p, radius, target), facing=facing,
+        et.walk_to(w, crowd, _via(et, fr, h.leaf, p, radius, target, crowd=crowd), facing=facing,
                      speed=float(crowd.pref_speed[r]))
         # HOL across the door: the holder passes first, so the follower takes the door over once
         # the holder is in or through the doorway (not while it is still on its own side)
@@ -1118,7 +1148,7 @@ def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: 
         # closes up while this one walks through (pipelined, module docstring).
         h.follower = NONE
     pts = _pf_points(fr, side_local, radius, reach=_front_reach(crowd, r), at=et.pos(crowd, w.id))
-    via = _via(et, fr, h.leaf, et.pos(crowd, w.id), radius, pts[0])
+    via = _via(et, fr, h.leaf, et.pos(crowd, w.id), radius, pts[0], crowd=crowd)
     et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=fr.heading(0.0, -float(side_local)),
                 speed=float(crowd.pref_speed[r]))
 
@@ -1252,7 +1282,7 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
         # pushed into the pocket behind the open leaf on its way: out round the leaf's edge first
         side_local = 1 if w.side == (1 if float(fr.m @ ds.n) > 0 else -1) else -1
         pts = _pf_points(fr, side_local, float(crowd.radius[r]), reach=_front_reach(crowd, r), at=p)
-        via = _via(et, fr, w.leaf, p, float(crowd.radius[r]), pts[0])
+        via = _via(et, fr, w.leaf, p, float(crowd.radius[r]), pts[0], crowd=crowd)
         if via.shape[0] > 1 and w.gait_legs != via.shape[0] - 1 + pts.shape[0]:
             et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=w.face, speed=w.speed)
     if rel < -(float(crowd.radius[r]) + CLEAR) or (w.plan is not None and et.arrived(w, crowd, 0.3)):
