@@ -218,11 +218,17 @@ def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdSt
     and the direction changes when the crowd on the other side presses harder (the oscillation of
     the passing direction at bottlenecks that Helbing and Molnár's social force model reproduces,
     Phys. Rev. E 51, 1995). pedvr's reading: a single door is busy from when :data:`BATCH_LOAD` or
-    more wait on each side until fewer than :data:`BATCH_KEEP` wait on one of them; while it is,
-    the side the latest passages came from counts :data:`BATCH_WAIT` s more waiting in the
-    ordering (Alg. 1's ``E``), until :data:`BATCH` passages in a row came from it; then the other
-    side's turn comes by the ordering as before. Fewer waiting (the paper's groups of four,
-    §6.1) alternate as before.
+    more wait on each side until fewer than :data:`BATCH_KEEP` wait on the side whose turn it is
+    not, or nobody is left on the side whose turn it is; while it is, the side the latest passages
+    came from counts :data:`BATCH_WAIT` s more waiting in the ordering (Alg. 1's ``E``), until
+    :data:`BATCH` passages in a row came from it; then the other side's turn comes by the ordering
+    as before. Fewer waiting (the paper's groups of four, §6.1) alternate as before.
+
+    A run drains its own side's queue to the end (within :data:`BATCH`): until issue 26's change
+    16 it ended as soon as fewer than :data:`BATCH_KEEP` waited on either side, so the last two of
+    a run's queue waited out the whole of the other side's run and came last, through a tail of
+    hand-overs across the doorway (door_single_flow seed 11: two who had queued from 30 s passed
+    at 75 and 82 s, the last passage at 86 s).
 
     A holder still on its own side passes next, whatever it decides, so its passage counts in the
     run already: the next it holds for is chosen before it goes through. Counted from passages
@@ -249,7 +255,7 @@ def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdSt
                 run_side = w.side
     if not ds.busy:
         ds.busy = min(n.values()) >= BATCH_LOAD
-    elif min(n.values()) < BATCH_KEEP:
+    elif n[-run_side] < BATCH_KEEP or n[run_side] == 0:
         ds.busy = False
     return run_side if ds.busy and run_len < BATCH else 0
 
