@@ -4,7 +4,8 @@
   current run of passages: it goes through next, and the next it holds for is chosen before it
   does. Counted from passages alone, a chain of hand-overs alternated one by one.
 * a door is busy (passes in batches) from when :data:`~pedvr.etiquette.interaction.BATCH_LOAD`
-  wait on each side until fewer than :data:`~pedvr.etiquette.interaction.BATCH_KEEP` do;
+  wait on each side until fewer than :data:`~pedvr.etiquette.interaction.BATCH_KEEP` wait on the
+  side whose turn it is not, or nobody on the side whose turn it is;
 * :func:`~pedvr.etiquette.interaction._in_the_way`: the one who commits as a holder's follower is
   not someone standing behind people of its own side; the one in its way nearest the door goes;
 * :func:`~pedvr.etiquette.interaction._hand_on`: a follower blocked on its way to take the door
@@ -87,6 +88,28 @@ def test_a_batch_ends_at_its_length_and_needs_a_queue_on_each_side() -> None:
     assert it._batch_side(_Door(pos, run_side=-1, run_len=1).et, 0, short, None) == 0
     # a double door passes both ways at once: no batches
     assert it._batch_side(_Door(pos, run_side=-1, run_len=1, kind="double").et, 0, walkers, None) == 0
+
+
+def test_a_run_drains_its_own_queue_before_the_turn_changes() -> None:
+    """Issue 26, change 16: a busy door stays busy while the run's own side still has people
+    waiting, however few; it ends once the other side has fewer than BATCH_KEEP waiting, or the
+    run's side nobody (door_single_flow seed 11: the run ended with two of its queue left, who
+    waited out the other side's whole run)."""
+    def door(keep_run: int, keep_other: int) -> tuple[_Door, list[Walker]]:
+        pos, walkers = _queues(it.BATCH_LOAD)
+        d = _Door(pos, run_side=-1, run_len=3)
+        assert it._batch_side(d.et, 0, walkers, None) == -1  # busy: both sides have BATCH_LOAD
+        run = [w for w in walkers if w.side == -1][:keep_run]
+        other = [w for w in walkers if w.side == +1][:keep_other]
+        return d, run + other
+
+    d, left = door(2, it.BATCH_LOAD)  # two of the run's queue left: the run goes on
+    assert it._batch_side(d.et, 0, left, None) == -1
+    d, left = door(0, it.BATCH_LOAD)  # the run's side has emptied: no longer busy
+    assert it._batch_side(d.et, 0, left, None) == 0
+    assert not d.et.dstate[0].busy
+    d, left = door(it.BATCH_LOAD, it.BATCH_KEEP - 1)  # the other side has almost nobody left
+    assert it._batch_side(d.et, 0, left, None) == 0
 
 
 def test_the_one_standing_in_the_way_commits_instead() -> None:
