@@ -731,22 +731,31 @@ def _round_holder(et: EtiquetteCore, crowd: CrowdState, leaf: int, fr: LeafFrame
                   radius: float) -> float:
     """How far from the hinge a way round ``leaf``'s free edge keeps a body of ``radius`` clear of
     the leaf's holder where that holder stands beyond the edge on the leaf's back (HOF's key pose,
-    :meth:`~pedvr.etiquette.regions.LeafFrame.hold_beyond_tip`); 0 where none does, or the body at
-    ``p`` is the holder. Issue 26, door_single_flow seed 11: a pusher who had walked through held
+    :meth:`~pedvr.etiquette.regions.LeafFrame.hold_beyond_tip`), holding the leaf wide open
+    (within 10° of :data:`HOLD_ANGLE`, in HolderDec or HoldDoor); 0 where none does, or the body at
+    ``p`` is the holder. Not while a leaf is opening: a puller stepping round with its edge is
+    beyond a half-open leaf's angle, and everyone within two metres in front of that leaf then
+    counted as behind it (door_double's pram, seeds 9 and 13: never through).
+
+    Issue 26, door_single_flow seed 11: a pusher who had walked through held
     the door from beyond its edge for the other side's batch; a follower coming along the wall
     behind the leaf went round the edge between the holder and the leaf, 0.35 m apart, stuck
     there from 45 s to 79 s, and the last passage came at 86 s."""
     ds = et.dstate[int(et.leaves.door[leaf])]
     h = ds.holder.get(leaf)
-    if h is None or h not in et._row:
-        return 0.0
+    hw = et.walkers.get(h) if h is not None else None
+    if hw is None or h not in et._row or hw.state not in (HOLDER_DEC, HOLD_DOOR) \
+            or a < HOLD_ANGLE - math.radians(10.0):
+        return 0.0  # only a leaf held wide open by a holder standing at it
     q = et.pos(crowd, h)
     if float(np.hypot(*(q - p))) < 1e-6:
         return 0.0
     qx, qy = fr.local(q)
-    if qy <= 0.0 or math.atan2(qy, qx) <= a:
-        return 0.0
-    return math.hypot(qx, qy) + et.radius(crowd, h) + radius + OUTER_MARGIN
+    rq = et.radius(crowd, h)
+    if qy <= 0.0 or not a < math.atan2(qy, qx) < a + math.radians(45.0) \
+            or not fr.w <= math.hypot(qx, qy) <= fr.outer(rq) + rq:
+        return 0.0  # not beyond the free edge, on the leaf's back
+    return math.hypot(qx, qy) + rq + radius + OUTER_MARGIN
 
 
 def _segments_apart(p0: np.ndarray, p1: np.ndarray, q0: np.ndarray, q1: np.ndarray) -> float:

@@ -14,8 +14,10 @@ import math
 import numpy as np
 import pytest
 
+from pedvr.etiquette.core import Walker
 from pedvr.etiquette.interaction import _round_holder, _segments_apart, _via
 from pedvr.etiquette.regions import HOLD_ANGLE
+from pedvr.etiquette.vocab import HOLD_DOOR, HOLDER, OPEN_DOOR
 from pedvr.scene.loader import load_scene
 from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
@@ -41,6 +43,7 @@ def test_the_way_round_the_edge_passes_outside_the_holder(sim: Simulation) -> No
     radius = float(crowd.radius[wr])
     crowd.pos[hr] = fr.hold_beyond_tip(HOLD_ANGLE, float(crowd.radius[hr]))[0]
     et.dstate[0].holder[leaf] = holder
+    et.walkers[holder] = Walker(id=holder, door=0, side=-1, role=HOLDER, state=HOLD_DOOR)
     # behind the leaf, beside its free edge, on the way to the lane in front of the door
     p = fr.polar(fr.w + 0.05, HOLD_ANGLE + math.radians(15.0))
     crowd.pos[wr] = p
@@ -53,8 +56,16 @@ def test_the_way_round_the_edge_passes_outside_the_holder(sim: Simulation) -> No
     way = np.concatenate([p[None], _via(et, fr, leaf, p, radius, target, crowd=crowd)])
     assert np.allclose(way[-1], target)
     assert _clearance_to_point(way[1:], q) >= gap  # outside the holder, bodies clear
-    # the holder's own way is not widened round itself, nor is anyone's once nobody holds the leaf
+    # the holder's own way is not widened round itself
     assert _round_holder(et, crowd, leaf, fr, HOLD_ANGLE, q, radius) == 0.0
+    # nor anyone's while the leaf is still opening (the puller steps round with its edge, and
+    # people in front of a half-open leaf are beyond its angle), or opened less than wide
+    et.walkers[holder].state = OPEN_DOOR
+    assert _round_holder(et, crowd, leaf, fr, HOLD_ANGLE, p, radius) == 0.0
+    et.walkers[holder].state = HOLD_DOOR
+    assert _round_holder(et, crowd, leaf, fr, HOLD_ANGLE, p, radius) > fr.outer(radius)
+    assert _round_holder(et, crowd, leaf, fr, HOLD_ANGLE - math.radians(30.0), p, radius) == 0.0
+    # nor once nobody holds the leaf
     del et.dstate[0].holder[leaf]
     assert np.allclose(_via(et, fr, leaf, p, radius, target, crowd=crowd),
                        _via(et, fr, leaf, p, radius, target))
