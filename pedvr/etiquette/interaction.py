@@ -693,11 +693,12 @@ def _via(et: EtiquetteCore, fr: LeafFrame, leaf: int, p: np.ndarray, radius: flo
     came up beside the wall behind a leaf someone holds open is in that leaf's pocket on its
     way to the other leaf's opening place, and went straight for it into the held leaf
     (door_double with the pram, seed 9: an opener stood behind the open leaf for the state's
-    10 s, twice, and the queue behind it with it). Behind a leaf counts beyond its swing
-    too, wherever the way on runs into it: walkers coming along the wall toward an open leaf's
+    10 s, twice, and the queue behind it with it). With ``beyond`` (the doorway behavior's way
+    out of a pocket), behind a leaf counts beyond its swing too, within the leaf's length and a
+    radius, wherever the way on runs into it: walkers coming along the wall toward an open leaf's
     back stood packed there, one behind another out to 1.5 m from the hinge, the ones beyond
     the swing going straight for the lane into the leaf (the realism bench's double door, the
-    ``decoupled`` model: a holder and four waiting 10–20 s each from 50 s on).
+    ``decoupled`` model: a holder and four others standing 10–30 s each from 50 s on).
 
     Given ``crowd``, a holder standing beyond the leaf's free edge (HOF's key pose, on the leaf's
     back) widens the way round to pass outside the holder too (:func:`_round_holder`)."""
@@ -737,10 +738,10 @@ def _round_holder(et: EtiquetteCore, crowd: CrowdState, leaf: int, fr: LeafFrame
     beyond a half-open leaf's angle, and everyone within two metres in front of that leaf then
     counted as behind it (door_double's pram, seeds 9 and 13: never through).
 
-    Issue 26, door_single_flow seed 11: a pusher who had walked through held
-    the door from beyond its edge for the other side's batch; a follower coming along the wall
-    behind the leaf went round the edge between the holder and the leaf, 0.35 m apart, stuck
-    there from 45 s to 79 s, and the last passage came at 86 s."""
+    Issue 26, door_single_flow seed 11: a pusher who had walked through held the door from beyond
+    its edge for the other side's batch; a follower coming along the wall behind the leaf went
+    round the edge between the holder and the leaf, 0.35 m apart, and stood there from 45 s to
+    79 s; the last passage came at 86 s."""
     ds = et.dstate[int(et.leaves.door[leaf])]
     h = ds.holder.get(leaf)
     hw = et.walkers.get(h) if h is not None else None
