@@ -16,7 +16,7 @@ import pytest
 
 from pedvr.etiquette.interaction import _segments_apart, _via
 from pedvr.etiquette.regions import OUTER_MARGIN
-from pedvr.scene.loader import load_scene
+from pedvr.scene.loader import load_any, load_scene
 from pedvr.scenes import resolve_scene
 from pedvr.sim import Simulation
 
@@ -105,8 +105,6 @@ def test_the_realism_double_door_without_coupling_passes_everyone() -> None:
     """``validation/door_double_flow`` at its seed under ``decoupled`` (plain ORCA discs with the
     door etiquette): everyone through in 90 s. Before the way out from behind a leaf's back beyond
     its swing, 26 of 30: from 50 s on walkers stood packed behind the held-open south leaf."""
-    from pedvr.scene.loader import load_any
-
     sim = Simulation(load_any(resolve_scene("validation/door_double_flow"), seed=None), condition="decoupled")
     sim.advance_to(90.0)
     s = sim.summary()
