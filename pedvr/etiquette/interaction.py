@@ -36,7 +36,8 @@ a committed follower's decision waits until it has closed up (App. B.3), and fol
 other side wait at the Opposing Goal beside the doorway's mouth, off the lane, where whoever
 comes through the other way passes them; the next in a queue waits :data:`QUEUE_GAP` behind a
 committed follower's place; a PF follower frees its holder for the next as it sets off (the
-blue routine, pipelined) and lets anyone coming through the other way out first; a pulling
+blue routine, pipelined; a carrier, who cannot catch the door, only once it is through) and lets
+anyone coming through the other way out first; a pulling
 holder stays on the passage side of the leaf's edge (HOL walks on through; HOF steps round
 behind the leaf); holders walk at their own speed; HOL decided for a carrier (who cannot take a
 door over) or by a holder already through the doorway (a pusher holding from beyond it) is held
@@ -1159,9 +1160,14 @@ def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: 
     radius = float(crowd.radius[r])
     w.role = PASSING
     w.state = -1
-    if h.follower == w.id:
+    if h.follower == w.id and not bool(et.carrying[r]):
         # On its way: the holder is free for its next follower (the blue routine of Fig. 7), who
-        # closes up while this one walks through (pipelined, module docstring).
+        # closes up while this one walks through (pipelined, module docstring). Not from a
+        # carrier: it cannot catch the door (§4.6), so the holder holds on until it is through
+        # (_passing frees it then). Issue 26, "no carrier left behind": freed, a holder with
+        # nobody else to hold for went through itself 0.6 s later and the leaf swung shut on the
+        # slower pram, whose pusher then stood in the doorway or was pushed off its lane
+        # (tests/etiquette/test_carriers.py: seed 17 never through, seed 6 at 71 s).
         h.follower = NONE
     pts = _pf_points(fr, side_local, radius, reach=_front_reach(crowd, r), at=et.pos(crowd, w.id))
     via = _via(et, fr, h.leaf, et.pos(crowd, w.id), radius, pts[0], crowd=crowd)
