@@ -8,6 +8,7 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 
 from pedvr.scene.loader import load_any
 from pedvr.scenes import resolve_scene
@@ -98,3 +99,20 @@ def test_the_pram_of_seed_17_gets_through() -> None:
     through_at, overlaps = _through_at(17)
     assert through_at is not None and through_at < 60.0
     assert overlaps == 0
+
+
+@pytest.mark.xfail(strict=True, reason="issue 26, not built yet: a pram pusher alone at a pull door frees a hand "
+                   "but has no place to open it from with its pram out of the leaf's swing")
+def test_a_lone_pram_at_a_pull_door_gets_through() -> None:
+    """Nobody else about: the pusher frees a hand after CARRIER_PATIENCE (§4.6) and goes to open
+    the leaf itself, but the opener's place beside the handle puts its pram in the leaf's swing,
+    and it gives up (``could not reach the door``) again and again. Real pushers park the pram
+    beside the swing, or hold the leaf on their back while they push through."""
+    s = _door_double_with_pram()
+    lone = dataclasses.replace(s, spawns=(s.spawns[0],))  # the pram alone
+    sim = Simulation(lone, seed=1)  # type: ignore[arg-type]
+    row = int(np.nonzero(~sim.crowd.is_user)[0][0])
+    assert float(sim.crowd.length[row]) > 0.0
+    while sim.t < 90.0 and sim.crowd.pos[row, 0] <= 0.5:
+        sim.step()
+    assert sim.crowd.pos[row, 0] > 0.5, [e["event"] for e in sim.etiquette.events][:4]
