@@ -1164,10 +1164,11 @@ def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: 
         # On its way: the holder is free for its next follower (the blue routine of Fig. 7), who
         # closes up while this one walks through (pipelined, module docstring). Not from a
         # carrier: it cannot catch the door (§4.6), so the holder holds on until it is through
-        # (_passing frees it then). Issue 26, "no carrier left behind": freed, a holder with
-        # nobody else to hold for went through itself 0.6 s later and the leaf swung shut on the
-        # slower pram, whose pusher then stood in the doorway or was pushed off its lane
-        # (tests/etiquette/test_carriers.py: seed 17 never through, seed 6 at 71 s).
+        # (_passing frees it then; its next follower commits after that). Issue 26, "no carrier
+        # left behind" (tests/etiquette/test_carriers.py): freed, a holder with nobody else to
+        # hold for went through itself 0.6 s later and the leaf swung shut on the slower pram
+        # (seed 6, through at 71 s), or held for the walkers behind the pram, who went first while
+        # it was pushed off its lane (seed 17, never through).
         h.follower = NONE
     pts = _pf_points(fr, side_local, radius, reach=_front_reach(crowd, r), at=et.pos(crowd, w.id))
     via = _via(et, fr, h.leaf, et.pos(crowd, w.id), radius, pts[0], crowd=crowd)
