@@ -215,3 +215,119 @@ def wrap_pi(a):  # type: ignore[no-untyped-def]
     if -y < x < 0.0:  # fmod(x, y) is x: the sign fix adds y
         return (x + y) - math.pi
     return x % y - math.pi  # zero (the modulo's signed zero), NaN, more than a turn away
+
+
+# -- sine and cosine for the pose kernels (issue 27) ------------------------------------------------
+# glibc's sin, cos and sincos were a quarter of the pose graph kernel's time (perf, 1000-agent plaza,
+# one thread): a body's pose takes some thirty half-angle sine-cosine pairs (Euler angles to
+# quaternions, the legs' and feet's rotations) and a dozen phase sines. These are fdlibm's
+# (Sun Microsystems 1993; the k_sin.c, k_cos.c and e_rem_pio2.c that FreeBSD's libm and musl still
+# use): the argument reduced by π/2 in three pieces of 33 bits (more of them only where the first
+# cancels, as fdlibm does; exact for |x| < 2**20 π/2), then the kernels' polynomials on
+# |r| ≤ π/4 with the reduction's tail. Against glibc's: never more than 1 ulp apart
+# (tests/test_kernels.py), at about a third of the time for the pose's small angles. Arguments
+# beyond _TRIG_FAST, NaN and ±inf go to glibc.
+_S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+_S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+_C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+_C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+_PIO4 = 7.85398163397448278999e-01
+_INVPIO2 = 6.36619772367581382433e-01
+_PIO2_1, _PIO2_1T = 1.57079632673412561417e+00, 6.07710050650619224932e-11  # 33 bits of π/2, the rest
+_PIO2_2, _PIO2_2T = 6.07710050630396597660e-11, 2.02226624879595063154e-21  # the next 33, the rest
+_PIO2_3, _PIO2_3T = 2.02226624871116645580e-21, 8.47842766036889956997e-32  # the next 33, the rest
+_TRIG_FAST = 1.0e5  # |x| up to this is reduced here (|n| < 2**17, so n × a 33-bit piece is exact)
+
+
+@njit(cache=True, inline="always")
+def _ksin(x, y):  # type: ignore[no-untyped-def]
+    """sin(x + y) for |x| ≤ π/4, |y| a tail below half an ulp of x (fdlibm's __kernel_sin)."""
+    z = x * x
+    v = z * x
+    r = _S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))
+    return x - ((z * (0.5 * y - v * r) - y) - v * _S1)
+
+
+@njit(cache=True, inline="always")
+def _kcos(x, y):  # type: ignore[no-untyped-def]
+    """cos(x + y) for |x| ≤ π/4 (fdlibm's __kernel_cos)."""
+    z = x * x
+    r = z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6)))))
+    hz = 0.5 * z
+    w = 1.0 - hz
+    return w + (((1.0 - w) - hz) + (z * r - x * y))
+
+
+@njit(cache=True, inline="always")
+def _reduce(x):  # type: ignore[no-untyped-def]
+    """``x = r + t + n π/2`` with ``|r| ≲ π/4`` and ``t`` its tail: ``(r, t, n mod 4)`` (fdlibm's
+    __ieee754_rem_pio2 for medium arguments)."""
+    fn = math.floor(x * _INVPIO2 + 0.5)
+    r = x - fn * _PIO2_1
+    w = fn * _PIO2_1T
+    y0 = r - w
+    if abs(y0) < abs(x) * 1.52587890625e-05:  # 16 bits cancelled: a second piece (118 bits)
+        t = r
+        w = fn * _PIO2_2
+        r = t - w
+        w = fn * _PIO2_2T - ((t - r) - w)
+        y0 = r - w
+        if abs(y0) < abs(x) * 1.7763568394002505e-15:  # 49 bits: a third (151 bits)
+            t = r
+            w = fn * _PIO2_3
+            r = t - w
+            w = fn * _PIO2_3T - ((t - r) - w)
+            y0 = r - w
+    return y0, (r - y0) - w, int(fn) & 3
+
+
+@njit(cache=True, inline="always")
+def sincos(x):  # type: ignore[no-untyped-def]
+    """``(sin x, cos x)``, each within 1 ulp (see above). Inlined, under the caller's flags."""
+    if abs(x) <= _PIO4:
+        return _ksin(x, 0.0), _kcos(x, 0.0)
+    if not abs(x) <= _TRIG_FAST:  # also NaN and ±inf
+        return math.sin(x), math.cos(x)
+    r, t, q = _reduce(x)
+    s, c = _ksin(r, t), _kcos(r, t)
+    if q == 0:
+        return s, c
+    if q == 1:
+        return c, -s
+    if q == 2:
+        return -s, -c
+    return -c, s
+
+
+@njit(cache=True, inline="always")
+def sine(x):  # type: ignore[no-untyped-def]
+    """``sin x`` within 1 ulp (see :func:`sincos`)."""
+    if abs(x) <= _PIO4:
+        return _ksin(x, 0.0)
+    if not abs(x) <= _TRIG_FAST:
+        return math.sin(x)
+    r, t, q = _reduce(x)
+    if q == 0:
+        return _ksin(r, t)
+    if q == 1:
+        return _kcos(r, t)
+    if q == 2:
+        return -_ksin(r, t)
+    return -_kcos(r, t)
+
+
+@njit(cache=True, inline="always")
+def cosine(x):  # type: ignore[no-untyped-def]
+    """``cos x`` within 1 ulp (see :func:`sincos`)."""
+    if abs(x) <= _PIO4:
+        return _kcos(x, 0.0)
+    if not abs(x) <= _TRIG_FAST:
+        return math.cos(x)
+    r, t, q = _reduce(x)
+    if q == 0:
+        return _kcos(r, t)
+    if q == 1:
+        return -_ksin(r, t)
+    if q == 2:
+        return -_kcos(r, t)
+    return _ksin(r, t)

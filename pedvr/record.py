@@ -53,7 +53,9 @@ def progress_kernel(ids, pos, wants, t, distance, seconds, anchor_pos, anchor_t,
     m = 0
     for k in range(ids.shape[0]):
         i = ids[k]
-        d = math.hypot(pos[k, 0] - anchor_pos[i, 0], pos[k, 1] - anchor_pos[i, 1])
+        dx = pos[k, 0] - anchor_pos[i, 0]
+        dy = pos[k, 1] - anchor_pos[i, 1]
+        d = math.sqrt(dx * dx + dy * dy)
         if not wants[k] or not d < distance:
             anchor_pos[i, 0] = pos[k, 0]
             anchor_pos[i, 1] = pos[k, 1]
@@ -68,11 +70,13 @@ def progress_kernel(ids, pos, wants, t, distance, seconds, anchor_pos, anchor_t,
 def _root_sync(pelvis, pos, is_user, seated):  # noqa: ANN001, ANN202
     """The largest horizontal distance (m) between a virtual, unseated row's pelvis ``(N, 3)``
     (Y up) and its 2D position; 0 when there is none."""
-    worst = 0.0
+    worst = 0.0  # squared: one square root at the end (it keeps the order)
     for i in range(pos.shape[0]):
         if not (is_user[i] or seated[i]):
-            worst = max(worst, math.hypot(pelvis[i, 0] - pos[i, 0], pelvis[i, 2] - pos[i, 1]))
-    return worst
+            dx = pelvis[i, 0] - pos[i, 0]
+            dz = pelvis[i, 2] - pos[i, 1]
+            worst = max(worst, dx * dx + dz * dz)
+    return math.sqrt(worst)
 
 
 @dataclass

@@ -29,7 +29,7 @@ from pedvr.body import actions as act
 from pedvr.body import pose as ps
 from pedvr.body import skeleton as sk
 from pedvr.body.quat import FASTMATH, fk_row, qmul4, qrot3
-from pedvr.kernels import row_njit
+from pedvr.kernels import row_njit, sincos
 
 NODE_NAMES = ("locomotion", "sitting", "gesture", "idle", "gaze", "reach")
 LOCOMOTION, SITTING, GESTURE, IDLE, GAZE, REACH = range(6)
@@ -131,8 +131,8 @@ def turn_shoulders(pose_q, turn):  # type: ignore[no-untyped-def]
     follow; the neck turns back by as much, so the head keeps facing where it did (the walker still
     looks where it goes, and the gaze controller's work is kept). Pre-multiplied, as the gaze's
     rotations are: a turn about the parent's vertical."""
-    half = math.sin(0.25 * turn), math.cos(0.25 * turn)
-    back = math.sin(-0.5 * turn), math.cos(-0.5 * turn)
+    half = sincos(0.25 * turn)
+    back = sincos(-0.5 * turn)
     for j, (sy, cy) in ((sk.SPINE2, half), (sk.SPINE3, half), (sk.NECK, back)):
         x, y, z, w = qmul4(0.0, sy, 0.0, cy, pose_q[j, 0], pose_q[j, 1], pose_q[j, 2], pose_q[j, 3])
         pose_q[j, 0] = x

@@ -66,7 +66,9 @@ def skate_kernel(world_pos, planted, pitch, lift, measured, anchor, in_contact, 
                         anchor[i, f, c, 0] = x
                         anchor[i, f, c, 1] = z
                     else:
-                        d = math.hypot(x - anchor[i, f, c, 0], z - anchor[i, f, c, 1])
+                        dx = x - anchor[i, f, c, 0]
+                        dz = z - anchor[i, f, c, 1]
+                        d = math.sqrt(dx * dx + dz * dz)
                         if d > stance_max[i, f]:
                             stance_max[i, f] = d
                 else:

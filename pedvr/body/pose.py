@@ -29,7 +29,7 @@ from pedvr.body import skeleton as sk
 from pedvr.body.locomotion import DS, foot_pose_cs
 from pedvr.body.quat import FASTMATH, euler_yxz4, frame_quat, qmul4, qrot3
 from pedvr.body.style import PA, PB, Pa, Pb, Pp
-from pedvr.kernels import row_njit, wrap_pi
+from pedvr.kernels import cosine, row_njit, sincos, sine, wrap_pi
 
 PELVIS_YAW = 0.07  # rad: transverse pelvic rotation at a walk (±4°)
 PELVIS_LIST = 0.05  # rad: pelvic obliquity (±3°)
@@ -138,7 +138,7 @@ def copy_pose(src_q, src_p, dst_q, dst_p):  # type: ignore[no-untyped-def]
 def _phase_sin(style, d, t):  # type: ignore[no-untyped-def]
     """DOF ``d``'s phase argument ``a t + b`` and its sine (for :func:`_dof_shared`)."""
     x = style[d, Pa] * t + style[d, Pb]
-    return x, math.sin(x)
+    return x, sine(x)
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
@@ -159,29 +159,30 @@ def _dof_shared(style, d, t, amp, xa, sa, xb, sb, xc, sc):  # type: ignore[no-un
     elif x == xc:
         s = sc
     else:
-        s = math.sin(x)
+        s = sine(x)
     return style[d, PA] * amp * spow(s, style[d, Pp]) + style[d, PB]
 
 
 @njit(cache=True, fastmath=FASTMATH)
 def _rot_x(a):  # type: ignore[no-untyped-def]
     """``euler_yxz4(0, a, 0)``."""
-    return math.sin(0.5 * a), 0.0, 0.0, math.cos(0.5 * a)
+    s, c = sincos(0.5 * a)
+    return s, 0.0, 0.0, c
 
 
 @njit(cache=True, fastmath=FASTMATH)
 def _rot_yz(yaw, roll):  # type: ignore[no-untyped-def]
     """``euler_yxz4(yaw, 0, roll)``."""
-    cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
-    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
+    sy, cy = sincos(0.5 * yaw)
+    sr, cr = sincos(0.5 * roll)
     return sy * sr, sy * cr, cy * sr, cy * cr
 
 
 @njit(cache=True, fastmath=FASTMATH)
 def _rot_xz(pitch, roll):  # type: ignore[no-untyped-def]
     """``euler_yxz4(0, pitch, roll)``."""
-    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
-    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
+    sp, cp = sincos(0.5 * pitch)
+    sr, cr = sincos(0.5 * roll)
     return sp * cr, -sp * sr, cp * sr, cp * cr
 
 
@@ -191,13 +192,14 @@ def _rot_xz(pitch, roll):  # type: ignore[no-untyped-def]
 def loco_row(t, a, style, sc, pelvis_rest, out_q, out_p):  # type: ignore[no-untyped-def]
     """One body's locomotion shadow (see :func:`loco_shadow_kernel`); ``style (11, 5)``."""
     rest_pose(out_q)
-    py = -PELVIS_YAW * math.cos(t) * a
-    pl = PELVIS_LIST * math.sin(t) * a
+    st, ct = sincos(t)
+    py = -PELVIS_YAW * ct * a
+    pl = PELVIS_LIST * st * a
     pt = PELVIS_TILT * min(a, 1.0)
     _put(out_q, sk.PELVIS, euler_yxz4(py, pt, pl))
-    out_p[0] = SWAY * sc * math.sin(t) * a
+    out_p[0] = SWAY * sc * st * a
     # lowest at each heel strike (double support), highest at mid-stance; amp = speed / 1.3
-    bob = BOB * sc * (a * (1.3 / 1.35)) ** BOB_EXP * 0.5 * (1.0 + math.cos(2.0 * t))
+    bob = BOB * sc * (a * (1.3 / 1.35)) ** BOB_EXP * 0.5 * (1.0 + cosine(2.0 * t))
     out_p[1] = pelvis_rest - KNEE_BEND * sc - bob
     out_p[2] = 0.0
     # lower spine: counter-rotate the pelvis (spread over Spine1, Spine2) + style
@@ -360,8 +362,8 @@ def gaze_at_rest(has, ang):  # type: ignore[no-untyped-def]
 @njit(cache=True, fastmath=FASTMATH)
 def _yaw_pitch(yaw, pitch):  # type: ignore[no-untyped-def]
     """``euler_yxz4(yaw, pitch, 0)``: ``R_y(yaw) R_x(pitch)``."""
-    cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
-    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
+    sy, cy = sincos(0.5 * yaw)
+    sp, cp = sincos(0.5 * pitch)
     return cy * sp, sy * cp, -sy * sp, cy * cp
 
 
@@ -385,7 +387,7 @@ def gaze_row(dt, has, target, head_pos, root_yaw, running, share, yaw_lim, pitch
         dx = target[0] - head_pos[0]
         dy = target[1] - head_pos[1]
         dz = target[2] - head_pos[2]
-        c, s = math.cos(-root_yaw), math.sin(-root_yaw)
+        s, c = sincos(-root_yaw)
         lx = c * dx + s * dz  # R_y(-yaw) applied to d
         lz = -s * dx + c * dz
         yaw_t = math.atan2(lx, lz)
@@ -525,10 +527,11 @@ def two_bone(sx, sy, sz, tx, ty, tz, px, py, pz, l1, l2, reach, bend_forward, q1
     else:
         frame_quat(-ax, -ay, -az, qx, qy, qz, q1)
         half = 0.5 * hinge
-    q2[0] = math.sin(half)
+    sh, ch = sincos(half)
+    q2[0] = sh
     q2[1] = 0.0
     q2[2] = 0.0
-    q2[3] = math.cos(half)
+    q2[3] = ch
     return miss
 
 
@@ -551,7 +554,8 @@ def toe_rise(df, du, dp, rf, ru, R, pitch):  # type: ignore[no-untyped-def]
     a = df * rf + du * ru
     b = df * ru - du * rf
     g = 0.5 * (df * df + du * du + dp * dp + rf * rf + ru * ru - R * R)
-    if a * math.cos(pitch) + b * math.sin(pitch) >= g:
+    sp, cp = sincos(pitch)
+    if a * cp + b * sp >= g:
         return pitch
     m = math.sqrt(a * a + b * b)
     phi = math.atan2(b, a)
@@ -570,7 +574,8 @@ def leg_ik_row(dt, rx, rz, ry, off, foot_ref, foot_yaw, foot_pitch, foot_lift, p
     place); ``pose_q (J, 4)``, ``pose_p (3,)``, ``miss (2,)`` written; ``q1, q2 (4,)``, ``anks``,
     ``hips (2, 3)`` scratch.
     """
-    rqx, rqy, rqz, rqw = 0.0, math.sin(0.5 * ry), 0.0, math.cos(0.5 * ry)
+    rqy, rqw = sincos(0.5 * ry)
+    rqx, rqz = 0.0, 0.0
     pqx, pqy, pqz, pqw = qmul4(rqx, rqy, rqz, rqw, pose_q[0, 0], pose_q[0, 1], pose_q[0, 2], pose_q[0, 3])
     # pelvis position in the world, height still free
     ox, oy, oz = qrot3(rqx, rqy, rqz, rqw, pose_p[0], 0.0, pose_p[2])
@@ -583,10 +588,10 @@ def leg_ik_row(dt, rx, rz, ry, off, foot_ref, foot_yaw, foot_pitch, foot_lift, p
     for f in range(2):
         hipk = sk.L_HIP if f == 0 else sk.R_HIP
         # half-angle sines and cosines of each foot's yaw and pitch serve the ankle and the foot's rotation
-        hc, hs = math.cos(0.5 * foot_yaw[f]), math.sin(0.5 * foot_yaw[f])
+        hs, hc = sincos(0.5 * foot_yaw[f])
         trig[f, 0], trig[f, 1] = hc * hc - hs * hs, 2.0 * hs * hc
         trig[f, 4], trig[f, 5] = hc, hs
-        pc, ps_ = math.cos(0.5 * foot_pitch[f]), math.sin(0.5 * foot_pitch[f])
+        ps_, pc = sincos(0.5 * foot_pitch[f])
         trig[f, 2], trig[f, 3] = pc * pc - ps_ * ps_, 2.0 * ps_ * pc
         ax, ay, az = foot_pose_cs(foot_ref[f, 0], foot_ref[f, 1], trig[f, 0], trig[f, 1],
                                   foot_pitch[f] >= 0.0, trig[f, 2], trig[f, 3], foot_lift[f], heel_z, ball_z,
@@ -638,7 +643,7 @@ def leg_ik_row(dt, rx, rz, ry, off, foot_ref, foot_yaw, foot_pitch, foot_lift, p
                          -ball_z, ankle_h - ball_h, reach[f], foot_pitch[f])
             if p != foot_pitch[f]:
                 foot_pitch[f] = p
-                pc, ps_ = math.cos(0.5 * p), math.sin(0.5 * p)
+                ps_, pc = sincos(0.5 * p)
                 trig[f, 2], trig[f, 3] = pc * pc - ps_ * ps_, 2.0 * ps_ * pc
                 ax, ay, az = foot_pose_cs(foot_ref[f, 0], foot_ref[f, 1], cy, sy, True, trig[f, 2],
                                           trig[f, 3], 0.0, heel_z, ball_z, ball_h, ankle_h)
@@ -654,11 +659,12 @@ def leg_ik_row(dt, rx, rz, ry, off, foot_ref, foot_yaw, foot_pitch, foot_lift, p
         # half-angles: cos(φ/2) = (cos(yaw/2) + sin(yaw/2)) / √2, sin(φ/2) = (cos − sin) / √2
         hc, hs = trig[f, 4], trig[f, 5]
         pitch = foot_pitch[f]
-        fx_, fy_, fz_, fw_ = qmul4(0.0, (hc - hs) * _SQRT_HALF, 0.0, (hc + hs) * _SQRT_HALF,
-                                   math.sin(0.5 * pitch), 0.0, 0.0, math.cos(0.5 * pitch))
+        sp, cp = sincos(0.5 * pitch)
+        fx_, fy_, fz_, fw_ = qmul4(0.0, (hc - hs) * _SQRT_HALF, 0.0, (hc + hs) * _SQRT_HALF, sp, 0.0, 0.0, cp)
         _put(pose_q, hipk + 2, _qinv_mul(kx, ky, kz, kw, fx_, fy_, fz_, fw_))
         tp = -pitch if pitch > 0.0 else 0.0  # toes stay flat while the heel is up
-        _put(pose_q, hipk + 3, (math.sin(0.5 * tp), 0.0, 0.0, math.cos(0.5 * tp)))
+        st, ct = sincos(0.5 * tp)
+        _put(pose_q, hipk + 3, (st, 0.0, 0.0, ct))
     return h
 
 

@@ -23,6 +23,8 @@ import math
 import numpy as np
 from numba import njit
 
+from pedvr.kernels import sincos
+
 # LLVM fast-math flags for every body kernel: fast, but without "reassoc" and "contract", which
 # let the compiler reorder sums and fuse multiply-adds differently wherever a function is inlined;
 # without them a body's pose is the same bytes whether the pose graph runs it from the serial loop
@@ -63,19 +65,19 @@ def qrot3(qx, qy, qz, qw, vx, vy, vz):  # type: ignore[no-untyped-def]
 @njit(cache=True, fastmath=_FM)
 def axis_angle(ax, ay, az, angle, out):  # type: ignore[no-untyped-def]
     """Unit quaternion of ``angle`` about the unit axis ``(ax, ay, az)``."""
-    s = math.sin(0.5 * angle)
+    s, c = sincos(0.5 * angle)
     out[0] = ax * s
     out[1] = ay * s
     out[2] = az * s
-    out[3] = math.cos(0.5 * angle)
+    out[3] = c
 
 
 @njit(cache=True, fastmath=_FM)
 def euler_yxz4(yaw, pitch, roll):  # type: ignore[no-untyped-def]
     """``R_y(yaw) R_x(pitch) R_z(roll)`` as a quaternion tuple (intrinsic Y, X', Z'')."""
-    cy, sy = math.cos(0.5 * yaw), math.sin(0.5 * yaw)
-    cp, sp = math.cos(0.5 * pitch), math.sin(0.5 * pitch)
-    cr, sr = math.cos(0.5 * roll), math.sin(0.5 * roll)
+    sy, cy = sincos(0.5 * yaw)
+    sp, cp = sincos(0.5 * pitch)
+    sr, cr = sincos(0.5 * roll)
     x, y, z, w = qmul4(0.0, sy, 0.0, cy, sp, 0.0, 0.0, cp)
     return qmul4(x, y, z, w, 0.0, 0.0, sr, cr)
 
@@ -165,8 +167,7 @@ def fk_row(parents, offsets, local_q, rx, ry, rz, root_yaw, pelvis_pos, world_po
     ``world_q (K,4)``. Parents precede children, so any prefix of the nodes is a complete chain.
     """
     nj = local_q.shape[0]
-    rqy = math.sin(0.5 * root_yaw)
-    rqw = math.cos(0.5 * root_yaw)
+    rqy, rqw = sincos(0.5 * root_yaw)
     for k in range(upto):
         p = parents[k]
         if k < nj:

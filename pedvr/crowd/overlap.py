@@ -199,10 +199,12 @@ def user_clearance(pos, centre, a, b, facing, user, user_pos, user_radius):
     for i in range(pos.shape[0]):
         if i == user:
             continue
-        nearest = min(nearest, math.hypot(pos[i, 0] - ux, pos[i, 1] - uy))
+        px = pos[i, 0] - ux
+        py = pos[i, 1] - uy
+        nearest = min(nearest, px * px + py * py)  # squared until the end (a root keeps the order)
         rx = centre[i, 0] - ux
         ry = centre[i, 1] - uy
-        d = math.hypot(rx, ry)
+        d = math.sqrt(rx * rx + ry * ry)
         if d - max(a[i], b[i]) - user_radius - 1e-9 > best:
             continue
         reach = support(a[i], b[i], facing[i, 0], facing[i, 1], -rx / d, -ry / d) if d > 1e-12 else 0.0
@@ -210,7 +212,7 @@ def user_clearance(pos, centre, a, b, facing, user, user_pos, user_radius):
         if clear < best:
             best = clear
             best_d = d
-    return nearest, best, best_d
+    return math.sqrt(nearest), best, best_d
 
 
 @njit(cache=True)
@@ -229,22 +231,24 @@ def body_user_clearance(pos, radius, turn, torso, heading, ahead, length, user, 
     for i in range(pos.shape[0]):
         if i == user:
             continue
-        nearest = min(nearest, math.hypot(pos[i, 0] - ux, pos[i, 1] - uy))
+        px = pos[i, 0] - ux
+        py = pos[i, 1] - uy
+        nearest = min(nearest, px * px + py * py)  # squared until the end, as in user_clearance
         if length[i] <= 0.0:  # a body's footprint is centred on it, its larger semi-axis known
-            d = math.hypot(pos[i, 0] - ux, pos[i, 1] - uy)
+            d = math.sqrt(px * px + py * py)
             if d - max(radius[i], depth_of(radius[i], turn[i])) - user_radius - 1e-9 > best:
                 continue
         cx, cy, a, b, fx, fy = row_footprint(pos[i, 0], pos[i, 1], radius[i], turn[i], torso[i], heading[i],
                                              ahead[i], length[i])
         rx = cx - ux
         ry = cy - uy
-        d = math.hypot(rx, ry)
+        d = math.sqrt(rx * rx + ry * ry)
         reach = support(a, b, fx, fy, -rx / d, -ry / d) if d > 1e-12 else 0.0
         clear = d - reach - user_radius
         if clear < best:
             best = clear
             best_d = d
-    return nearest, best, best_d
+    return math.sqrt(nearest), best, best_d
 
 
 @njit(cache=True)
@@ -258,11 +262,13 @@ def motion_extremes(vel, prev_vel, heading, prev_heading, is_user, dt):
     for i in range(vel.shape[0]):
         if is_user[i]:
             continue
-        total += math.hypot(vel[i, 0], vel[i, 1])
+        total += math.sqrt(vel[i, 0] * vel[i, 0] + vel[i, 1] * vel[i, 1])
         rows += 1
-        acc = max(acc, math.hypot(vel[i, 0] - prev_vel[i, 0], vel[i, 1] - prev_vel[i, 1]) / dt)
+        ax = vel[i, 0] - prev_vel[i, 0]
+        ay = vel[i, 1] - prev_vel[i, 1]
+        acc = max(acc, ax * ax + ay * ay)  # squared: one root at the end keeps the order
         turn = max(turn, abs(wrap_pi(heading[i] - prev_heading[i])) / dt)
-    return total, rows, acc, turn
+    return total, rows, math.sqrt(acc) / dt, turn
 
 
 @njit(cache=True)
