@@ -301,33 +301,11 @@ def sincos(x):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, inline="always")
 def sine(x):  # type: ignore[no-untyped-def]
-    """``sin x`` within 1 ulp (see :func:`sincos`)."""
-    if abs(x) <= _PIO4:
-        return _ksin(x, 0.0)
-    if not abs(x) <= _TRIG_FAST:
-        return math.sin(x)
-    r, t, q = _reduce(x)
-    if q == 0:
-        return _ksin(r, t)
-    if q == 1:
-        return _kcos(r, t)
-    if q == 2:
-        return -_ksin(r, t)
-    return -_kcos(r, t)
+    """``sin x``: :func:`sincos`'s first (inlined, the cosine's polynomial is dead code)."""
+    return sincos(x)[0]
 
 
 @njit(cache=True, inline="always")
 def cosine(x):  # type: ignore[no-untyped-def]
-    """``cos x`` within 1 ulp (see :func:`sincos`)."""
-    if abs(x) <= _PIO4:
-        return _kcos(x, 0.0)
-    if not abs(x) <= _TRIG_FAST:
-        return math.cos(x)
-    r, t, q = _reduce(x)
-    if q == 0:
-        return _kcos(r, t)
-    if q == 1:
-        return -_ksin(r, t)
-    if q == 2:
-        return -_kcos(r, t)
-    return _ksin(r, t)
+    """``cos x``: :func:`sincos`'s second."""
+    return sincos(x)[1]
