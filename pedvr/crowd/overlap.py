@@ -233,9 +233,10 @@ def body_user_clearance(pos, radius, turn, torso, heading, ahead, length, user, 
             continue
         px = pos[i, 0] - ux
         py = pos[i, 1] - uy
-        nearest = min(nearest, px * px + py * py)  # squared until the end, as in user_clearance
+        d2 = px * px + py * py
+        nearest = min(nearest, d2)  # squared until the end, as in user_clearance
         if length[i] <= 0.0:  # a body's footprint is centred on it, its larger semi-axis known
-            d = math.sqrt(px * px + py * py)
+            d = math.sqrt(d2)
             if d - max(radius[i], depth_of(radius[i], turn[i])) - user_radius - 1e-9 > best:
                 continue
         cx, cy, a, b, fx, fy = row_footprint(pos[i, 0], pos[i, 1], radius[i], turn[i], torso[i], heading[i],
