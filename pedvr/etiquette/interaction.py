@@ -58,7 +58,9 @@ that clears the passing lane plus 25° (at least 45°, App. B.3 "the minimal ang
 passage"); a carrier or a perambulator pusher (no free hand, §4.6) pushes a push side open with
 its body, waits at a pull side for someone to open it (a helper overtakes it), passes first
 whatever the holder decided (it cannot take a door over), and after :data:`CARRIER_PATIENCE`
-alone frees a hand; every state gives up after a timeout, so nobody waits for ever on a state.
+alone frees a hand; a pram pusher alone at a closed pull door then turns round, opens it with its
+pram trailing and backs through (:func:`_backing_through`); every state gives up after a timeout,
+so nobody waits for ever on a state.
 """
 
 from __future__ import annotations
@@ -137,6 +139,15 @@ BATCH_KEEP = 3  # waiting on each side below which it is no longer busy
 BATCH_WAIT = 120.0  # s of waiting credited to the side that has the door within a batch: it goes first
 CATCH_RANGE = 4.0  # m from the doorway within which NH's follower catches the door (issue 26)
 HAND_ON_SPEED = 0.3  # m/s: a follower slower than this on its way to take the door over is blocked (_hand_on)
+# A pram pusher backing through a pull door (_backing_through, issue 26)
+BACK_SPEED = 0.5  # m/s: stepping back ([motion] max_backward_speed)
+BACK_TURNED = math.radians(12.0)  # a turn round is done this close to the facing it turns to
+BACK_CLEAR = 0.3  # m past the doorway line its pram's far end gets before it turns round
+BACK_LINE_UP = 0.6  # m before the doorway line (at least) it gets onto the lane, its pram in line behind
+BACK_ON_LANE = 0.12  # m off the lane that counts as on it
+BACK_CLOSED = math.radians(20.0)  # a leaf open less than this is one the pusher must open itself
+BACK_OPEN_S = 8.0  # s it may take to pull the leaf open, stepping round (5 s for other pullers)
+BACK_EXTRA = 8.0  # s more than STATE_TIMEOUT that backing through may take
 HAND_ON_AHEAD = 0.2  # m nearer the door than the follower that the one it hands on to stands, at least
 
 
@@ -475,6 +486,20 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
         else:
             et.approach(w)
             return
+    if carrier and pull and w.freed_hand and not w.backing and float(crowd.length[r]) > 0.0 \
+            and et.leaf_open(leaf, fr) < BACK_CLOSED \
+            and not any(o.door == w.door and o.id != w.id for o in by_id.values()):
+        # A pusher alone at a closed pull door turns round where it waits, so that its pram
+        # trails (_backing_through); it sets off once its back is to where it opens the door from.
+        # (With others at the door it waits for one of them to open it, or opens it as others do:
+        # door_double with the pram, seeds 6 and 17: backing among them, it was left behind.)
+        away = _toward(bop, p)
+        if abs(_wrap(float(crowd.heading[r]) - away)) > BACK_TURNED:
+            et.stand(w, away)
+            w.lock = True  # the facing turns the body (EtiquetteCore.face)
+            return
+        w.backing = True
+        et.log("pram_turns_round", w)
     if carrier and not pull:
         # no free hand: it pushes the door open with its body (the leaves yield to it)
         w.role = PASSING
@@ -486,14 +511,19 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
     if leaf in ds.mutex or leaf in ds.holder or _oncoming(et, w, crowd):
         et.stand(w, face_door)
         return
-    if float(np.hypot(*(p - bop))) <= OPENER_RANGE or float(np.hypot(*(p - ds.centre))) <= OPENER_RANGE:
+    if w.backing or float(np.hypot(*(p - bop))) <= OPENER_RANGE \
+            or float(np.hypot(*(p - ds.centre))) <= OPENER_RANGE:
         ds.mutex[leaf] = w.id
         w.role = HOLDER
         w.leaf = leaf
         w.frame = fr
         w.waiting = False
         target, facing = fr.bop_pull(radius) if pull else fr.bop_push(radius)
-        et.set_plan(w, crowd, _via(et, fr, leaf, p, radius, target, crowd=crowd), facing=facing, lock=False)
+        way = _via(et, fr, leaf, p, radius, target, crowd=crowd)
+        if w.backing:  # backwards to the handle, its pram trailing out of the leaf's swing
+            et.set_plan(w, crowd, way, facing=_toward(target, p), speed=BACK_SPEED, backward=True, lock=True)
+        else:
+            et.set_plan(w, crowd, way, facing=facing, lock=False)
         et.set_state(w, OPENER_INIT)
         return
     et.approach(w)  # along its own path
@@ -519,6 +549,8 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
     pull = _on_pull(et, w, crowd)
     age = et.t - w.since
     if w.state == OPENER_INIT:
+        if w.backing and w.plan is not None and float(np.hypot(*(w.plan[-1] - p))) > 0.3:
+            w.face = _toward(w.plan[-1], p)  # backing up to its place: its back to it, pram in line
         if et.arrived(w, crowd, 0.15) or (age > 4.0 and w.plan is not None
                                          and float(np.hypot(*(p - w.plan[-1]))) < 0.45):
             et.stand(w, w.face)
@@ -526,16 +558,19 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
             et.set_state(w, REACH_DOOR)
             at = PULL_HAND_AT if pull else PUSH_HAND_AT
             h = fr.handle(et.leaf_open(leaf, fr), at)
+            arm = _arm_for(et, w, crowd, h) if w.backing else (RIGHT if pull else LEFT)
             et.body.gaze_at(w.id, (float(h[0]), 1.0, float(h[1])))  # eyes on the handle (§4.4)
-            et.body.reach_for(w.id, (float(h[0]), 1.0, float(h[1])), side="right" if pull else "left")
+            et.body.reach_for(w.id, (float(h[0]), 1.0, float(h[1])), side="right" if arm == RIGHT else "left")
         elif age > STATE_TIMEOUT:
             _give_up(et, w, crowd, why="could not reach the door")
         return
     if w.state == REACH_DOOR:
         if age >= REACH_TIME:
-            wanted = _followers_in_sight(et, w, by_id, crowd)
+            wanted = w.backing or _followers_in_sight(et, w, by_id, crowd)  # a pram wants it wide
             open_to = HOLD_ANGLE if wanted else nh_angle(fr, radius)
-            et.take_leaf(w, leaf, arm=RIGHT if pull else LEFT, p_rel=PULL_HAND_AT if pull else PUSH_HAND_AT,
+            h = fr.handle(et.leaf_open(leaf, fr), PULL_HAND_AT)
+            arm = _arm_for(et, w, crowd, h) if w.backing else (RIGHT if pull else LEFT)
+            et.take_leaf(w, leaf, arm=arm, p_rel=PULL_HAND_AT if pull else PUSH_HAND_AT,
                          open_to=open_to, speed=PULL_OPEN_SPEED if pull else PUSH_OPEN_SPEED)
             et.set_state(w, OPEN_DOOR)
             et.log("open", w, leaf=leaf, case="pull" if pull else "push")
@@ -548,13 +583,20 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
             # side of it (whatever it decides next: HOL walks on through, HOF steps round behind
             # the leaf while the follower comes, App. B.3).
             phi = max(BOP_PULL_POLAR, min(a - math.radians(5.0), target_a - PULL_STAND))
-            _arc(et, w, fr, radius, p, phi, facing=_toward(p, fr.handle(a, PULL_HAND_AT)), speed=1.5)
+            if w.backing:  # pulling the leaf behind it, its pram ahead round the swing, as far as the lane
+                phi = min(phi, _lane_polar(fr, radius))
+                now = max(math.atan2(*fr.local(p)[::-1]), BOP_PULL_POLAR)  # facing along the circle
+                _arc(et, w, fr, radius, p, phi, facing=fr.heading(-math.sin(now), math.cos(now)),
+                     speed=BACK_SPEED)
+            else:
+                _arc(et, w, fr, radius, p, phi, facing=_toward(p, fr.handle(a, PULL_HAND_AT)), speed=1.5)
             lx, ly = fr.local(p)
-            kept_up = math.atan2(ly, lx) >= target_a - PULL_STAND - math.radians(12.0)  # at its place
+            kept_up = math.atan2(ly, lx) >= min(target_a - PULL_STAND, _lane_polar(fr, radius) if w.backing
+                                                else math.inf) - math.radians(12.0)  # at its place
         else:
             et.walk_to(w, crowd, fr.lane(0.0), facing=fr.heading(0.0, 1.0), speed=0.55, lock=True)
             kept_up = True
-        if (a >= target_a - math.radians(4.0) and kept_up) or age > 5.0:
+        if (a >= target_a - math.radians(4.0) and kept_up) or age > (BACK_OPEN_S if w.backing else 5.0):
             et.set_state(w, HOLDER_DEC)
             ds.mutex.pop(leaf, None)
             w.action = ""
@@ -563,6 +605,11 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
         return
     if w.state == HOLDER_DEC:
         f = by_id.get(w.follower) if w.follower != NONE else None
+        if w.backing:  # it has a pram to get through: it holds for nobody
+            if f is not None:
+                _demote(f)
+            _finish(et, w, crowd)
+            return
         if f is None:
             if age < DECIDE_WAIT:
                 _look_back(et, w, crowd)
@@ -907,6 +954,9 @@ def _finishing(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     leaf = w.leaf
     a = et.leaf_open(leaf, fr)
     holding = w.arm >= 0
+    if w.backing:
+        _backing_through(et, w, crowd, fr, r, radius, ly, a, holding)
+        return
     if pull:
         # from the pull side through to the push side
         out = fr.lane(-(radius + CLEAR + 0.5))
@@ -943,6 +993,80 @@ def _finishing(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     et.walk_to(w, crowd, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
 
 
+def _backing_through(et: EtiquetteCore, w: Walker, crowd: CrowdState, fr: LeafFrame, r: int, radius: float,
+                     ly: float, a: float, holding: bool) -> None:
+    """A pram pusher alone at a pull door (issue 26, "no carrier left behind"). §4.6 has a carrier
+    with no free hand wait for help at a pull side, and after :data:`CARRIER_PATIENCE` alone
+    pedvr's pusher frees a hand. Pushing, it cannot reach the handle: its pram, 0.8 m ahead of
+    it, would stand in the leaf's swing, and it gave up again and again. So it does what real
+    pushers do at a pull door: it turns round where it waits (:func:`_doorway_behavior`), backs
+    up to the handle with its pram trailing out of the swing, pulls the leaf wide open stepping
+    round the swing's edge (walking forward, its pram ahead of it and the leaf in the hand behind
+    it) only as far as the passing lane (:func:`_lane_polar`), and backs down the lane through
+    the doorway pulling its pram, holding the leaf until its body is through. The leaf
+    then closes onto the pram's side and rests on it (leaves yield to the pram,
+    ``Simulation._door_discs``) until it is through. Beyond the doorway, with room for the pram's
+    sweep, it turns round to face its way.
+
+    pedvr's choices (the paper has no such choreography): backwards at :data:`BACK_SPEED`, the
+    body's own limit for stepping back (``[motion] max_backward_speed``); the turns at the body's
+    standing turn rate; it holds the door for nobody (a follower committed to it is let go)."""
+    back = fr.heading(0.0, 1.0)  # facing the pull side: the pram trails
+    reach = float(crowd.ahead[r] + crowd.length[r])  # the pram's far end ahead of the pusher
+    if holding:
+        w.want = max(a, HOLD_ANGLE)
+        lx = fr.local(et.pos(crowd, w.id))[0]
+        w.p_rel = min(max(math.hypot(lx, ly) - 0.1, 0.3 * fr.w), 0.95 * fr.w)
+        if ly < -radius or et.t - w.since > STATE_TIMEOUT:
+            et.let_go(w)
+    clear = ly < -(reach + BACK_CLEAR)
+    if et.t - w.since > STATE_TIMEOUT + BACK_EXTRA:
+        if w.arm >= 0:
+            et.let_go(w)
+        et.finish(w, crowd)
+        return
+    if not clear:
+        # onto the lane first, where the pram lines up behind it, then straight down it
+        p = et.pos(crowd, w.id)
+        lx = fr.local(p)[0]
+        end = fr.lane(-(reach + BACK_CLEAR + 0.2))
+        on_lane = abs(lx - LANE_AT * fr.w) < BACK_ON_LANE or ly < radius + 0.2
+        if on_lane:
+            way, facing = end, back
+        else:
+            a_ly = min(max(ly - 0.3, BACK_LINE_UP), 2.0 * BACK_LINE_UP)
+            line_up = fr.lane(a_ly)
+            way = np.stack([line_up, end])
+            facing = _toward(line_up, p) if ly > a_ly + 0.1 else back  # its back to the way
+        et.walk_to(w, crowd, way, facing=facing, speed=BACK_SPEED, lock=True, backward=True)
+        return
+    ahead = fr.heading(0.0, -1.0)
+    if abs(_wrap(float(crowd.heading[r]) - ahead)) > BACK_TURNED:
+        et.stand(w, ahead)  # room for the pram's sweep: it turns round to face its way
+        w.lock = True
+        return
+    et.finish(w, crowd)
+
+
+def _lane_polar(fr: LeafFrame, radius: float) -> float:
+    """Where the circle outside the leaf's swing crosses the passing lane (polar angle from the
+    closed leaf): a pusher backing through pulls the leaf open stepping round to here, so that it
+    backs straight down the lane with its pram in line behind it (_backing_through)."""
+    return math.acos(min(1.0, LANE_AT * fr.w / fr.outer(radius)))
+
+
+def _arm_for(et: EtiquetteCore, w: Walker, crowd: CrowdState, h: np.ndarray) -> int:
+    """The arm on the side of point ``h``, for a pusher with its back to the door (_backing_through)."""
+    r = et._row[w.id]
+    th = float(crowd.heading[r])
+    d = h - et.pos(crowd, w.id)
+    return LEFT if math.cos(th) * float(d[1]) - math.sin(th) * float(d[0]) > 0.0 else RIGHT
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
 def _give_up(et: EtiquetteCore, w: Walker, crowd: CrowdState, *, why: str) -> None:
     et.log("give_up", w, why=why)
     if w.arm >= 0:
@@ -955,6 +1079,7 @@ def _give_up(et: EtiquetteCore, w: Walker, crowd: CrowdState, *, why: str) -> No
         _demote(et.walkers[w.follower])
     w.follower = NONE
     _demote(w)
+    w.backing = False  # a pusher that gave up backing through decides afresh (alone or not)
 
 
 def _in_the_way(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> Walker:
