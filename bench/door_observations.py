@@ -28,7 +28,12 @@ measures them on ``--seeds`` seeds and prints one JSON line per observation:
   last one passed; median and worst;
 * ``pram``: a perambulator pusher (§4.6) at the single door of door_assist and at the double door
   of door_double (three walkers a side and the pram): its passages in 90 s, and the time of its
-  first, per seed (issue 24 item 4, issue 26: "no carrier left behind").
+  first, per seed (issue 24 item 4, issue 26: "no carrier left behind");
+* ``lone_pram``: a pram pusher alone on the pull side of door_assist's 1.3 m single door,
+  door_same_side's 1.1 m one and door_double, from ten places 3 and 7 m from the door (issue 26,
+  change 18: it turns round and backs through): how many of the runs get it through in 60 s, when
+  (median and worst), the runs with an overlap over 1 cm (bodies, leaves or walls), the deepest
+  wall overlap, and the runs where it gave the door up once or more.
 
 Passages and waits in ``rush``, ``double_queue`` and ``pram`` are measured from positions
 (:class:`Crossings`), not from the etiquette's own events, so the figures mean the same before
@@ -37,6 +42,7 @@ and after a change to the etiquette.
     python bench/door_observations.py --seeds 10
     python bench/door_observations.py --seeds 6 --only rush double_queue pram
     python bench/door_observations.py --seeds 16 --first-seed 9 --only single_flow
+    python bench/door_observations.py --seeds 3 --only lone_pram
 """
 
 from __future__ import annotations
@@ -229,6 +235,33 @@ def pram(seeds: list[int], seconds: float = 90.0) -> dict[str, Any]:
     return out
 
 
+LONE_STARTS = [(x, y) for y in (-3.0, -1.5, 0.0, 1.5, 3.0) for x in (-7.0, -3.0)]  # pull sides at x < 0
+
+
+def lone_pram(seeds: list[int], seconds: float = 60.0) -> dict[str, Any]:
+    """A pram pusher alone at a pull door, from :data:`LONE_STARTS` (module docstring)."""
+    out: dict[str, Any] = {"observation": "lone_pram", "seeds": len(seeds), "starts": len(LONE_STARTS)}
+    for name in ("door_assist", "door_same_side", "door_double"):
+        base = _with_pram(name, (), (0.0, 0.0), "east")
+        through, when, overlapping, gave_up, wall = 0, [], 0, 0, 0.0
+        for s in seeds:
+            for at in LONE_STARTS:
+                pram_spawn = dataclasses.replace(base.spawns[0], positions=(at,))
+                cr, summ = _run_crossings(dataclasses.replace(base, spawns=(pram_spawn,)), s, seconds)
+                if cr.events:
+                    through += 1
+                    when.append(cr.events[0]["t"])
+                overlapping += (summ["overlaps_over_1cm"] > 0 or summ["door_leaf_overlap_max_m"] > 0.01
+                                or summ["wall_overlap_max_m"] > 0.01)
+                gave_up += any(e["event"] == "give_up" for e in summ["door_events"])
+                wall = max(wall, float(summ["wall_overlap_max_m"]))
+        out[name] = {"runs": len(seeds) * len(LONE_STARTS), "through": through,
+                     "first_pass_s": _med_worst(when or [float("inf")], "max"),
+                     "runs_overlapping": overlapping, "wall_overlap_max_m": round(wall, 4),
+                     "runs_giving_up": gave_up}
+    return out
+
+
 def _run(scene: SceneConfig, seed: int, seconds: float) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     sim = Simulation(scene, seed=seed)
     sim.advance_to(seconds)
@@ -327,7 +360,8 @@ def main() -> int:
             "deadlock12": lambda: deadlock(seeds, 12, 14), "rush": lambda: rush(seeds),
             "single_flow": lambda: rush(seeds, name="validation/door_single_flow", observation="single_flow"),
             "double_flow": lambda: rush(seeds, name="validation/door_double_flow", observation="double_flow"),
-            "double_queue": lambda: double_queue(seeds), "pram": lambda: pram(seeds)}
+            "double_queue": lambda: double_queue(seeds), "pram": lambda: pram(seeds),
+            "lone_pram": lambda: lone_pram(seeds)}
     for name, job in jobs.items():
         if a.only and name not in a.only:
             continue
