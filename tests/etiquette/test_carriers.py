@@ -140,3 +140,23 @@ def test_a_lone_pram_at_a_pull_door_backs_through(scene: str, start: tuple[float
     summary = sim.summary()
     assert summary["overlaps_over_1cm"] == 0 and summary["door_leaf_overlap_max_m"] < 0.01
     assert summary["wall_overlap_max_m"] < 0.01
+
+
+def test_a_pram_the_user_let_go_of_the_door_on_gets_through() -> None:
+    """The participant comes through from the push side, holds the door (HOL) for a lone pram and
+    lets go as the pram reaches the leaf (door_same_side, seed 1): the leaf swings onto the pram's
+    front in the pocket behind it. Before issue 26's change 18 the pram stood there to the end of
+    the run (the way round the leaf's edge drove it back into the leaf); now it backs out of the
+    swing, frees a hand and backs through (``interaction._pram_backs_out_of_swing``): measured
+    through at 44.8 s. Nothing ever overlaps the user."""
+    s = _lone_pram("door_same_side", START)
+    s = dataclasses.replace(s, user=dataclasses.replace(s.user, start=(4.0, 0.0), route=((-4.0, 0.0),)))  # type: ignore[attr-defined]
+    sim = Simulation(s, seed=1)  # type: ignore[arg-type]
+    row = int(np.nonzero(~sim.crowd.is_user)[0][0])
+    while sim.t < 60.0 and sim.crowd.pos[row, 0] <= 0.5:
+        sim.step()
+    events = [e["event"] for e in sim.etiquette.events]
+    assert "user_holds" in events and "release" in events  # the set-up: the user held it, then let go
+    assert sim.crowd.pos[row, 0] > 0.5, (sim.t, events)
+    summary = sim.summary()
+    assert summary["user_overlap_max_m"] == 0.0 and summary["overlaps_over_1cm"] == 0
