@@ -110,6 +110,7 @@ from pedvr.etiquette.vocab import (
     STATE_TIMEOUT,
     THANK_RANGE,
 )
+from pedvr.kernels import wrap_pi
 
 if TYPE_CHECKING:
     from pedvr.crowd.state import CrowdState
@@ -496,7 +497,7 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
         # (With others at the door it waits for one of them to open it, or opens it as others do:
         # door_double with the pram, seeds 6 and 17: backing among them, it was left behind.)
         away = _toward(bop, p)
-        if abs(_wrap(float(crowd.heading[r]) - away)) > BACK_TURNED:
+        if abs(wrap_pi(float(crowd.heading[r]) - away)) > BACK_TURNED:
             et.stand(w, away)
             w.lock = True  # the facing turns the body (EtiquetteCore.face)
             return
@@ -570,8 +571,8 @@ def _holder(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crowd
         if age >= REACH_TIME:
             wanted = w.backing or _followers_in_sight(et, w, by_id, crowd)  # a pram wants it wide
             open_to = HOLD_ANGLE if wanted else nh_angle(fr, radius)
-            h = fr.handle(et.leaf_open(leaf, fr), PULL_HAND_AT)
-            arm = _arm_for(et, w, crowd, h) if w.backing else (RIGHT if pull else LEFT)
+            arm = (_arm_for(et, w, crowd, fr.handle(et.leaf_open(leaf, fr), PULL_HAND_AT)) if w.backing
+                   else RIGHT if pull else LEFT)
             et.take_leaf(w, leaf, arm=arm, p_rel=PULL_HAND_AT if pull else PUSH_HAND_AT,
                          open_to=open_to, speed=PULL_OPEN_SPEED if pull else PUSH_OPEN_SPEED)
             et.set_state(w, OPEN_DOOR)
@@ -1015,9 +1016,10 @@ def _backing_through(et: EtiquetteCore, w: Walker, crowd: CrowdState, fr: LeafFr
     standing turn rate; it holds the door for nobody (a follower committed to it is let go)."""
     back = fr.heading(0.0, 1.0)  # facing the pull side: the pram trails
     reach = float(crowd.ahead[r] + crowd.length[r])  # the pram's far end ahead of the pusher
+    p = et.pos(crowd, w.id)
+    lx = fr.local(p)[0]
     if holding:
         w.want = max(a, HOLD_ANGLE)
-        lx = fr.local(et.pos(crowd, w.id))[0]
         w.p_rel = min(max(math.hypot(lx, ly) - 0.1, 0.3 * fr.w), 0.95 * fr.w)
         if ly < -radius or et.t - w.since > STATE_TIMEOUT:
             et.let_go(w)
@@ -1029,8 +1031,6 @@ def _backing_through(et: EtiquetteCore, w: Walker, crowd: CrowdState, fr: LeafFr
         return
     if not clear:
         # onto the lane first, where the pram lines up behind it, then straight down it
-        p = et.pos(crowd, w.id)
-        lx = fr.local(p)[0]
         end = fr.lane(-(reach + BACK_CLEAR + 0.2))
         on_lane = abs(lx - LANE_AT * fr.w) < BACK_ON_LANE or ly < radius + 0.2
         if on_lane:
@@ -1043,7 +1043,7 @@ def _backing_through(et: EtiquetteCore, w: Walker, crowd: CrowdState, fr: LeafFr
         et.walk_to(w, crowd, way, facing=facing, speed=BACK_SPEED, lock=True, backward=True)
         return
     ahead = fr.heading(0.0, -1.0)
-    if abs(_wrap(float(crowd.heading[r]) - ahead)) > BACK_TURNED:
+    if abs(wrap_pi(float(crowd.heading[r]) - ahead)) > BACK_TURNED:
         et.stand(w, ahead)  # room for the pram's sweep: it turns round to face its way
         w.lock = True
         return
@@ -1091,10 +1091,6 @@ def _arm_for(et: EtiquetteCore, w: Walker, crowd: CrowdState, h: np.ndarray) -> 
     th = float(crowd.heading[r])
     d = h - et.pos(crowd, w.id)
     return LEFT if math.cos(th) * float(d[1]) - math.sin(th) * float(d[0]) > 0.0 else RIGHT
-
-
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def _give_up(et: EtiquetteCore, w: Walker, crowd: CrowdState, *, why: str) -> None:
