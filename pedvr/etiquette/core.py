@@ -72,6 +72,7 @@ class Walker:
     alone_since: float = math.nan
     freed_hand: bool = False  # a carrier who waited alone long enough and frees a hand
     backing: bool = False  # a pram pusher with a freed hand at a pull door: pram trailing, backs through
+    still_since: float = math.nan  # the user: since when it has stood still (slower than SENSE_USER)
     first_wait: float = math.nan  # when it first stood waiting at this door (door_deadlocks)
     last_wait: float = math.nan  # when it last stood waiting there
     gait: str = ""  # how its plan was made: "steps" (App. C, set_plan / walk_to) or "direct"

@@ -109,6 +109,7 @@ from pedvr.etiquette.vocab import (
     REACH_TIME,
     STATE_TIMEOUT,
     THANK_RANGE,
+    USER_STANDING_S,
 )
 from pedvr.kernels import wrap_pi
 
@@ -1074,8 +1075,18 @@ def _pram_backs_out_of_swing(et: EtiquetteCore, w: Walker, crowd: CrowdState, r:
 
 
 def _alone(et: EtiquetteCore, w: Walker) -> bool:
-    """Nobody but ``w`` takes part in its door's etiquette (the user included, once it does)."""
-    return not any(o.door == w.door and o.id != w.id for o in et.walkers.values())
+    """Nobody but ``w`` takes part in its door's etiquette (the user included, once it does),
+    except a participant who has stood still for :data:`USER_STANDING_S` with no hand on a leaf:
+    someone standing by a door, looking about, is not about to open it, and a pram pusher waiting
+    on such a participant gave up every 10 s for as long as they stood there (issue 26). If they
+    stand in its way, its steering keeps it off them, as it keeps off anyone."""
+    return not any(o.door == w.door and o.id != w.id and not _standing_user(et, o)
+                   for o in et.walkers.values())
+
+
+def _standing_user(et: EtiquetteCore, o: Walker) -> bool:
+    return (o.is_user and o.role == APPROACH and et.user_leaf < 0
+            and et.t - o.still_since >= USER_STANDING_S)  # False while it moves (still_since NaN)
 
 
 def _lane_polar(fr: LeafFrame, radius: float) -> float:

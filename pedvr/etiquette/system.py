@@ -180,6 +180,10 @@ class DoorEtiquette(EtiquetteCore):
         pos, vel = crowd.pos[r], crowd.vel[r]
         w = self.walkers.get(agent)
         if w is not None:
+            if float(np.hypot(*vel)) >= SENSE_USER:
+                w.still_since = math.nan
+            elif math.isnan(w.still_since):
+                w.still_since = self.t
             ds = self.dstate[w.door]
             rel = pos - ds.centre
             through = float(rel @ ds.n) * w.side < -(CLEAR + 0.25)

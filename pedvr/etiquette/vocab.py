@@ -42,6 +42,7 @@ WAIT_ENDS = 5.0  # s of walking on without waiting that end a wait at a door (do
 DEADLOCK_FREE_S = 3.0  # s the doorway must have stayed free for a long wait to count as a deadlock
 USER_AFTER_PASS = 4.0  # s after going through a door in which the user is not taken to approach it
 SENSE_USER = 0.2  # m/s: the user walking toward a door faster than this takes part in its ordering
+USER_STANDING_S = 2.0  # s: the user standing (below SENSE_USER) this long, no hand on a leaf, is not coming
 THANK_RANGE = 2.5  # m: a follower thanks its holder when passing this close
 LEAF_REACH = 0.9  # m: a hand farther than this from its leaf lets go
 IDLE_ANGLE = math.radians(1.2)  # rad: a holding hand's idle sway along the door's swing

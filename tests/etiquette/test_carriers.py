@@ -160,3 +160,32 @@ def test_a_pram_the_user_let_go_of_the_door_on_gets_through() -> None:
     assert sim.crowd.pos[row, 0] > 0.5, (sim.t, events)
     summary = sim.summary()
     assert summary["user_overlap_max_m"] == 0.0 and summary["overlaps_over_1cm"] == 0
+
+
+@pytest.mark.parametrize(("scene", "stand", "seed"), [("door_same_side", (-3.0, 0.8), 1),
+                                                      ("door_double", (-2.5, -2.5), 2)])
+def test_a_lone_pram_backs_through_past_a_participant_standing_by(scene: str, stand: tuple[float, float],
+                                                                  seed: int) -> None:
+    """The participant walks toward the door and stops a few metres short of it, on the pram's side,
+    out of its way, and stands there looking about. Walking toward the door made them take part in
+    its etiquette, so the pram was not alone: it waited for them to open the door and gave up
+    every 10 s for as long as they stood (issue 26). A participant standing still, no hand on a
+    leaf, is no longer counted (``interaction._alone``): measured through at 22.4 and 22.7 s, as
+    with nobody about."""
+    s = _lone_pram(scene, START)
+    s = dataclasses.replace(s, user=dataclasses.replace(s.user, start=(-8.0, stand[1]), route=(stand,)))  # type: ignore[attr-defined]
+    sim = Simulation(s, seed=seed)  # type: ignore[arg-type]
+    row = int(np.nonzero(~sim.crowd.is_user)[0][0])
+    user = int(sim.crowd.ids[sim.crowd.is_user][0])
+    took_part = False
+    while sim.t < 30.0 and sim.crowd.pos[row, 0] <= 0.5:
+        sim.step()
+        took_part |= user in sim.etiquette.walkers
+    events = [e["event"] for e in sim.etiquette.events]
+    assert took_part  # the set-up: the user came toward the door and stood as one taking part
+    assert sim.crowd.pos[row, 0] > 0.5, (sim.t, events)
+    assert "pram_turns_round" in events and "give_up" not in events, events
+    assert float(np.hypot(*(sim.crowd.pos[sim.crowd.is_user][0] - stand))) < 0.05  # they stood there
+    summary = sim.summary()
+    assert summary["user_overlap_max_m"] == 0.0 and summary["overlaps_over_1cm"] == 0
+    assert summary["door_leaf_overlap_max_m"] < 0.01 and summary["wall_overlap_max_m"] < 0.01
