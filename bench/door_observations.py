@@ -35,6 +35,15 @@ measures them on ``--seeds`` seeds and prints one JSON line per observation:
   (median and worst), the runs with an overlap over 1 cm (bodies, leaves or walls), the deepest
   wall overlap, and the runs where it gave the door up once or more.
 
+* ``user_pram``: the same pram pusher from 5 m before the pull side of each of those doors, alone
+  but for the participant (the scripted user, :class:`pedvr.etiquette.user.DoorUser`), who walks
+  through the door from the pram's side (two routes) or toward it from the other side, setting
+  off 4 to 22 m away (five), or walks up to a place beside the pram's way and stands there (two):
+  how many runs get the pram through in 60 s, when (median and worst), the deepest cut into the
+  user, the runs with bodies overlapping over 1 cm, the deepest cut of a leaf into anyone, and
+  the runs where it gave the door up once or more (issue 26: no carrier left behind, with the
+  participant in it).
+
 Passages and waits in ``rush``, ``double_queue`` and ``pram`` are measured from positions
 (:class:`Crossings`), not from the etiquette's own events, so the figures mean the same before
 and after a change to the etiquette.
@@ -43,6 +52,7 @@ and after a change to the etiquette.
     python bench/door_observations.py --seeds 6 --only rush double_queue pram
     python bench/door_observations.py --seeds 16 --first-seed 9 --only single_flow
     python bench/door_observations.py --seeds 3 --only lone_pram
+    python bench/door_observations.py --seeds 2 --only user_pram
 """
 
 from __future__ import annotations
@@ -262,6 +272,39 @@ def lone_pram(seeds: list[int], seconds: float = 60.0) -> dict[str, Any]:
     return out
 
 
+USER_ROUTES = [((-8.0, 0.0), (4.0, 0.0)), ((-9.0, -1.0), (4.0, -0.3))] + [
+    ((x, y), (-8.0, y)) for x, y in ((4.0, 0.0), (8.0, 0.0), (12.0, 0.0), (16.0, 0.3), (22.0, 0.0))]
+USER_STANDS = [(-3.0, 0.8), (-2.5, -2.5)]  # the participant walks up to here and stands
+
+
+def user_pram(seeds: list[int], seconds: float = 60.0) -> dict[str, Any]:
+    """A pram pusher alone but for the participant (module docstring)."""
+    out: dict[str, Any] = {"observation": "user_pram", "seeds": len(seeds),
+                           "routes": len(USER_ROUTES) + len(USER_STANDS)}
+    for name in ("door_assist", "door_same_side", "door_double"):
+        base = _with_pram(name, (), (-5.0, -1.0), "east")
+        base = dataclasses.replace(base, spawns=base.spawns[:1])
+        routes = USER_ROUTES + [((-8.0, y), (x, y)) for x, y in USER_STANDS]
+        through, when, user_overlap, overlapping, gave_up, leaf = 0, [], 0.0, 0, 0, 0.0
+        for s in seeds:
+            for start, end in routes:
+                user = dataclasses.replace(base.user, start=start, route=(end,))  # type: ignore[arg-type]
+                cr, summ = _run_crossings(dataclasses.replace(base, user=user), s, seconds)
+                t = [e["t"] for e in cr.events if not e["user"]]
+                if t:
+                    through += 1
+                    when.append(t[0])
+                user_overlap = max(user_overlap, float(summ["user_overlap_max_m"]))
+                overlapping += summ["overlaps_over_1cm"] > 0
+                leaf = max(leaf, float(summ["door_leaf_overlap_max_m"]))
+                gave_up += any(e["event"] == "give_up" for e in summ["door_events"])
+        out[name] = {"runs": len(seeds) * len(routes), "through": through,
+                     "first_pass_s": _med_worst(when or [float("inf")], "max"),
+                     "user_overlap_max_m": round(user_overlap, 4), "runs_overlapping": overlapping,
+                     "door_leaf_overlap_max_m": round(leaf, 4), "runs_giving_up": gave_up}
+    return out
+
+
 def _run(scene: SceneConfig, seed: int, seconds: float) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     sim = Simulation(scene, seed=seed)
     sim.advance_to(seconds)
@@ -361,7 +404,7 @@ def main() -> int:
             "single_flow": lambda: rush(seeds, name="validation/door_single_flow", observation="single_flow"),
             "double_flow": lambda: rush(seeds, name="validation/door_double_flow", observation="double_flow"),
             "double_queue": lambda: double_queue(seeds), "pram": lambda: pram(seeds),
-            "lone_pram": lambda: lone_pram(seeds)}
+            "lone_pram": lambda: lone_pram(seeds), "user_pram": lambda: user_pram(seeds)}
     for name, job in jobs.items():
         if a.only and name not in a.only:
             continue

@@ -151,6 +151,7 @@ BACK_CLOSED = math.radians(20.0)  # a leaf open less than this is one the pusher
 BACK_OPEN_S = 8.0  # s it may take to pull the leaf open, stepping round (5 s for other pullers)
 BACK_EXTRA = 8.0  # s more than STATE_TIMEOUT that backing through may take
 POCKET_CLEAR = 0.15  # m beyond a leaf's swing a pram's front backs out to, from the pocket behind it
+BACK_TURN_ROOM = 0.3  # m: a pram turns round only this much farther from the door's line than it reaches
 HAND_ON_AHEAD = 0.2  # m nearer the door than the follower that the one it hands on to stands, at least
 
 
@@ -414,12 +415,12 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
     leader = by_id.get(w.leader) if w.leader != NONE else None
     face_door = math.atan2(*(ds.centre - p)[::-1])
     for lf in ds.leaves:  # caught in the pocket behind an open leaf: out round its edge first
+        if _pram_backs_out_of_swing(et, w, crowd, r, lf, p):
+            return  # (a pram's front may be in the pocket with its pusher outside it)
         fr_lf = et.frame(lf, w.side)
         out = fr_lf.lane(fr_lf.side_of(p) * (radius + 1.1))
         way = _via(et, fr_lf, lf, p, radius, out, beyond=True, crowd=crowd)
         if way.shape[0] > 1:
-            if _pram_backs_out_of_swing(et, w, crowd, r, lf, p):
-                return
             et.walk_to(w, crowd, way, facing=face_door, speed=float(crowd.pref_speed[r]))
             return
     if leader is not None and leader.role == HOLDER and leader.state >= HOLDER_DEC \
@@ -499,6 +500,19 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
         # door_double with the pram, seeds 6 and 17: backing among them, it was left behind.)
         away = _toward(bop, p)
         if abs(wrap_pi(float(crowd.heading[r]) - away)) > BACK_TURNED:
+            h = float(crowd.heading[r])
+            ahead = np.array([math.cos(h), math.sin(h)])
+            off = abs(float((p - ds.centre) @ ds.n))
+            need = float(crowd.ahead[r] + crowd.length[r]) + BACK_TURN_ROOM
+            toward = -float(ahead @ ds.n) * w.side  # > 0: the pram points at the door
+            if off < need and toward > 0.0:
+                # Too near the door to turn: the pram would sweep into the leaf or the wall, which
+                # it may not turn into, and it stood trying to for the rest of the run
+                # (door_double, seed 2, the participant pushing through the other leaf as it
+                # came to open it). It backs off along its course first.
+                et.go_direct(w, p - ahead * ((need - off) / max(toward, 0.5) + 0.1), facing=h,
+                             speed=BACK_SPEED, lock=True)
+                return
             et.stand(w, away)
             w.lock = True  # the facing turns the body (EtiquetteCore.face)
             return
@@ -1053,25 +1067,48 @@ def _backing_through(et: EtiquetteCore, w: Walker, crowd: CrowdState, fr: LeafFr
 
 def _pram_backs_out_of_swing(et: EtiquetteCore, w: Walker, crowd: CrowdState, r: int, leaf: int,
                              p: np.ndarray) -> bool:
-    """A pram alone at the door (:func:`_alone`), caught in the pocket behind an open leaf with its
-    front inside the leaf's swing, backs straight out, keeping its course, until the front is
+    """A pram alone at the door (:func:`_alone`), its front in the pocket behind an open leaf
+    (:func:`_pram_front_behind`), backs straight out, keeping its course, until the front is
     :data:`POCKET_CLEAR` beyond the swing; then the way round the leaf's edge can turn it (issue
     26). Returns whether it is backing. Traced (door_same_side with the pram alone and the user
     coming through from the push side, seed 1): the user held the door for it and let go as the
     pram reached the leaf's back; the leaf swung onto the pram's front, and the way round the edge
     drove the pram back into it, which a pram cannot turn (``Simulation._no_turning_into_leaves``)
-    nor wait out: it stood there from 4 s to the end of the run. (With others at the door this
-    left `test_carriers.py`'s seed 6 behind, so it is for a pram alone.)"""
+    nor wait out: it stood there from 4 s to the end of the run. Its pusher need not be in the
+    pocket: with the leaf held open by the pram's front, a pusher 1.6 m off the hinge stood
+    waiting for 10 s, then shoved the leaf to and fro for 10 s more (the same set-up, the user
+    from 4 m east). (With others at the door this left `test_carriers.py`'s seed 6 behind, so it
+    is for a pram alone.)"""
     if float(crowd.length[r]) <= 0.0 or not _alone(et, w):
+        return False
+    inside = _pram_front_behind(et, crowd, r, leaf)
+    if inside <= 0.0:
         return False
     h = float(crowd.heading[r])
     ahead = np.array([math.cos(h), math.sin(h)])
-    front = p + ahead * float(crowd.ahead[r] + crowd.length[r])
-    inside = float(et.leaves.length[leaf]) + POCKET_CLEAR - float(np.hypot(*(front - et.leaves.hinge[leaf])))
-    if inside <= 0.0:
-        return False
     et.go_direct(w, p - ahead * (inside + 0.3), facing=h, speed=BACK_SPEED, lock=True)
     return True
+
+
+def _pram_front_behind(et: EtiquetteCore, crowd: CrowdState, r: int, leaf: int) -> float:
+    """How far (m) the front of row ``r``'s pram is inside the swing of ``leaf`` (plus
+    :data:`POCKET_CLEAR`) behind it: the leaf open at least :data:`BACK_CLOSED` and the front
+    beyond the leaf's angle, in the pocket between the open leaf and its wall; 0 if not there
+    (or no pram)."""
+    if float(crowd.length[r]) <= 0.0:
+        return 0.0
+    lv = et.leaves
+    angle = float(lv.angle[leaf])
+    a = abs(angle)
+    if a < BACK_CLOSED:
+        return 0.0
+    fr = LeafFrame.of(lv.hinge[leaf], float(lv.base[leaf]), float(lv.length[leaf]), 1 if angle >= 0.0 else -1)
+    h = float(crowd.heading[r])
+    reach = float(crowd.ahead[r] + crowd.length[r])
+    lx, ly = fr.local(crowd.pos[r] + reach * np.array([math.cos(h), math.sin(h)]))
+    if math.atan2(ly, lx) <= a:
+        return 0.0
+    return max(0.0, float(et.leaves.length[leaf]) + POCKET_CLEAR - math.hypot(lx, ly))
 
 
 def _alone(et: EtiquetteCore, w: Walker) -> bool:
@@ -1079,7 +1116,10 @@ def _alone(et: EtiquetteCore, w: Walker) -> bool:
     except a participant who has stood still for :data:`USER_STANDING_S` with no hand on a leaf:
     someone standing by a door, looking about, is not about to open it, and a pram pusher waiting
     on such a participant gave up every 10 s for as long as they stood there (issue 26). If they
-    stand in its way, its steering keeps it off them, as it keeps off anyone."""
+    stand in its way, its steering keeps it off them, as it keeps off anyone. (One still on their
+    way from the far side is counted: tried, a participant from 22 m beyond the door came through
+    while the pram backed through, and ORCA, giving way, put the pram in the pocket behind the
+    open leaf, where it stayed.)"""
     return not any(o.door == w.door and o.id != w.id and not _standing_user(et, o)
                    for o in et.walkers.values())
 
@@ -1463,11 +1503,31 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
     r = et._row[w.id]
     fr = h.frame if h is not None and h.frame is not None else (
         et.frame(w.leaf, w.side) if w.leaf in ds.leaves else None)
+    if fr is not None and w.leaf in ds.leaves and bool(et.carrying[r]) and w.leaf not in ds.holder \
+            and w.leaf not in ds.mutex and fr.side_of(p) > 0 and et.leaf_open(w.leaf, fr) < BACK_CLOSED:
+        # A carrier passing first through a door its holder let go of before it was through (the
+        # participant held it, walked on and let go: door_same_side, the user from 8 m east), the
+        # door shut in front of it on its pull side: it is no longer passing a held door. Back to
+        # the doorway behavior, where it waits for help or frees a hand; it waited out the passing
+        # state's timeout instead, 20 s (issue 26).
+        et.log("door_shut_before_carrier", w)
+        _demote(w)
+        return
     if fr is not None and w.plan is not None and w.leaf in ds.leaves:
         # pushed into the pocket behind the open leaf on its way: out round the leaf's edge first
         side_local = 1 if w.side == (1 if float(fr.m @ ds.n) > 0 else -1) else -1
         pts = _pf_points(fr, side_local, float(crowd.radius[r]), reach=_front_reach(crowd, r), at=p)
         via = _via(et, fr, w.leaf, p, float(crowd.radius[r]), pts[0], crowd=crowd)
+        if w.leaf not in ds.holder and w.leaf not in ds.mutex \
+                and _pram_front_behind(et, crowd, r, w.leaf) > 0.0:
+            # A pram passing first whose holder let go, its front in the pocket behind the leaf:
+            # the way round the edge drove it into the leaf's back, which it held open and which
+            # swung back onto it (door_same_side, the participant holding the door from the push
+            # side and walking on: 8 s of this, then 20 s more as below). It is no longer passing
+            # a held door: back to the doorway behavior, which backs a pram out first (issue 26).
+            et.log("pram_caught_behind_leaf", w)
+            _demote(w)
+            return
         if via.shape[0] > 1 and w.gait_legs != via.shape[0] - 1 + pts.shape[0]:
             et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=w.face, speed=w.speed)
     if rel < -(float(crowd.radius[r]) + CLEAR) or (w.plan is not None and et.arrived(w, crowd, 0.3)):

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pedvr.etiquette.regions import BOP_PULL_POLAR, HOLD_ANGLE, LANE_AT, LeafFrame
+from pedvr.etiquette.regions import BOP_PULL_POLAR, HOLD_ANGLE, LANE_AT, PULL_HAND_AT, LeafFrame
 
 if TYPE_CHECKING:
     from pedvr.etiquette.core import EtiquetteCore
@@ -222,10 +222,18 @@ class DoorUser:
         assert fr is not None
         if self.mode == TO_HANDLE:
             if self._walk_to(self._goal[0], dt):
-                et.user_hand(True)
+                # its hand goes to the handle it means, as the headset user's controller does: a
+                # press takes the handle nearest the hand, and a reach straight ahead at a double
+                # door's middle could find the other leaf's handle as near (the user then opened
+                # one leaf and walked into the other, closed one, 25 cm deep)
+                handle = fr.handle(et.leaf_open(self._leaf, fr), PULL_HAND_AT)
+                self._heading = math.atan2(*(handle - self._pos)[::-1])
+                et.user_hand(True, hand=(float(handle[0]), float(handle[1])))
                 self.mode = OPENING
                 self._since = t
         elif self.mode == OPENING:
+            if et.user_hand_point is not None:  # the press has taken the handle (the step before)
+                et.user_hand_moved(None)  # the hand no longer leads the leaf: it opens by itself
             open_now = et.leaf_open(self._leaf, fr)
             if open_now >= HOLD_ANGLE - math.radians(12.0) or t - self._since > 3.0:
                 self.mode = HOLDING
