@@ -1075,10 +1075,10 @@ def _pram_backs_out_of_swing(et: EtiquetteCore, w: Walker, crowd: CrowdState, r:
     pram reached the leaf's back; the leaf swung onto the pram's front, and the way round the edge
     drove the pram back into it, which a pram cannot turn (``Simulation._no_turning_into_leaves``)
     nor wait out: it stood there from 4 s to the end of the run. Its pusher need not be in the
-    pocket: with the leaf held open by the pram's front, a pusher 1.6 m off the hinge stood
-    waiting for 10 s, then shoved the leaf to and fro for 10 s more (the same set-up, the user
-    from 4 m east). (With others at the door this left `test_carriers.py`'s seed 6 behind, so it
-    is for a pram alone.)"""
+    pocket: a pusher 1.6 m off the hinge, its pram's front holding the leaf open from behind, shoved
+    the leaf to and fro until it gave the door up (the same set-up, the user from 4 m east; through
+    at 45.5 s, now 27.5 s). (With others at the door this left `test_carriers.py`'s seed 6 behind,
+    so it is for a pram alone.)"""
     if float(crowd.length[r]) <= 0.0 or not _alone(et, w):
         return False
     inside = _pram_front_behind(et, crowd, r, leaf)
@@ -1523,8 +1523,8 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
             # A pram passing first whose holder let go, its front in the pocket behind the leaf:
             # the way round the edge drove it into the leaf's back, which it held open and which
             # swung back onto it (door_same_side, the participant holding the door from the push
-            # side and walking on: 8 s of this, then 20 s more as below). It is no longer passing
-            # a held door: back to the doorway behavior, which backs a pram out first (issue 26).
+            # side and walking on: for the state's 20 s). It is no longer passing a held door:
+            # back to the doorway behavior, which backs a pram out first (issue 26).
             et.log("pram_caught_behind_leaf", w)
             _demote(w)
             return

@@ -200,7 +200,7 @@ def test_a_lone_pram_gets_through_soon_after_the_participant_came_the_other_way(
     side, and walks on (issue 26, the participant taking part). Traced on the code before: in the
     first set-up the user held the door, let go once through, and the pram, passing first, was
     in the pocket behind the leaf: it pressed on the leaf's back until the passing state's 20 s
-    ran out, then stood, its pusher outside the pocket, before backing out (through at 45.5 s;
+    ran out, then, its pusher outside the pocket, 9 s more, before backing out (through at 45.5 s;
     now it backs out at once, ``interaction._pram_front_behind``); in the second and third the
     door shut in front of the pram while it was passing first, and it waited out the same 20 s
     (46.2 s, and not through in 60 s; now it is no longer passing once the door is shut); in the
