@@ -1108,7 +1108,7 @@ def _pram_front_behind(et: EtiquetteCore, crowd: CrowdState, r: int, leaf: int) 
     lx, ly = fr.local(crowd.pos[r] + reach * np.array([math.cos(h), math.sin(h)]))
     if math.atan2(ly, lx) <= a:
         return 0.0
-    return max(0.0, float(et.leaves.length[leaf]) + POCKET_CLEAR - math.hypot(lx, ly))
+    return max(0.0, float(lv.length[leaf]) + POCKET_CLEAR - math.hypot(lx, ly))
 
 
 def _alone(et: EtiquetteCore, w: Walker) -> bool:
@@ -1503,31 +1503,28 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
     r = et._row[w.id]
     fr = h.frame if h is not None and h.frame is not None else (
         et.frame(w.leaf, w.side) if w.leaf in ds.leaves else None)
-    if fr is not None and w.leaf in ds.leaves and bool(et.carrying[r]) and w.leaf not in ds.holder \
-            and w.leaf not in ds.mutex and fr.side_of(p) > 0 and et.leaf_open(w.leaf, fr) < BACK_CLOSED:
-        # A carrier passing first through a door its holder let go of before it was through (the
-        # participant held it, walked on and let go: door_same_side, the user from 8 m east), the
-        # door shut in front of it on its pull side: it is no longer passing a held door. Back to
-        # the doorway behavior, where it waits for help or frees a hand; it waited out the passing
-        # state's timeout instead, 20 s (issue 26).
-        et.log("door_shut_before_carrier", w)
-        _demote(w)
-        return
+    if fr is not None and w.leaf in ds.leaves and w.leaf not in ds.holder and w.leaf not in ds.mutex:
+        # Its holder has let go before it was through (the participant held the door, walked on
+        # and let go; door_same_side, issue 26), and it is no longer passing a held door: back to
+        # the doorway behavior, where a carrier waits for help or frees a hand and a pram backs out
+        # of the pocket behind a leaf first. Either way it waited out the passing state's 20 s:
+        # a carrier whose door shut in front of it on its pull side (the user from 8 m east), and
+        # a pram whose front was in the pocket, where the way round the edge drove it into the
+        # leaf's back, which it held open and which swung back onto it (the user from 4 m east).
+        why = ""
+        if bool(et.carrying[r]) and fr.side_of(p) > 0 and et.leaf_open(w.leaf, fr) < BACK_CLOSED:
+            why = "door_shut_before_carrier"
+        elif w.plan is not None and _pram_front_behind(et, crowd, r, w.leaf) > 0.0:
+            why = "pram_caught_behind_leaf"
+        if why:
+            et.log(why, w)
+            _demote(w)
+            return
     if fr is not None and w.plan is not None and w.leaf in ds.leaves:
         # pushed into the pocket behind the open leaf on its way: out round the leaf's edge first
         side_local = 1 if w.side == (1 if float(fr.m @ ds.n) > 0 else -1) else -1
         pts = _pf_points(fr, side_local, float(crowd.radius[r]), reach=_front_reach(crowd, r), at=p)
         via = _via(et, fr, w.leaf, p, float(crowd.radius[r]), pts[0], crowd=crowd)
-        if w.leaf not in ds.holder and w.leaf not in ds.mutex \
-                and _pram_front_behind(et, crowd, r, w.leaf) > 0.0:
-            # A pram passing first whose holder let go, its front in the pocket behind the leaf:
-            # the way round the edge drove it into the leaf's back, which it held open and which
-            # swung back onto it (door_same_side, the participant holding the door from the push
-            # side and walking on: for the state's 20 s). It is no longer passing a held door:
-            # back to the doorway behavior, which backs a pram out first (issue 26).
-            et.log("pram_caught_behind_leaf", w)
-            _demote(w)
-            return
         if via.shape[0] > 1 and w.gait_legs != via.shape[0] - 1 + pts.shape[0]:
             et.set_plan(w, crowd, np.concatenate([via[:-1], pts]), facing=w.face, speed=w.speed)
     if rel < -(float(crowd.radius[r]) + CLEAR) or (w.plan is not None and et.arrived(w, crowd, 0.3)):
