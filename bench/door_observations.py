@@ -38,7 +38,7 @@ measures them on ``--seeds`` seeds and prints one JSON line per observation:
 * ``user_pram``: the same pram pusher from 5 m before the pull side of each of those doors, alone
   but for the participant (the scripted user, :class:`pedvr.etiquette.user.DoorUser`), who walks
   through the door from the pram's side (two routes) or toward it from the other side, setting
-  off 4 to 22 m away (five), or walks up to a place beside the pram's way and stands there (two):
+  off 4 to 30 m away (seven), or walks up to a place beside the pram's way and stands there (two):
   how many runs get the pram through in 60 s, when (median and worst), the deepest cut into the
   user, the runs with bodies overlapping over 1 cm, the deepest cut of a leaf into anyone, and
   the runs where it gave the door up once or more (issue 26: no carrier left behind, with the
@@ -273,7 +273,8 @@ def lone_pram(seeds: list[int], seconds: float = 60.0) -> dict[str, Any]:
 
 
 USER_ROUTES = [((-8.0, 0.0), (4.0, 0.0)), ((-9.0, -1.0), (4.0, -0.3))] + [
-    ((x, y), (-8.0, y)) for x, y in ((4.0, 0.0), (8.0, 0.0), (12.0, 0.0), (16.0, 0.3), (22.0, 0.0))]
+    ((x, y), (-8.0, y)) for x, y in ((4.0, 0.0), (8.0, 0.0), (12.0, 0.0), (16.0, 0.3), (22.0, 0.0),
+                                  (26.0, 0.0), (30.0, 0.0))]
 USER_STANDS = [(-3.0, 0.8), (-2.5, -2.5)]  # the participant walks up to here and stands
 
 

@@ -231,8 +231,8 @@ class Simulation:
         if self.etiquette is not None and self.user_walk == "straight":
             # at doors the scripted user opens (and, with user.door_hold, holds) them as a person would
             return DoorUser(path, speed=u.speed, heading=u.heading, radius=u.radius, hold=u.door_hold,
-                            etiquette=self.etiquette,
-                            perceive=lambda: (self.crowd.pos, self.crowd.radius, self.crowd.is_user))
+                            etiquette=self.etiquette, perceive=lambda: self.crowd,
+                            inside=lambda p: mesh.contains((float(p[0]), float(p[1]))))
         if self.user_walk == "reactive":
             def perceive() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
                 c = self.crowd

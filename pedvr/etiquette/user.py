@@ -15,6 +15,10 @@ headset user does with ``E`` or the trigger (:meth:`EtiquetteCore.user_hand`):
 * **revolving door**: it walks round through a compartment on the keep-right half, pushing the
   panels (they give way to the user's body).
 
+Like a person, it does not walk into a doorway through which someone is coming its way: it
+steps aside, off the passing lane beside the doorway, and goes on once the doorway is clear
+(:meth:`DoorUser._step_aside`).
+
 With ``hold = 0`` it only opens the doors it must open. Poses are a function of the time
 it is asked about (``pose(t)`` is called once per step with increasing ``t``).
 """
@@ -30,11 +34,14 @@ import numpy as np
 from pedvr.etiquette.regions import BOP_PULL_POLAR, HOLD_ANGLE, LANE_AT, PULL_HAND_AT, LeafFrame
 
 if TYPE_CHECKING:
+    from pedvr.crowd.state import CrowdState
     from pedvr.etiquette.core import EtiquetteCore
 
 DRUM_SPEED = 0.4  # m/s: in a revolving door's drum the user walks slowly (the panels turn with the user)
 CLEARANCE = 0.06  # m beyond touching discs that the scripted user keeps from anyone it walks toward
-WALK, TO_HANDLE, OPENING, HOLDING, THROUGH, PAST_HOLD, REJOIN = range(7)
+COMING_SPEED = 0.15  # m/s toward the user's side: someone in or at the doorway coming through
+GIVE_WAY_S = 15.0  # s the user waits aside at most, then goes on whoever is in the doorway
+WALK, TO_HANDLE, OPENING, HOLDING, THROUGH, PAST_HOLD, REJOIN, GIVE_WAY = range(8)
 
 
 class DoorUser:
@@ -42,9 +49,11 @@ class DoorUser:
 
     def __init__(self, path: np.ndarray, *, speed: float, heading: float, radius: float, hold: float,
                  etiquette: EtiquetteCore,
-                 perceive: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None) -> None:
+                 perceive: Callable[[], CrowdState] | None = None,
+                 inside: Callable[[np.ndarray], bool] | None = None) -> None:
         self.et = etiquette
-        self.perceive = perceive  # () -> (pos (N, 2), radius (N,), is_user (N,)): who is where now
+        self.perceive = perceive  # () -> the crowd now: who is where, how fast, with what ahead of them
+        self.inside = inside  # whether a point is walkable (where to step aside); None: anywhere
         self.speed = float(speed)
         self.radius = float(radius)
         self.hold = float(hold)
@@ -61,6 +70,9 @@ class DoorUser:
         self._leaf = -1
         self._frame: LeafFrame | None = None
         self._since = 0.0
+        self._may_give_way = True
+        self._own = 1
+        self._world_side = 1
         self._goal: list[np.ndarray] = []
         self._done: set[tuple[float, int]] = set()
         self.crossings = self._crossings()
@@ -133,13 +145,13 @@ class DoorUser:
 
     def _blocked(self, a: np.ndarray, b: np.ndarray) -> bool:
         assert self.perceive is not None
-        pos, rad, is_user = self.perceive()
-        if not len(pos):
+        c = self.perceive()
+        if not len(c):
             return False
-        others = ~is_user
-        need = rad[others] + self.radius + CLEARANCE
-        d_a = np.hypot(*(pos[others] - a).T)
-        d_b = np.hypot(*(pos[others] - b).T)
+        others = ~c.is_user
+        need = c.radius[others] + self.radius + CLEARANCE
+        d_a = np.hypot(*(c.pos[others] - a).T)
+        d_b = np.hypot(*(c.pos[others] - b).T)
         return bool(np.any((d_b < need) & (d_b < d_a - 1e-9)))
 
     def _pose(self, t: float) -> tuple[np.ndarray, float]:
@@ -180,10 +192,37 @@ class DoorUser:
         mids = et.leaves.hinge + 0.5 * (et.leaves.tips() - et.leaves.hinge)
         leaf = min(leaves, key=lambda i: float(np.hypot(*(mids[i] - cross_pt))))
         self._door, self._leaf = k, leaf
-        self._frame = fr = et.frame(leaf, side)
+        self._frame = et.frame(leaf, side)
+        self._own = self._frame.side_of(self._pos)  # the side it comes from: +1 the leaf's pull side
+        self._world_side = side  # the same, as the etiquette's walkers count sides
         self._cross_s = s
+        self._begin(t)
+
+    def _begin(self, t: float, *, give_way: bool = True) -> None:
+        """At the door: step aside for someone coming through (``give_way``), follow a holder
+        through, or open the door itself."""
+        aside = self.mode == GIVE_WAY
+        self._open_or_follow(t, give_way=give_way)
+        if aside and self.mode != GIVE_WAY and self._goal:
+            # from beside the doorway back onto the passing lane in front of it first: straight from
+            # there to the doorway, its disc cut the jamb by the hinge, and the open leaf with it
+            fr = self._frame
+            assert fr is not None
+            out = fr.outer(self.radius) + 0.1 if self._own > 0 else self.radius + 0.5
+            self._goal.insert(0, fr.lane(self._own * out))
+
+    def _open_or_follow(self, t: float, *, give_way: bool) -> None:
+        et = self.et
+        fr = self._frame
+        assert fr is not None
+        k, leaf = self._door, self._leaf
         self._since = t
+        if give_way and self._coming():
+            self._step_aside(t)
+            return
         pull = fr.side_of(self._pos) > 0
+        # until it holds a door it opened itself; not again after waiting aside for GIVE_WAY_S
+        self._may_give_way = give_way
         held = et.dstate[k].holder.get(leaf, et.dstate[k].mutex.get(leaf))
         if held is not None and held != et.user_id:
             # someone else has the door (and may be holding it for the user): walk through it
@@ -205,6 +244,68 @@ class DoorUser:
             et.user_hand(True)
             self._goal = [fr.lane(self.radius + 0.45)]  # just past the doorway, beside the lane
             self._hold_past = self.hold > 0.0
+
+    # -- giving way ---------------------------------------------------------------------------
+
+    def _coming(self) -> bool:
+        """Someone coming through the door toward the user's side: in the doorway, or at it on the
+        far side, walking toward the user's side faster than :data:`COMING_SPEED`; or a pram
+        pusher of this door from the far side backing through (it backs its pram through,
+        then turns round where it comes out: its steering, giving way to a user walking at it,
+        backs it away again, so it never looks as if it were coming)."""
+        if self.perceive is None:
+            return False
+        for o in self.et.walkers.values():
+            if o.door == self._door and o.backing and o.side != self._world_side and not o.is_user:
+                return True
+        c = self.perceive()
+        fr = self._frame
+        assert fr is not None
+        own = self._own
+        rel = c.pos - fr.hinge
+        lx = rel @ fr.e
+        ly = own * (rel @ fr.m)  # depth toward the user's side
+        vy = own * (c.vel @ fr.m)
+        return bool(np.any(~c.is_user & (lx > -0.3) & (lx < fr.w + 0.3) & (ly > -1.5) & (ly < 0.6)
+                           & (vy > COMING_SPEED)))
+
+    def _doorway_busy(self) -> bool:
+        """Someone coming (:meth:`_coming`), or anyone's body or pushed pram still in the doorway
+        (within 0.6 m of its line, between its jambs)."""
+        if self._coming():
+            return True
+        assert self.perceive is not None
+        c = self.perceive()
+        fr = self._frame
+        assert fr is not None
+        others = ~c.is_user
+        reach = c.ahead[others] + c.length[others] if len(c.length) else np.zeros(int(others.sum()))
+        head = np.stack([np.cos(c.heading[others]), np.sin(c.heading[others])], axis=1)
+        for f in (0.0, 0.25, 0.5, 0.75, 1.0):  # the body, and points along what it pushes
+            rel = c.pos[others] + head * (f * reach)[:, None] - fr.hinge
+            lx, ly = rel @ fr.e, rel @ fr.m
+            pad = c.radius[others] if f == 0.0 else 0.3
+            if np.any((lx > -0.2 - pad) & (lx < fr.w + 0.2 + pad) & (np.abs(ly) < 0.6 + pad)):
+                return True
+        return False
+
+    def _step_aside(self, t: float) -> None:
+        """Off the passing lane beside the doorway, on the user's side: beyond the hinge on the push
+        side (the leaf swings away from there); beyond the free edge on the pull side, clear of
+        the leaf's swing (its pocket is at the hinge) and of a neighbouring leaf's."""
+        fr = self._frame
+        assert fr is not None
+        if self.et.user_leaf >= 0:
+            self.et.user_hand(False)  # a hand pressed on the leaf lets go: the user is not going through yet
+        own = self._own
+        r = self.radius
+        hinge_side = fr.world(-(r + 0.35), own * (r + 0.5))
+        edge_side = fr.world(fr.w + r + 0.35, own * (fr.w + r + 0.3 if own > 0 else r + 0.5))
+        spots = [hinge_side, edge_side] if own < 0 else [edge_side]
+        spot = next((p for p in spots if self.inside is None or self.inside(p)), self._pos.copy())
+        self.mode = GIVE_WAY
+        self._goal = [spot]
+        self._since = t
 
     def _walk_to(self, goal: np.ndarray, dt: float) -> bool:
         d = goal - self._pos
@@ -246,9 +347,19 @@ class DoorUser:
                 self._goal = [fr.polar(fr.outer(self.radius), round_edge),
                               fr.world(LANE_AT * fr.w, self.radius + 0.2), fr.lane(-(self.radius + 0.8))]
                 self._hold_past = False
+                self._may_give_way = False  # it holds the door it opened: whoever comes, comes through
                 self.mode = THROUGH
-                self._hold_past = False
+        elif self.mode == GIVE_WAY:
+            if self._goal and self._walk_to(self._goal[0], dt):
+                self._goal.pop(0)
+            waited = t - self._since > GIVE_WAY_S
+            if waited or not self._doorway_busy():
+                self._begin(t, give_way=not waited)
         elif self.mode == THROUGH:
+            if (self._may_give_way and self._own * fr.local(self._pos)[1] > self.radius + 0.3
+                    and self._coming()):
+                self._step_aside(t)  # someone is coming through: the user has not stepped in yet
+                return self._pos.copy(), self._heading
             shut = et.leaf_open(self._leaf, fr) < math.radians(60.0)
             if self._waiting_open and len(self._goal) == 2 and shut:
                 # at the doorway while the door is not (yet) open for the user: wait for it
