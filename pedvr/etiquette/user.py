@@ -248,26 +248,30 @@ class DoorUser:
     # -- giving way ---------------------------------------------------------------------------
 
     def _coming(self) -> bool:
-        """Someone coming through the door toward the user's side: in the doorway, or at it on the
-        far side, walking toward the user's side faster than :data:`COMING_SPEED`; or a pram
-        pusher of this door from the far side backing through (it backs its pram through,
-        then turns round where it comes out: its steering, giving way to a user walking at it,
-        backs it away again, so it never looks as if it were coming)."""
+        """Someone coming through the door toward the user's side, as a person there would see it:
+        in the doorway, walking toward the user's side faster than :data:`COMING_SPEED`; and, once
+        a leaf of the door is open (20° or more: a closed door hides its far side), one doing so up to 1.5 m
+        beyond the doorway, or a pram pusher of this door from the far side backing through (it
+        backs its pram through, then turns round where it comes out: its steering, giving way to
+        a user walking at it, backs it away again, so it never looks as if it were coming)."""
         if self.perceive is None:
             return False
-        for o in self.et.walkers.values():
-            if o.door == self._door and o.backing and o.side != self._world_side and not o.is_user:
-                return True
-        c = self.perceive()
         fr = self._frame
         assert fr is not None
+        leaves = list(self.et.dstate[self._door].leaves)
+        seen = float(np.abs(self.et.leaves.angle[leaves]).max()) >= math.radians(20.0)
+        if seen:
+            for o in self.et.walkers.values():
+                if o.door == self._door and o.backing and o.side != self._world_side and not o.is_user:
+                    return True
+        c = self.perceive()
         own = self._own
         rel = c.pos - fr.hinge
         lx = rel @ fr.e
         ly = own * (rel @ fr.m)  # depth toward the user's side
         vy = own * (c.vel @ fr.m)
-        return bool(np.any(~c.is_user & (lx > -0.3) & (lx < fr.w + 0.3) & (ly > -1.5) & (ly < 0.6)
-                           & (vy > COMING_SPEED)))
+        return bool(np.any(~c.is_user & (lx > -0.3) & (lx < fr.w + 0.3) & (ly > (-1.5 if seen else -0.3))
+                           & (ly < 0.6) & (vy > COMING_SPEED)))
 
     def _doorway_busy(self) -> bool:
         """Someone coming (:meth:`_coming`), or anyone's body or pushed pram still in the doorway

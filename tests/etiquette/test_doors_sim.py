@@ -3,6 +3,7 @@ reach the renderer's snapshot, and a run with doors is deterministic."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -46,3 +47,34 @@ def test_same_seed_same_door_motion_and_it_is_recorded() -> None:
         assert np.abs(arr["door_angle"]).max() > 1.0  # some leaf opened more than 57 degrees
         runs.append((arr["door_angle"].tobytes(), arr["pos"].tobytes()))
     assert runs[0] == runs[1]
+
+
+def test_the_scripted_participant_lets_one_coming_through_pass_first() -> None:
+    """A walker pulls door_same_side's door open toward itself to come through (from 3 m west) as
+    the scripted participant (``DoorUser``, from 7 m east) reaches it from the push side (seed 1).
+    The participant walked on into the doorway, and the two stood facing each other in it: neither
+    was through after 30 s. A person lets the one coming through pass first: it now steps aside,
+    off the lane beside the doorway, until nobody is coming and the doorway is clear
+    (``DoorUser._step_aside``; measured: the walker through at 7.0 s, the participant at 10.0 s).
+    Nothing touches the participant."""
+    from pedvr.etiquette.user import GIVE_WAY
+
+    s = load_any(resolve_scene("door_same_side"), seed=None)
+    walker = dataclasses.replace(s.spawns[0], state="east", positions=((-3.0, 0.0),), count=0, region=None)
+    s = dataclasses.replace(s, spawns=(walker,),
+                            user=dataclasses.replace(s.user, start=(7.0, 0.0), route=((-8.0, 0.0),)))
+    sim = Simulation(s, seed=1)
+    row = int(np.nonzero(~sim.crowd.is_user)[0][0])
+    gave_way, through = False, {}
+    while sim.t < 15.0 and len(through) < 2:
+        sim.step()
+        gave_way |= sim.user.source.mode == GIVE_WAY  # type: ignore[attr-defined]
+        if "walker" not in through and sim.crowd.pos[row, 0] > 0.5:
+            through["walker"] = sim.t
+        if "user" not in through and sim.crowd.pos[sim.crowd.is_user][0][0] < -0.5:
+            through["user"] = sim.t
+    assert gave_way and set(through) == {"walker", "user"}, (sim.t, through)
+    assert through["walker"] < through["user"], through
+    summary = sim.summary()
+    assert summary["user_overlap_max_m"] == 0.0 and summary["overlaps_over_1cm"] == 0
+    assert summary["door_leaf_overlap_max_m"] < 0.01
