@@ -326,7 +326,10 @@ class DoorUser:
         fr = self._frame
         assert fr is not None
         if self.mode == TO_HANDLE:
-            if self._walk_to(self._goal[0], dt):
+            if len(self._goal) > 1:  # back onto the lane first (after stepping aside), then to the handle
+                if self._walk_to(self._goal[0], dt):
+                    self._goal.pop(0)
+            elif self._walk_to(self._goal[0], dt):
                 # its hand goes to the handle it means, as the headset user's controller does: a
                 # press takes the handle nearest the hand, and a reach straight ahead at a double
                 # door's middle could find the other leaf's handle as near (the user then opened

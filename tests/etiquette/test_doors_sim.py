@@ -7,6 +7,7 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 
 from pedvr.render.snapshot import Snapshot
 from pedvr.scene.loader import load_any
@@ -49,29 +50,38 @@ def test_same_seed_same_door_motion_and_it_is_recorded() -> None:
     assert runs[0] == runs[1]
 
 
-def test_the_scripted_participant_lets_one_coming_through_pass_first() -> None:
-    """A walker pulls door_same_side's door open toward itself to come through (from 3 m west) as
-    the scripted participant (``DoorUser``, from 7 m east) reaches it from the push side (seed 1).
-    The participant walked on into the doorway, and the two stood facing each other in it: neither
-    was through after 30 s. A person lets the one coming through pass first: it now steps aside,
-    off the lane beside the doorway, until nobody is coming and the doorway is clear
-    (``DoorUser._step_aside``; measured: the walker through at 7.0 s, the participant at 10.0 s).
-    Nothing touches the participant."""
+@pytest.mark.parametrize(("user", "walker", "state"), [((7.0, 0.0), (-3.0, 0.0), "east"),
+                                                    ((-5.0, 0.0), (3.0, 0.0), "west")])
+def test_the_scripted_participant_lets_one_coming_through_pass_first(
+        user: tuple[float, float], walker: tuple[float, float], state: str) -> None:
+    """A walker comes through door_same_side's door toward the scripted participant (``DoorUser``)
+    as the participant reaches it from the other side (seed 1). First: the walker (3 m west) pulls
+    the door open as the participant (7 m east) comes to it from the push side; the participant
+    walked on into the doorway, and the two stood facing each other in it: neither was through
+    after 30 s. Second: the walker (3 m east) pushes the door open toward the participant (5 m
+    west, on the pull side); the participant walked into the doorway too, and the walker was
+    through at 22.9 s, the participant at 26.6 s. A person lets the one coming through pass
+    first: it now steps aside, off the lane beside the doorway, until nobody is coming and the
+    doorway is clear (``DoorUser._step_aside``); on the pull side it then goes back onto the lane
+    and to the handle, and opens the door itself. Measured: the walker through at 7.0 and 8.2 s,
+    the participant at 10.0 and 14.3 s. Nothing touches the participant."""
     from pedvr.etiquette.user import GIVE_WAY
 
     s = load_any(resolve_scene("door_same_side"), seed=None)
-    walker = dataclasses.replace(s.spawns[0], state="east", positions=((-3.0, 0.0),), count=0, region=None)
-    s = dataclasses.replace(s, spawns=(walker,),
-                            user=dataclasses.replace(s.user, start=(7.0, 0.0), route=((-8.0, 0.0),)))
+    spawn = dataclasses.replace(s.spawns[0], state=state, positions=(walker,), count=0, region=None)
+    s = dataclasses.replace(s, spawns=(spawn,),
+                            user=dataclasses.replace(s.user, start=user, route=((-user[0], 0.0),)))
     sim = Simulation(s, seed=1)
     row = int(np.nonzero(~sim.crowd.is_user)[0][0])
+    east = user[0] > 0.0  # the participant comes from the east, the walker from the west
     gave_way, through = False, {}
-    while sim.t < 15.0 and len(through) < 2:
+    while sim.t < 20.0 and len(through) < 2:
         sim.step()
         gave_way |= sim.user.source.mode == GIVE_WAY  # type: ignore[attr-defined]
-        if "walker" not in through and sim.crowd.pos[row, 0] > 0.5:
+        wx, ux = float(sim.crowd.pos[row, 0]), float(sim.crowd.pos[sim.crowd.is_user][0][0])
+        if "walker" not in through and (wx > 0.5 if east else wx < -0.5):
             through["walker"] = sim.t
-        if "user" not in through and sim.crowd.pos[sim.crowd.is_user][0][0] < -0.5:
+        if "user" not in through and (ux < -0.5 if east else ux > 0.5):
             through["user"] = sim.t
     assert gave_way and set(through) == {"walker", "user"}, (sim.t, through)
     assert through["walker"] < through["user"], through
