@@ -535,7 +535,8 @@ class Simulation:
         """The body turns commanded velocities into root motion; contacts are resolved; bodies are posed."""
         root, heading = self.body.animate(self.crowd, self._new_vel, self.dt, coupled=self.coupled)
         if self.etiquette is not None:  # holders stepping round a door keep facing it (App. C)
-            heading = self.etiquette.face(heading, self.crowd.heading, self.crowd, self.dt)
+            heading = self.etiquette.face(heading, self.crowd.heading, self.crowd, self.dt,
+                                          coupled=self.coupled)
         self.metrics.observe_user_contact(self.crowd, root)
         if (self.crowd.length > 0.0).any():
             heading = self._pram_keeps_its_course(heading)

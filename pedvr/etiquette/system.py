@@ -67,6 +67,11 @@ from pedvr.etiquette.vocab import (
 if TYPE_CHECKING:
     from pedvr.crowd.state import CrowdState
 
+# A walker held back on its way to a key pose turns toward where it wants to go (DoorEtiquette._held_back)
+HELD_BACK_WANT = 0.5  # m/s of preferred speed at least: it wants to walk
+HELD_BACK_SPEED = 0.4  # m/s: it moves slower than this
+HELD_BACK_ANGLE = math.radians(45.0)  # and this far off the way it wants
+
 __all__ = ["DoorEtiquette", "DoorState", "Walker"]
 
 
@@ -274,20 +279,58 @@ class DoorEtiquette(EtiquetteCore):
             else:
                 ph[r] = math.atan2(d[1], d[0])
 
-    def face(self, heading: np.ndarray, prev: np.ndarray, crowd: CrowdState, dt: float) -> np.ndarray:
+    def face(self, heading: np.ndarray, prev: np.ndarray, crowd: CrowdState, dt: float, *,
+             coupled: bool = True) -> np.ndarray:
         """After the body's animate: walkers stepping sideways or back around a door keep facing
         the door (App. C's constrained steps), turning no faster than the body's turn rate."""
         out = heading
         for w in self.walkers.values():
-            if not w.lock or w.is_user or math.isnan(w.face):
+            if w.is_user:
                 continue
             r = self._row.get(w.id)
             if r is None:
+                continue
+            if not w.lock or math.isnan(w.face):
+                if coupled and w.plan is not None and self._held_back(r, crowd):
+                    want = float(crowd.pref_heading[r])
+                    delta = (want - prev[r] + math.pi) % (2 * math.pi) - math.pi
+                    lim = float(crowd.limits[r, 2]) * dt
+                    out[r] = prev[r] + max(-lim, min(lim, delta))
                 continue
             delta = (w.face - prev[r] + math.pi) % (2 * math.pi) - math.pi
             lim = float(crowd.limits[r, 2]) * dt  # the standing turn rate: these are slow steps
             out[r] = prev[r] + max(-lim, min(lim, delta))
         return out
+
+    @staticmethod
+    def _held_back(r: int, crowd: CrowdState) -> bool:
+        """Whether row ``r``, walking to a key pose, is held back: it wants to walk
+        (:data:`HELD_BACK_WANT`) but moves slower than :data:`HELD_BACK_SPEED`, in a direction more
+        than :data:`HELD_BACK_ANGLE` off the one it wants (issue 26).
+
+        The body turns toward its motion (``pedvr.body.simple.root_motion_kernel``), and coupled ORCA
+        keeps the motion inside the body's limits, which are narrow sideways: a body that a leaf or
+        a neighbour deflects turns toward the deflection, and then cannot walk where it wanted. A
+        puller who had held the door at its edge, facing the handle, and was to walk on into the
+        doorway (HOL) drifted at 0.2 m/s toward the leaf, turning with the drift, and stood at the
+        leaf's tip for 40 s (door_single_flow seed 12 from 38 s, the last passage at 79 s). A
+        person held back turns toward where they want to go and steps that way; so does a walker
+        here, at its standing turn rate. A pushed pram (it steers) is left to its own rules, and so
+        is ``decoupled`` (``face(..., coupled=False)``): its discs face their motion, its ORCA knows
+        no body limits, and it stays the paper's plain baseline (with the rule, door_double_flow
+        under ``decoupled`` passed 22 of 30 in 90 s, against 30;
+        ``tests/etiquette/test_double_door_pocket.py``)."""
+        if float(crowd.length[r]) > 0.0:
+            return False
+        want = float(np.hypot(*crowd.pref_vel[r]))
+        vx, vy = float(crowd.vel[r, 0]), float(crowd.vel[r, 1])
+        speed = math.hypot(vx, vy)
+        if want < HELD_BACK_WANT or speed >= HELD_BACK_SPEED:
+            return False
+        if speed < 1e-6:
+            return True
+        off = (math.atan2(vy, vx) - float(crowd.pref_heading[r]) + math.pi) % (2 * math.pi) - math.pi
+        return abs(off) > HELD_BACK_ANGLE
 
     def engaged_with_user(self, crowd: CrowdState) -> np.ndarray:
         """``(N,)`` agents in a door interaction at a door the user takes part in (holding it,
