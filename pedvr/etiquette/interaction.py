@@ -153,6 +153,10 @@ BACK_EXTRA = 8.0  # s more than STATE_TIMEOUT that backing through may take
 POCKET_CLEAR = 0.15  # m beyond a leaf's swing a pram's front backs out to, from the pocket behind it
 BACK_TURN_ROOM = 0.3  # m: a pram turns round only this much farther from the door's line than it reaches
 HAND_ON_AHEAD = 0.2  # m nearer the door than the follower that the one it hands on to stands, at least
+# A body beyond a pulled leaf's free edge goes round it (off_the_tip) from up to TIP_BEHIND behind
+# the leaf about its hinge to TIP_CLEAR in front of it, whence it walks on into the doorway clear of it
+TIP_CLEAR = math.radians(15.0)
+TIP_BEHIND = math.radians(30.0)
 
 
 def nh_angle(frame: LeafFrame, radius: float) -> float:
@@ -854,6 +858,36 @@ def round_edge(fr: LeafFrame, p: np.ndarray, a: float, radius: float, to: float,
     return np.stack([*(fr.polar(rho, float(t)) for t in arc), fr.polar(rho, to)])
 
 
+def off_the_tip(fr: LeafFrame, p: np.ndarray, a: float, radius: float) -> np.ndarray | None:
+    """``(K, 2)`` waypoints for a body on the pull side beyond the free edge of a leaf open ``a``,
+    in line with the leaf (within :data:`TIP_CLEAR` of it about the hinge, in front of it, or up
+    to :data:`TIP_BEHIND` behind it), on its way into the doorway: out to the swing's circle and
+    round on it to :data:`TIP_CLEAR` in front of the leaf, where the way along the leaf into the
+    doorway keeps the body's radius clear of the edge; None for a body elsewhere.
+
+    Issue 26, door_single_flow: a puller stands just beyond the edge it held (``PULL_STAND``), and
+    from there the straight way into the doorway passes the edge 4 cm closer than a body's
+    radius. Walking on through after handing the door over (FinishDoor), it was either behind the
+    edge (round it, :func:`round_edge`) or not (straight on) as it swayed across the leaf's line,
+    re-planned the other way every decision tick, and stood at the edge: 13 s (seed 8 from 16 s).
+    One way round for the whole stretch beyond the edge, either side of the line, ends that.
+    Single doors only, as :data:`TAKE_STAND`: at door_double's half-width leaves, with the pram of
+    ``tests/etiquette/test_carriers.py``, it left the pram on its side after 90 s in seeds 3 and 6
+    (each change alone, this or ``DoorEtiquette._held_back``, let it through)."""
+    lx, ly = fr.local(p)
+    phi = math.atan2(ly, lx)
+    rho = math.hypot(lx, ly)
+    if ly <= 0.0 or rho < fr.w - 0.1 or not a - TIP_CLEAR < phi < a + TIP_BEHIND:
+        return None
+    out = fr.outer(radius)
+    to = a - TIP_CLEAR
+    n = max(1, math.ceil((phi - to) / math.radians(20.0)))
+    pts = [fr.polar(out, phi + (to - phi) * (k + 1) / n) for k in range(n)]
+    if rho < out - 0.1:
+        pts.insert(0, fr.polar(out, phi))  # out to the circle first, radially
+    return np.stack(pts)
+
+
 def _ready(et: EtiquetteCore, f: Walker, crowd: CrowdState) -> bool:
     """A committed follower is ready for the holder's decision (App. B.3) once it has closed up
     (within :data:`READY_NEAR` of its place; or, blocked, it has stood still a second; or
@@ -946,7 +980,11 @@ def _hold_pose(et: EtiquetteCore, w: Walker, crowd: CrowdState, action: str, pul
         facing = fr.heading(0.0, -1.0) if pull else fr.heading(0.0, 1.0)
         w.p_rel = 0.45 * fr.w
         lx, ly = fr.local(p)
-        if pull and ly > 0.0 and math.atan2(ly, lx) > et.leaf_open(w.leaf, fr) - math.radians(3.0):
+        a = et.leaf_open(w.leaf, fr)
+        tip = off_the_tip(fr, p, a, radius) if pull and et.doors[w.door].kind == "single" else None
+        if tip is not None:  # the puller stands beyond the leaf's edge: round it into the doorway
+            target = np.concatenate([tip, target[None]])
+        elif pull and ly > 0.0 and math.atan2(ly, lx) > a - math.radians(3.0):
             target = fr.polar(fr.outer(radius), HOLD_ANGLE - math.radians(25.0))  # behind it: round the edge
         et.walk_to(w, crowd, target, facing=facing, speed=float(crowd.pref_speed[r]), lock=False)
 
@@ -978,7 +1016,10 @@ def _finishing(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> None:
     if pull:
         # from the pull side through to the push side
         out = fr.lane(-(radius + CLEAR + 0.5))
-        if ly > 0.0 and math.atan2(ly, lx) > a - math.radians(3.0):  # behind the edge: round it first
+        tip = off_the_tip(fr, p, a, radius) if et.doors[w.door].kind == "single" else None
+        if tip is not None:  # beyond the free edge, in line with the leaf: round the edge first
+            target = np.concatenate([tip, out[None]])
+        elif ly > 0.0 and math.atan2(ly, lx) > a - math.radians(3.0):  # behind the edge: round it first
             target = np.concatenate([round_edge(fr, p, a, radius, max(a - math.radians(25.0),
                                                                        math.radians(10.0))), out[None]])
         else:
