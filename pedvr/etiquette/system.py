@@ -282,7 +282,9 @@ class DoorEtiquette(EtiquetteCore):
     def face(self, heading: np.ndarray, prev: np.ndarray, crowd: CrowdState, dt: float, *,
              coupled: bool = True) -> np.ndarray:
         """After the body's animate: walkers stepping sideways or back around a door keep facing
-        the door (App. C's constrained steps), turning no faster than the body's turn rate."""
+        the door (App. C's constrained steps), turning no faster than the body's turn rate; and,
+        coupled, a walker held back on its way to a key pose (:meth:`_held_back`) turns toward
+        where it wants to go at its standing turn rate, not toward where it drifts."""
         out = heading
         for w in self.walkers.values():
             if w.is_user:

@@ -129,7 +129,7 @@ def test_nobody_walks_back_through_the_door(runs: dict[int, tuple[int, int, int,
 def test_a_holder_done_holding_walks_on_through(runs: dict[int, tuple[int, int, int, float, float]]) -> None:
     """A puller who held the door and walked on into the doorway (HOL), done holding, stood at the
     leaf's edge: the body turned toward where it drifted, and its way re-planned between round the
-    edge and straight on as it swayed across the leaf's line (seed 3: 21 s, seed 6: 21 s, before
+    edge and straight on as it swayed across the leaf's line (seed 3: 20.9 s, seed 6: 20.6 s, before
     ``DoorEtiquette._held_back`` and :func:`~pedvr.etiquette.interaction.off_the_tip`; now 12.6 s
     at most, seed 1, and 4.3-9.8 s in the other seeds; the one traced, seed 8's 9.8 s, waited for
     followers of its own side streaming past it through the held door)."""
