@@ -292,14 +292,13 @@ class DoorEtiquette(EtiquetteCore):
             r = self._row.get(w.id)
             if r is None:
                 continue
-            if not w.lock or math.isnan(w.face):
-                if coupled and w.plan is not None and self._held_back(r, crowd):
-                    want = float(crowd.pref_heading[r])
-                    delta = (want - prev[r] + math.pi) % (2 * math.pi) - math.pi
-                    lim = float(crowd.limits[r, 2]) * dt
-                    out[r] = prev[r] + max(-lim, min(lim, delta))
+            if w.lock and not math.isnan(w.face):
+                want = w.face
+            elif coupled and w.plan is not None and self._held_back(r, crowd):
+                want = float(crowd.pref_heading[r])
+            else:
                 continue
-            delta = (w.face - prev[r] + math.pi) % (2 * math.pi) - math.pi
+            delta = (want - prev[r] + math.pi) % (2 * math.pi) - math.pi
             lim = float(crowd.limits[r, 2]) * dt  # the standing turn rate: these are slow steps
             out[r] = prev[r] + max(-lim, min(lim, delta))
         return out

@@ -41,6 +41,7 @@ DRUM_SPEED = 0.4  # m/s: in a revolving door's drum the user walks slowly (the p
 CLEARANCE = 0.06  # m beyond touching discs that the scripted user keeps from anyone it walks toward
 COMING_SPEED = 0.15  # m/s toward the user's side: someone in or at the doorway coming through
 GIVE_WAY_S = 15.0  # s the user waits aside at most, then goes on whoever is in the doorway
+SEES_THROUGH = math.radians(20.0)  # a leaf open this far shows the user the door's far side (_coming)
 WALK, TO_HANDLE, OPENING, HOLDING, THROUGH, PAST_HOLD, REJOIN, GIVE_WAY = range(8)
 
 
@@ -250,16 +251,17 @@ class DoorUser:
     def _coming(self) -> bool:
         """Someone coming through the door toward the user's side, as a person there would see it:
         in the doorway, walking toward the user's side faster than :data:`COMING_SPEED`; and, once
-        a leaf of the door is open (20° or more: a closed door hides its far side), one doing so up to 1.5 m
-        beyond the doorway, or a pram pusher of this door from the far side backing through (it
-        backs its pram through, then turns round where it comes out: its steering, giving way to
-        a user walking at it, backs it away again, so it never looks as if it were coming)."""
+        a leaf of the door is open (:data:`SEES_THROUGH`: a closed door hides its far side), one
+        doing so up to 1.5 m beyond the doorway, or a pram pusher of this door from the far side
+        backing through (it backs its pram through, then turns round where it comes out: its
+        steering, giving way to a user walking at it, backs it away again, so it never looks as if
+        it were coming)."""
         if self.perceive is None:
             return False
         fr = self._frame
         assert fr is not None
         leaves = list(self.et.dstate[self._door].leaves)
-        seen = float(np.abs(self.et.leaves.angle[leaves]).max()) >= math.radians(20.0)
+        seen = float(np.abs(self.et.leaves.angle[leaves]).max()) >= SEES_THROUGH
         if seen:
             for o in self.et.walkers.values():
                 if o.door == self._door and o.backing and o.side != self._world_side and not o.is_user:
