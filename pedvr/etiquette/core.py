@@ -74,6 +74,7 @@ class Walker:
     backing: bool = False  # a pram pusher with a freed hand at a pull door: pram trailing, backs through
     still_since: float = math.nan  # the user: since when it has stood still (slower than SENSE_USER)
     first_wait: float = math.nan  # when it first stood waiting at this door (door_deadlocks)
+    blocked_since: float = math.nan  # passing first, blocked since (interaction._pass_on)
     last_wait: float = math.nan  # when it last stood waiting there
     gait: str = ""  # how its plan was made: "steps" (App. C, set_plan / walk_to) or "direct"
     gait_goal: np.ndarray | None = None  # the key pose the steps lead to

@@ -153,6 +153,7 @@ BACK_EXTRA = 8.0  # s more than STATE_TIMEOUT that backing through may take
 POCKET_CLEAR = 0.15  # m beyond a leaf's swing a pram's front backs out to, from the pocket behind it
 BACK_TURN_ROOM = 0.3  # m: a pram turns round only this much farther from the door's line than it reaches
 HAND_ON_AHEAD = 0.2  # m nearer the door than the follower that the one it hands on to stands, at least
+PASS_ON_AFTER = 2.0  # s a PF walker stands blocked before it lets the one in its way pass (_pass_on)
 # A body beyond a pulled leaf's free edge goes round it (off_the_tip) from up to TIP_BEHIND behind
 # the leaf about its hinge to TIP_CLEAR in front of it, whence it walks on into the doorway clear of it
 TIP_CLEAR = math.radians(15.0)
@@ -399,6 +400,10 @@ def _regions(et: EtiquetteCore, w: Walker, holder: Walker | None, leader: Walker
     if leader is not None and (holder is None or leader.id != holder.id) and leader.side == w.side:
         out.append((et.pos(crowd, leader.id).copy(), agent_r))
     return out
+
+
+def _dist(a: np.ndarray, b: np.ndarray) -> float:
+    return math.hypot(float(a[0] - b[0]), float(a[1] - b[1]))
 
 
 def _holder_of(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker]) -> Walker | None:
@@ -1403,6 +1408,7 @@ def _pass_first(et: EtiquetteCore, w: Walker, h: Walker, crowd: CrowdState, fr: 
     radius = float(crowd.radius[r])
     w.role = PASSING
     w.state = -1
+    w.blocked_since = math.nan
     if h.follower == w.id and not bool(et.carrying[r]):
         # On its way: the holder is free for its next follower (the blue routine of Fig. 7), who
         # closes up while this one walks through (pipelined, module docstring). Not from a
@@ -1540,6 +1546,8 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
     if h is not None and not w.thanked and h.id in et._row:
         if float(np.hypot(*(et.pos(crowd, h.id) - p))) < THANK_RANGE:
             _thank(et, w, h)
+    if h is not None and _pass_on(et, w, h, by_id, crowd):
+        return
     rel = float((p - ds.centre) @ ds.n) * w.side
     r = et._row[w.id]
     fr = h.frame if h is not None and h.frame is not None else (
@@ -1574,6 +1582,52 @@ def _passing(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Crow
         et.finish(w, crowd)
     elif et.t - w.since > STATE_TIMEOUT + 10.0 and w.state == -1:
         et.finish(w, crowd)  # it could not get through: the door is given up (no passage counted)
+
+
+def _pass_on(et: EtiquetteCore, w: Walker, h: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> bool:
+    """Whether a pedestrian passing first (PF) through a held single door lets the one of its own
+    side standing in its way pass instead (issue 26), as a follower on its way to take the door over
+    does (:func:`_hand_on`): nobody walks through people to pass a held door.
+
+    The one in its way (:func:`_in_the_way`) arrived after it set off and slid into the doorway's
+    mouth as it stopped. door_single_flow seed 10 from 22 s: the PF follower stood behind it at
+    0.05 m/s for 22 s, the holder's next follower on the other side waited for the PF one to come
+    through (:func:`_oncoming`), and the one in the way waited for that next follower's queue;
+    nobody passed the door from 21 to 45 s. Blocked (slower than :data:`HAND_ON_SPEED` for
+    :data:`PASS_ON_AFTER`) on its own side of the doorway, the PF walker goes back to the doorway
+    behavior, keeping its place in the queue, and the one in its way passes first through the same
+    held door. Not for the user, a carrier (who cannot be passed by in the doorway) or a helper.
+    Blocked for a moment is not blocked: handing on at the first slow tick (door_single_flow seed
+    21 at 50.5 s) sent back one who was through 2 s later without it, and the door passed 5
+    instead of 7 in the next 7 s."""
+    if w.is_user or h.is_user or h.role != HOLDER or h.frame is None or w.helping != NONE \
+            or et.doors[w.door].kind != "single" or w.leaf not in et.dstate[w.door].holder:
+        return False
+    r = et._row[w.id]
+    if float(np.hypot(*crowd.vel[r])) >= HAND_ON_SPEED or bool(et.carrying[r]):
+        w.blocked_since = math.nan
+        return False
+    if math.isnan(w.blocked_since):
+        w.blocked_since = et.t
+    if et.t - w.blocked_since < PASS_ON_AFTER:
+        return False
+    ds = et.dstate[w.door]
+    p = et.pos(crowd, w.id)
+    if float((p - ds.centre) @ ds.n) * w.side < float(crowd.radius[r]):
+        return False  # in the doorway already
+    o = _in_the_way(et, w, by_id, crowd)
+    if o is w or bool(et.carrying[et._row[o.id]]):
+        return False
+    if _dist(et.pos(crowd, o.id), ds.centre) > _dist(p, ds.centre) - HAND_ON_AHEAD:
+        return False  # side by side: each in the other's way
+    _demote(w)
+    w.blocked_since = math.nan
+    o.holder = h.id
+    o.leader = h.id
+    o.leaf = h.leaf
+    _pass_first(et, o, h, crowd, h.frame, 1 if o.side == _pull_side_world(et, h) else -1)
+    et.log("pass_on", w, to=o.id, holder=h.id)
+    return True
 
 
 def _through(et: EtiquetteCore, w: Walker, crowd: CrowdState) -> bool:
