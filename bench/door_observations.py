@@ -19,7 +19,9 @@ measures them on ``--seeds`` seeds and prints one JSON line per observation:
 
 * ``rush``: door_rush (issue 26): a single one-way door, 20 people from each side setting off
   over 20 s: how many are through after 90 s (of 40), when the last one passed, the 95th
-  percentile wait at the door, ``door_deadlocks``; median and worst over the seeds;
+  percentile wait at the door, ``door_deadlocks``; median and worst over the seeds, and each
+  seed's count and last passage (``per_seed_through``, ``per_seed_last_s``: inf where someone
+  was not through);
 * ``single_flow``: the same measures for the realism benchmark's ``validation/door_single_flow``
   (people arriving from sources at 1 /s a side), plus the mean time of the 35th passage;
 * ``double_flow``: the same for ``validation/door_double_flow`` (30 people at a double door; no 35th);
@@ -188,7 +190,7 @@ def rush(seeds: list[int], seconds: float = 90.0, name: str = "door_rush",
             "pass35_s_mean": round(float(np.mean(t35)), 2) if n >= 35 else None,
             "passages_per_min": _med_worst(rate, "min"), "wait_s_p95": _med_worst(p95, "max"),
             "door_deadlocks": _med_worst(dead, "max"), "overlaps_over_1cm": int(max(over)),
-            "per_seed_through": through}
+            "per_seed_through": through, "per_seed_last_s": last}
 
 
 def double_queue(seeds: list[int], seconds: float = 60.0) -> dict[str, Any]:
