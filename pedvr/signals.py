@@ -8,6 +8,8 @@ the first unfinished step. Inside :func:`signals_abort` the two signals raise
 :class:`TerminatedBySignal` (a :class:`KeyboardInterrupt`, so every place that
 already winds down on Ctrl-C does the same for them); later signals are
 ignored while the session winds down, so the clean-up itself is not cut short.
+An interrupt that numba's dispatcher turned into a ``SystemError`` leaves the
+block as the interrupt it was (:func:`interrupt_of`).
 """
 
 from __future__ import annotations
@@ -40,7 +42,9 @@ def signals_abort() -> Iterator[None]:
     """Turn SIGTERM and SIGHUP into :class:`TerminatedBySignal` inside the block (main thread only).
 
     Outside the main thread Python cannot install handlers; the block then
-    runs with the handlers it had. The previous handlers are restored on exit.
+    runs with the handlers it had. The previous handlers are restored on exit. A Ctrl-C or signal
+    that numba's dispatcher turned into a ``SystemError`` leaves the block as itself
+    (:func:`interrupt_of`).
     """
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -58,9 +62,34 @@ def signals_abort() -> Iterator[None]:
     previous = {s: signal.signal(s, handler) for s in numbers}
     try:
         yield
+    except SystemError as exc:
+        ki = interrupt_of(exc)
+        if ki is None:
+            raise
+        raise ki from None  # (ki caused exc: chaining exc again would make a loop of causes)
     finally:
         for s, h in previous.items():
             signal.signal(s, h)
+
+
+def interrupt_of(exc: BaseException) -> KeyboardInterrupt | None:
+    """The Ctrl-C (or :class:`TerminatedBySignal`) behind ``exc``, if its causes hold one.
+
+    A signal's handler runs between Python bytecodes, and numba's dispatcher runs some Python while
+    a kernel is called (``_numba_unpickle``, for an object the kernel refers to). A Ctrl-C landing
+    there comes out of the kernel call as ``SystemError: CPUDispatcher(...) returned a result with
+    an exception set``, caused by the KeyboardInterrupt, and got past every ``except
+    KeyboardInterrupt`` that winds a run down: a headset run ended with a traceback instead of its
+    outputs (tests/xr/monado/test_runtime.py, Ctrl-C, once in a full suite).
+    :func:`signals_abort` re-raises the interrupt itself."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
 
 
 @contextmanager

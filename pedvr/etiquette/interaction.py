@@ -1590,7 +1590,8 @@ def _pass_on(et: EtiquetteCore, w: Walker, h: Walker, by_id: dict[int, Walker], 
     does (:func:`_hand_on`): nobody walks through people to pass a held door.
 
     The one in its way (:func:`_in_the_way`) arrived after it set off and slid into the doorway's
-    mouth as it stopped. door_single_flow seed 10 from 22 s: the PF follower stood behind it at
+    mouth as it stopped. door_single_flow seed 10 from 22 s, under a waiting rule tried in stop 46
+    and not kept (README, change 22): the PF follower stood behind it at
     0.05 m/s for 22 s, the holder's next follower on the other side waited for the PF one to come
     through (:func:`_oncoming`), and the one in the way waited for that next follower's queue;
     nobody passed the door from 21 to 45 s. Blocked (slower than :data:`HAND_ON_SPEED` for
