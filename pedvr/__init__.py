@@ -78,4 +78,53 @@ def _use_numba_cache_dir() -> None:
         sys.modules["numba"].core.config.reload_config()
 
 
+# numba compiles for the host CPU by default: its name and every feature it has. The fastmath
+# kernels let LLVM contract a * b + c into one fused multiply-add where the CPU has FMA, rounding
+# once instead of twice, so one seed's run depended on the machine (stop 46: door_rush seed 8 ended
+# at 73.8 s on one 2-core AMD EPYC VM and at 87.2 s on another; on the first, NUMBA_CPU_NAME=generic,
+# without FMA, gave 88.0 s). pedvr has numba compile for one named target instead, x86-64-v3 (AVX2,
+# FMA; every x86-64 server and desktop CPU since 2013-2015) with its own features and no others
+# (no AVX-512 where the host has it), so the kernels are the same machine code on every such
+# machine and a seed gives the same bytes there. An x86-64 CPU without those features gets
+# numba's portable "generic"; other architectures keep the host. NUMBA_CPU_NAME or
+# NUMBA_CPU_FEATURES exported by the user wins.
+PORTABLE_CPU = "x86-64-v3"
+_PORTABLE_FEATURES = ("avx", "avx2", "bmi", "bmi2", "f16c", "fma", "lzcnt", "movbe", "xsave")
+
+
+def numba_cpu(environ: "dict[str, str] | _os._Environ[str]", machine: str,
+              host_features: "dict[str, bool] | None") -> dict[str, str]:
+    """The ``NUMBA_CPU_NAME`` / ``NUMBA_CPU_FEATURES`` pedvr sets for a host of ``machine``
+    (``platform.machine()``) with ``host_features`` (llvmlite's names; None: not asked): empty where
+    ``environ`` names either already, or off x86-64."""
+    if "NUMBA_CPU_NAME" in environ or "NUMBA_CPU_FEATURES" in environ:
+        return {}
+    if machine.lower() not in ("x86_64", "amd64"):
+        return {}
+    features = host_features or {}
+    name = PORTABLE_CPU if all(features.get(f) for f in _PORTABLE_FEATURES) else "generic"
+    return {"NUMBA_CPU_NAME": name, "NUMBA_CPU_FEATURES": ""}
+
+
+def _use_numba_cpu() -> None:
+    import platform
+    import sys
+
+    if "NUMBA_CPU_NAME" in _os.environ or "NUMBA_CPU_FEATURES" in _os.environ:
+        return
+    machine = platform.machine()
+    features = None
+    if machine.lower() in ("x86_64", "amd64"):
+        import llvmlite.binding as _ll  # numba loads it anyway
+
+        features = dict(_ll.get_host_cpu_features())
+    env = numba_cpu(_os.environ, machine, features)
+    if not env:
+        return
+    _os.environ.update(env)
+    if "numba" in sys.modules:  # imported before pedvr: it read its configuration already
+        sys.modules["numba"].core.config.reload_config()
+
+
 _use_numba_cache_dir()
+_use_numba_cpu()
