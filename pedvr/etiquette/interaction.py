@@ -194,6 +194,7 @@ def decide_hinged(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: Crowd
         d_door = 0.0 if w.role == HOLDER else 0.05 if w.role == FOLLOWER else float(np.hypot(*rel))
         cands.append(Candidate(id=w.id, pos=(float(p[0]), float(p[1])), side=w.side, d_door=d_door,
                                waited=w.waited + (BATCH_WAIT if w.side == batch else 0.0),
+                               queued=w.queued + (BATCH_WAIT if w.side == batch else 0.0),
                                holder=w.role == HOLDER, follower=w.role == FOLLOWER,
                                critical=w.role == HOLDER and w.state >= HOLDER_DEC,
                                leaf=ds.leaves.index(w.leaf) if w.leaf in ds.leaves else -1,
@@ -282,17 +283,34 @@ def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdSt
 
 
 def _update_waiting(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
+    """Each walker's two clocks at its door: ``waited``, the time it has stood waiting (slower than
+    0.2 m/s in the doorway behavior), and ``queued``, its time in the door's queue, from the first
+    tick it stood there, on while it approaches or follows, standing or moving up (issue 26;
+    README, change 23).
+
+    ``queued`` orders a side's own queue (:func:`.ordering.place`): people keep their place in a
+    queue while it moves up. Ordered by ``waited``, whoever moved up lost its credit to whoever
+    stood: in door_rush seed 9 two people 5-8 m out overtook each other in their side's order
+    every few ticks, one's leader swapping between the holder and the other, and they crept from
+    7.7 to 6.6 m between 25 and 63 s; the last five passed at 68-84 s. ``waited`` still ranks the
+    two sides against each other (:func:`.ordering.queue_keys`) and is the wait a passage reports.
+    Both clocks across the door made the side that stood first pass as one block: door_opposing
+    seed 2 passed four from one side, then four from the other, where §6.1 (Fig. 12) has two
+    groups arriving together interleave."""
     for w in walkers:
         if w.is_user or w.id not in et._row:
             continue
         r = et._row[w.id]
         slow = float(np.hypot(*crowd.vel[r])) < 0.2
-        if slow and w.waiting and w.role in (APPROACH, FOLLOWER):
+        queue = w.role in (APPROACH, FOLLOWER)
+        if slow and w.waiting and queue:
             w.waited += TICK
             if math.isnan(w.wait_from):
                 w.wait_from = et.t
         else:
             w.wait_from = math.nan
+        if queue and (w.queued > 0.0 or w.waited > 0.0):
+            w.queued += TICK
 
 
 def _choose_helpers(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
@@ -1331,6 +1349,14 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
         return
 
 
+def _ahead_of(et: EtiquetteCore, o: Walker, w: Walker, crowd: CrowdState) -> bool:
+    """Whether ``o`` stands at least :data:`HAND_ON_AHEAD` nearer ``w``'s door than ``w`` does: one in
+    ``w``'s way that ``w`` hands the door on to (:func:`_hand_on`, :func:`_pass_on`), not one side by
+    side with it, each in the other's way."""
+    centre = et.dstate[w.door].centre
+    return _dist(et.pos(crowd, o.id), centre) <= _dist(et.pos(crowd, w.id), centre) - HAND_ON_AHEAD
+
+
 def _hand_on(et: EtiquetteCore, w: Walker, h: Walker, by_id: dict[int, Walker], crowd: CrowdState) -> bool:
     """Whether a follower on its way to take the door over from a holder of its own side hands that
     on to the one standing in its way (issue 26), as :func:`_in_the_way` does when it commits.
@@ -1353,9 +1379,7 @@ def _hand_on(et: EtiquetteCore, w: Walker, h: Walker, by_id: dict[int, Walker], 
     o = _in_the_way(et, w, by_id, crowd)
     if o is w or bool(et.carrying[et._row[o.id]]):
         return False
-    centre = et.dstate[w.door].centre
-    if float(np.hypot(*(et.pos(crowd, o.id) - centre))) > float(np.hypot(*(et.pos(crowd, w.id) - centre))) \
-            - HAND_ON_AHEAD:
+    if not _ahead_of(et, o, w, crowd):
         return False  # side by side, each in the other's way: it would only come back (seed 5)
     _demote(w)
     o.role = FOLLOWER
@@ -1619,7 +1643,7 @@ def _pass_on(et: EtiquetteCore, w: Walker, h: Walker, by_id: dict[int, Walker], 
     o = _in_the_way(et, w, by_id, crowd)
     if o is w or bool(et.carrying[et._row[o.id]]):
         return False
-    if _dist(et.pos(crowd, o.id), ds.centre) > _dist(p, ds.centre) - HAND_ON_AHEAD:
+    if not _ahead_of(et, o, w, crowd):
         return False  # side by side: each in the other's way
     _demote(w)
     w.blocked_since = math.nan
