@@ -45,8 +45,7 @@ class Walker:
     state: int = -1
     leader: int = NONE
     since: float = 0.0
-    waited: float = 0.0  # s stood waiting at its door
-    queued: float = 0.0  # s in its door's queue since it first stood there, moving up included
+    waited: float = 0.0
     waiting: bool = False
     wait_from: float = math.nan
     action: str = ""  # a holder's decision for its follower
@@ -142,7 +141,6 @@ class EtiquetteCore:
         self.passages = 0
         self.waits: list[float] = []
         self.waited_at: dict[tuple[int, int], float] = {}  # (agent, door) -> s waited, for a dropped walker
-        self.queued_at: dict[tuple[int, int], float] = {}  # (agent, door) -> s queued, for a dropped walker
         self.wait_since_at: dict[tuple[int, int], float] = {}  # (agent, door) -> when it began to wait
         self.deadlocks = 0
         self._free_since = [math.nan] * len(self.doors)
@@ -499,7 +497,6 @@ class EtiquetteCore:
             self.end_hold(w, why)
         self.walkers.pop(w.id, None)
         self.waited_at[(w.id, w.door)] = w.waited  # until its body passes (or it comes back)
-        self.queued_at[(w.id, w.door)] = w.queued
         self.wait_since_at[(w.id, w.door)] = w.first_wait
         if not w.is_user and w.id in self._row:
             if w.arm >= 0:

@@ -194,7 +194,6 @@ def decide_hinged(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: Crowd
         d_door = 0.0 if w.role == HOLDER else 0.05 if w.role == FOLLOWER else float(np.hypot(*rel))
         cands.append(Candidate(id=w.id, pos=(float(p[0]), float(p[1])), side=w.side, d_door=d_door,
                                waited=w.waited + (BATCH_WAIT if w.side == batch else 0.0),
-                               queued=w.queued + (BATCH_WAIT if w.side == batch else 0.0),
                                holder=w.role == HOLDER, follower=w.role == FOLLOWER,
                                critical=w.role == HOLDER and w.state >= HOLDER_DEC,
                                leaf=ds.leaves.index(w.leaf) if w.leaf in ds.leaves else -1,
@@ -283,34 +282,17 @@ def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdSt
 
 
 def _update_waiting(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
-    """Each walker's two clocks at its door: ``waited``, the time it has stood waiting (slower than
-    0.2 m/s in the doorway behavior), and ``queued``, its time in the door's queue, from the first
-    tick it stood there, on while it approaches or follows, standing or moving up (issue 26;
-    README, change 23).
-
-    ``queued`` orders a side's own queue (:func:`.ordering.place`): people keep their place in a
-    queue while it moves up. Ordered by ``waited``, whoever moved up lost its credit to whoever
-    stood: in door_rush seed 9 two people 5-8 m out overtook each other in their side's order
-    every few ticks, one's leader swapping between the holder and the other, and they crept from
-    7.7 to 6.6 m between 25 and 63 s; the last five passed at 68-84 s. ``waited`` still ranks the
-    two sides against each other (:func:`.ordering.queue_keys`) and is the wait a passage reports.
-    Both clocks across the door made the side that stood first pass as one block: door_opposing
-    seed 2 passed four from one side, then four from the other, where §6.1 (Fig. 12) has two
-    groups arriving together interleave."""
     for w in walkers:
         if w.is_user or w.id not in et._row:
             continue
         r = et._row[w.id]
         slow = float(np.hypot(*crowd.vel[r])) < 0.2
-        queue = w.role in (APPROACH, FOLLOWER)
-        if slow and w.waiting and queue:
+        if slow and w.waiting and w.role in (APPROACH, FOLLOWER):
             w.waited += TICK
             if math.isnan(w.wait_from):
                 w.wait_from = et.t
         else:
             w.wait_from = math.nan
-        if queue and (w.queued > 0.0 or w.waited > 0.0):
-            w.queued += TICK
 
 
 def _choose_helpers(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:

@@ -34,12 +34,8 @@ door)"; pedestrians waiting at a door stop where they enter a waiting region, an
 are circles about the hinge or the door, so the one closer to the door is whoever stopped on the
 near part of the circle, not whoever came first: with six a side, a pedestrian waited 55 s while
 later arrivals stopped nearer and went before it. pedvr's reading: the front is by distance to
-the door less ``wait_credit`` for the time in the queue beyond :data:`QUEUE_HOLD` (people keep their
-place in a queue); a holder is in front of everyone, its committed follower next. The time in the
-queue counts from the first time a pedestrian stood waiting and goes on while the queue moves up
-(``queued``; issue 26, README change 23): counting only time stood, whoever moved up fell behind
-whoever stood, and two people far out overtook each other every few ticks and crept. Across the
-doorway the rank keeps the time stood (``waited``, above).
+the door less ``wait_credit`` for the time waited beyond :data:`QUEUE_HOLD` (people keep their
+place in a queue); a holder is in front of everyone, its committed follower next.
 
 Double doors (Alg. 3–4): a pedestrian's passing side is one of the two leaves. Alg. 4 has a
 pedestrian with an opposite-side pedestrian prior to it adopt that pedestrian's passing side; read
@@ -72,8 +68,7 @@ __all__ = ["NONE", "Candidate", "DoubleDoor", "choose_side", "initial_leader", "
 @dataclass
 class Candidate:
     """A pedestrian in one door's ordering: ``id``, ``pos`` (x, y), the ``side`` (+1 / -1) it
-    comes from, ``d_door`` (m to the door), ``waited`` (s stood waiting), ``queued`` (s in the
-    queue, moving up included: :func:`place`), ``holder`` / ``follower`` (its role
+    comes from, ``d_door`` (m to the door), ``waited`` (s), ``holder`` / ``follower`` (its role
     now), ``critical`` (a holder past the critical motion phase), ``leaf`` (its passing side at a
     double door, -1 undecided), ``skip`` (ids it does not take as a leader: a friend walking
     beside it, a carrier it overtakes to help)."""
@@ -83,7 +78,6 @@ class Candidate:
     side: int
     d_door: float
     waited: float = 0.0
-    queued: float = 0.0
     holder: bool = False
     follower: bool = False
     critical: bool = False
@@ -105,14 +99,13 @@ def proximity(c: Candidate, to: tuple[float, float], wait_credit: float) -> floa
 
 def place(c: Candidate, wait_credit: float) -> float:
     """Where ``c`` stands in its side's queue (smaller: nearer the front): a holder first, a
-    committed follower next, then by distance to the door less ``wait_credit`` for the time in the
-    queue beyond :data:`QUEUE_HOLD` (``queued``, which is never less than ``waited``; module
-    docstring)."""
+    committed follower next, then by distance to the door less ``wait_credit`` for the time
+    waited beyond :data:`QUEUE_HOLD` (module docstring)."""
     if c.holder:
         return -math.inf
     if c.follower:
         return -1e9 + c.d_door
-    return c.d_door - wait_credit * max(0.0, max(c.queued, c.waited) - QUEUE_HOLD)
+    return c.d_door - wait_credit * max(0.0, c.waited - QUEUE_HOLD)
 
 
 def initial_leader(me: Candidate, everyone: list[Candidate], *, wait_credit: float = 0.0) -> Candidate | None:

@@ -174,7 +174,6 @@ class DoorEtiquette(EtiquetteCore):
                         self.walkers[agent] = Walker(id=agent, door=k, side=side, since=self.t,
                                                      speed=float(crowd.pref_speed[r]),
                                                      waited=self.waited_at.pop((agent, k), 0.0),
-                                                     queued=self.queued_at.pop((agent, k), 0.0),
                                                      first_wait=self.wait_since_at.pop((agent, k), math.nan),
                                                      last_wait=self.t)
                         break
@@ -565,7 +564,6 @@ class DoorEtiquette(EtiquetteCore):
             ds.run_len = ds.run_len + 1 if side == ds.run_side else 1
             ds.run_side = side
         self.wait_since_at.pop((agent, k), None)
-        self.queued_at.pop((agent, k), None)
         if w is not None and w.door == k:
             w.first_wait = math.nan  # its wait at this door is over
         if not user:
