@@ -1,6 +1,10 @@
 """pedvr: virtual pedestrians around a real person (see README.md and DESIGN.md)."""
 
 import os as _os
+import typing as _typing
+
+if _typing.TYPE_CHECKING:
+    from collections.abc import Callable
 
 __version__ = "0.2.0"
 
@@ -93,32 +97,30 @@ _PORTABLE_FEATURES = ("avx", "avx2", "bmi", "bmi2", "f16c", "fma", "lzcnt", "mov
 
 
 def numba_cpu(environ: "dict[str, str] | _os._Environ[str]", machine: str,
-              host_features: "dict[str, bool] | None") -> dict[str, str]:
+              host_features: "Callable[[], dict[str, bool]]") -> dict[str, str]:
     """The ``NUMBA_CPU_NAME`` / ``NUMBA_CPU_FEATURES`` pedvr sets for a host of ``machine``
-    (``platform.machine()``) with ``host_features`` (llvmlite's names; None: not asked): empty where
-    ``environ`` names either already, or off x86-64."""
+    (``platform.machine()``) whose features ``host_features`` gives (llvmlite's names; asked only
+    on x86-64): empty where ``environ`` names either already, or off x86-64."""
     if "NUMBA_CPU_NAME" in environ or "NUMBA_CPU_FEATURES" in environ:
         return {}
     if machine.lower() not in ("x86_64", "amd64"):
         return {}
-    features = host_features or {}
+    features = host_features()
     name = PORTABLE_CPU if all(features.get(f) for f in _PORTABLE_FEATURES) else "generic"
     return {"NUMBA_CPU_NAME": name, "NUMBA_CPU_FEATURES": ""}
+
+
+def _host_features() -> "dict[str, bool]":
+    import llvmlite.binding as ll  # numba loads it anyway
+
+    return dict(ll.get_host_cpu_features())
 
 
 def _use_numba_cpu() -> None:
     import platform
     import sys
 
-    if "NUMBA_CPU_NAME" in _os.environ or "NUMBA_CPU_FEATURES" in _os.environ:
-        return
-    machine = platform.machine()
-    features = None
-    if machine.lower() in ("x86_64", "amd64"):
-        import llvmlite.binding as _ll  # numba loads it anyway
-
-        features = dict(_ll.get_host_cpu_features())
-    env = numba_cpu(_os.environ, machine, features)
+    env = numba_cpu(_os.environ, platform.machine(), _host_features)
     if not env:
         return
     _os.environ.update(env)
