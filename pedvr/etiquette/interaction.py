@@ -141,6 +141,7 @@ BATCH_KEEP = 3  # waiting on each side below which it is no longer busy
 BATCH_WAIT = 120.0  # s of waiting credited to the side that has the door within a batch: it goes first
 CATCH_RANGE = 4.0  # m from the doorway within which NH's follower catches the door (issue 26)
 HAND_ON_SPEED = 0.3  # m/s: a follower slower than this on its way to take the door over is blocked (_hand_on)
+CRAWL_SPEED = 0.5  # m/s: one who has stood at a single door and moves up slower than this still waits
 # A pram pusher backing through a pull door (_backing_through, issue 26)
 BACK_SPEED = 0.5  # m/s: stepping back ([motion] max_backward_speed)
 BACK_TURNED = math.radians(12.0)  # a turn round is done this close to the facing it turns to
@@ -282,12 +283,28 @@ def _batch_side(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: CrowdSt
 
 
 def _update_waiting(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:
+    """The time each pedestrian has waited at its door, Alg. 1's ``t_wait`` (:mod:`.ordering`). It
+    grows while the pedestrian stands waiting (told to stand, slower than 0.2 m/s) and, at a single
+    door, once it has stood there, while it moves up slower than :data:`CRAWL_SPEED`.
+
+    The paper does not say when waiting time counts (issue 26, change 23). Counted only while
+    standing, whoever shuffled forward lost its place to whoever stood, and the two swapped places
+    in the order every tick: in door_rush seed 9 one crept from 7.7 to 6.6 m from the held door
+    in 38 s, and the last five through, who had waited 5-8 m out, passed at 68-84 s. Counted from
+    the first stand on whatever the pace (stop 47, tried), the side that stood first passed as a
+    block, and groups arriving together from opposite sides no longer interleaved (§6.1, Fig. 12).
+    pedvr's reading: below half a walking pace (Weidmann's free speed is 1.34 m/s) one moving up
+    in a queue is shuffling in it, still waiting; one who walks up earns nothing while it walks.
+    Single doors only: at a double door (Alg. 3-4 rank by the same ``E``) the same rule left 15 of
+    30 on their side in ``validation/door_double_flow`` under ``decoupled``, and door_double's
+    pram on its side in three of ten seeds (not traced further)."""
     for w in walkers:
         if w.is_user or w.id not in et._row:
             continue
         r = et._row[w.id]
-        slow = float(np.hypot(*crowd.vel[r])) < 0.2
-        if slow and w.waiting and w.role in (APPROACH, FOLLOWER):
+        v = float(np.hypot(*crowd.vel[r]))
+        crawl = w.waited > 0.0 and v < CRAWL_SPEED and et.doors[w.door].kind == "single"
+        if w.role in (APPROACH, FOLLOWER) and ((v < 0.2 and w.waiting) or crawl):
             w.waited += TICK
             if math.isnan(w.wait_from):
                 w.wait_from = et.t

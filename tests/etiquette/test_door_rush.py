@@ -14,7 +14,10 @@ is the lower less two. Stop 35 counted a holder still to pass in the batch's run
 while both queues stand (up to 20), and had the one standing in a committed follower's way go
 first (:func:`~pedvr.etiquette.interaction._in_the_way`), and kept a door busy until fewer than
 three wait on a side: seeds 1 and 2 pass all 40, opening the door from shut 3 and 2 times; the
-threshold is 40 less two.
+threshold is 40 less two. Seed 9 is the far-out crawl of issue 26's change 22: its last five,
+who had waited 5-8 m out, passed at 68-84 s, one of them creeping 1.1 m in 38 s as it and the one
+behind it swapped places in the queue; with the time in the queue counted while shuffling forward
+(change 23, :func:`~pedvr.etiquette.interaction._update_waiting`) the last passes at 74.7 s.
 """
 
 from __future__ import annotations
@@ -27,12 +30,14 @@ from pedvr.sim import Simulation
 
 THROUGH_AT_LEAST = 38  # of 40 in 90 s
 PASSAGES_PER_OPENING = 4.0  # door_passages / times the door was opened from shut
+SEEDS = (1, 2, 9)
+CRAWL_SEED, CRAWL_LAST_BY = 9, 79.0  # s: seed 9's last passage (84.4 s before change 23, 74.7 s since)
 
 
 @pytest.fixture(scope="module")
 def rush_runs() -> dict[int, dict[str, object]]:
     out = {}
-    for seed in (1, 2):
+    for seed in SEEDS:
         sim = Simulation(load_scene(resolve_scene("door_rush")), seed=seed)
         while sim.t < 90.0 - 1e-9:
             sim.step()
@@ -40,7 +45,7 @@ def rush_runs() -> dict[int, dict[str, object]]:
     return out
 
 
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", SEEDS)
 def test_door_rush_passes_a_chain_of_followers(rush_runs: dict[int, dict[str, object]], seed: int) -> None:
     s = rush_runs[seed]
     events = s["door_events"]
@@ -51,3 +56,10 @@ def test_door_rush_passes_a_chain_of_followers(rush_runs: dict[int, dict[str, ob
     assert passages >= THROUGH_AT_LEAST, (seed, passages)
     assert passages >= PASSAGES_PER_OPENING * max(opens, 1), (seed, passages, opens)
     assert s["overlaps_over_1cm"] == 0
+
+
+def test_nobody_is_left_crawling_in_from_far_out(rush_runs: dict[int, dict[str, object]]) -> None:
+    events = rush_runs[CRAWL_SEED]["door_events"]
+    assert isinstance(events, list)
+    last = max(e["t"] for e in events if e["event"] == "pass" and not e["user"])
+    assert last <= CRAWL_LAST_BY, last
