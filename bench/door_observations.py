@@ -408,6 +408,9 @@ def main() -> int:
             "double_flow": lambda: rush(seeds, name="validation/door_double_flow", observation="double_flow"),
             "double_queue": lambda: double_queue(seeds), "pram": lambda: pram(seeds),
             "lone_pram": lambda: lone_pram(seeds), "user_pram": lambda: user_pram(seeds)}
+    unknown = sorted(set(a.only or ()) - set(jobs))
+    if unknown:
+        ap.error(f"--only {' '.join(unknown)}: no such observation; expected some of {', '.join(jobs)}")
     for name, job in jobs.items():
         if a.only and name not in a.only:
             continue
