@@ -47,7 +47,6 @@ class Walker:
     since: float = 0.0
     waited: float = 0.0
     waiting: bool = False
-    wait_from: float = math.nan
     action: str = ""  # a holder's decision for its follower
     follower: int = NONE
     holder: int = NONE

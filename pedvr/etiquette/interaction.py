@@ -306,10 +306,6 @@ def _update_waiting(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState)
         crawl = w.waited > 0.0 and v < CRAWL_SPEED and et.doors[w.door].kind == "single"
         if w.role in (APPROACH, FOLLOWER) and ((v < 0.2 and w.waiting) or crawl):
             w.waited += TICK
-            if math.isnan(w.wait_from):
-                w.wait_from = et.t
-        else:
-            w.wait_from = math.nan
 
 
 def _choose_helpers(et: EtiquetteCore, walkers: list[Walker], crowd: CrowdState) -> None:

@@ -165,12 +165,9 @@ def decide_revolving(et: EtiquetteCore, k: int, walkers: list[Walker], crowd: Cr
                 w.waiting = True
                 if slow:
                     w.waited += 1.0 / 30.0
-                    if math.isnan(w.wait_from):
-                        w.wait_from = et.t
             else:
                 w.plan = None
                 w.waiting = False
-                w.wait_from = math.nan
             prev = w
     for w in walkers:
         if w.role == ENTRANT:
