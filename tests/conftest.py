@@ -1,30 +1,44 @@
 """How the suite is shared out when it runs on pytest-xdist (the README's test command runs one worker
-per core, ``--dist loadgroup``; see pyproject.toml).
+per core; see pyproject.toml).
 
 Each test file is one unit, run whole by one worker, so a module's fixtures (the eight door_single_flow
 runs of tests/etiquette/test_door_flow.py, say) are computed once. The tests against Monado are one unit
 together, in file order: they share the chroot's bind mount and numba cache (the cold-start test, first,
-fills it), and one monado-service runs at a time. That unit is the longest (about a quarter of the suite
-with cold caches), so it goes first.
+fills it), and one monado-service runs at a time (run side by side on two workers, every one of them
+errored). That unit is the longest (several minutes with cold caches), so it goes first.
+
+(pytest-xdist's own ``--dist loadgroup`` would do this with ``xdist_group`` marks, but with pytest 9 it
+groups nothing: checked with pytest 9.2 and pytest-xdist 3.8, a module's ``pytestmark`` group was split
+between two workers. Hence a scheduler of our own, through xdist's hook.)
 """
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import Any
 
 import pytest
 
-MONADO = Path(__file__).parent / "xr" / "monado"
+MONADO = "tests/xr/monado/"
 
 
-def _group(item: pytest.Item) -> str:
-    path = Path(str(item.fspath))
-    return "monado" if MONADO in path.parents else path.relative_to(Path(__file__).parent).as_posix()
+def _unit(nodeid: str) -> str:
+    path = nodeid.split("::", 1)[0]
+    return "monado" if path.startswith(MONADO) else path
 
 
-@pytest.hookimpl(tryfirst=True)
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    from xdist.scheduler import LoadScopeScheduling
+
+    class FileScheduling(LoadScopeScheduling):  # type: ignore[misc]
+        """A file per unit, the Monado tests one unit, units handed out in collection order."""
+
+        def _split_scope(self, nodeid: str) -> str:
+            return _unit(nodeid)
+
+    config.option.loadscopereorder = False  # keep the order below: the Monado unit first
+    return FileScheduling(config, log)
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    for item in items:
-        if item.get_closest_marker("xdist_group") is None:
-            item.add_marker(pytest.mark.xdist_group(_group(item)))
-    items.sort(key=lambda item: _group(item) != "monado")  # stable: file order otherwise
+    items.sort(key=lambda item: not item.nodeid.startswith(MONADO))  # stable: file order otherwise
