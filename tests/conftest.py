@@ -3,9 +3,9 @@ per core; see pyproject.toml).
 
 Each test file is one unit, run whole by one worker, so a module's fixtures (the eight door_single_flow
 runs of tests/etiquette/test_door_flow.py, say) are computed once. The tests against Monado are one unit
-together, in file order: they share the chroot's bind mount and numba cache (the cold-start test, first,
-fills it), and one monado-service runs at a time (run side by side on two workers, every one of them
-errored). That unit is the longest (several minutes with cold caches), so it goes first.
+together (but for the golden test, below): they share the chroot's numba cache, which the cold-start
+test, first, fills (run side by side on two workers, every one of them errored). That unit is the
+longest (several minutes with cold caches), so it goes first.
 
 (pytest-xdist's own ``--dist loadgroup`` would do this with ``xdist_group`` marks, but with pytest 9 it
 groups nothing: checked with pytest 9.2 and pytest-xdist 3.8, a module's ``pytestmark`` group was split
@@ -19,11 +19,12 @@ from typing import Any
 import pytest
 
 MONADO = "tests/xr/monado/"
+GOLDEN = MONADO + "test_golden.py"
 
 
 def _unit(nodeid: str) -> str:
     path = nodeid.split("::", 1)[0]
-    return "monado" if path.startswith(MONADO) else path
+    return path if path == GOLDEN or not path.startswith(MONADO) else "monado"
 
 
 @pytest.hookimpl(optionalhook=True)
@@ -31,27 +32,27 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
     from xdist.scheduler import LoadScopeScheduling
 
     class FileScheduling(LoadScopeScheduling):  # type: ignore[misc]
-        """A file per unit, the Monado tests one unit, units handed out in collection order."""
+        """A file per unit, the Monado tests but the golden one a unit, handed out in collection order."""
 
         def _split_scope(self, nodeid: str) -> str:
             return _unit(nodeid)
 
-    config.option.loadscopereorder = False  # keep the order below: the Monado unit first
+    config.option.loadscopereorder = False  # keep _order's order
     return FileScheduling(config, log)
 
 
-# The Monado unit's order: the cold-start test fills the chroot's numba cache the others use; the
-# golden test also steps and draws on the host, so it goes last, once the other worker has filled the
-# host's numba cache (run third, it compiled the same kernels as the other worker at the same time:
-# 298 s on a 2-core machine, against 28 s for its Monado captures).
-_MONADO_ORDER = ("test_cold_start.py", "test_runtime.py")
-
-
-def _order(item: pytest.Item) -> tuple[int, int]:
-    if not item.nodeid.startswith(MONADO):
-        return (1, 0)
-    name = item.nodeid[len(MONADO):].split("::", 1)[0]
-    return (0, _MONADO_ORDER.index(name) if name in _MONADO_ORDER else len(_MONADO_ORDER))
+def _order(item: pytest.Item) -> int:
+    """The Monado unit first, cold start first in it (it fills the chroot's numba cache the others
+    use); the golden test last of all. That one also steps and draws on the host: run beside the
+    other worker's first tests, it compiled the same kernels as they did at the same time (218-298 s
+    on this 2-core machine, against 31 s for its Monado captures). Its service waits for any other
+    (:class:`tests.xr.monado.chroot.Service` holds a lock), however the workers are placed."""
+    path = item.nodeid.split("::", 1)[0]
+    if path == GOLDEN:
+        return 9
+    if path.startswith(MONADO):
+        return 0 if path.endswith("test_cold_start.py") else 1
+    return 2
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:

@@ -13,6 +13,7 @@ through the chroot's root.
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import signal
@@ -131,6 +132,12 @@ class Service:
             assert display is not None, f"{compositor} compositor / {devices} devices need a display"
             e["DISPLAY"] = display
         e.update(env or {})
+        # One service at a time on this machine, whichever pytest-xdist worker starts it (the
+        # Monado tests are shared out as two units: tests/conftest.py): held until stop().
+        lock = chroot.host(f"{RUNTIME_DIR}/service.lock")
+        lock.parent.mkdir(parents=True, exist_ok=True)
+        self._lock = lock.open("a")
+        fcntl.flock(self._lock, fcntl.LOCK_EX)
         self._out = log.open("w")
         self.proc = chroot.popen(["monado-service"], env=e, stdout=self._out, stderr=subprocess.STDOUT,
                                  start_new_session=True)
@@ -165,3 +172,5 @@ class Service:
             except subprocess.TimeoutExpired:
                 self.kill()
         self._out.close()
+        if not self._lock.closed:
+            self._lock.close()  # and with it the lock
