@@ -4,7 +4,7 @@ per core; see pyproject.toml).
 Each test file is one unit, run whole by one worker, so a module's fixtures (the eight door_single_flow
 runs of tests/etiquette/test_door_flow.py, say) are computed once. The tests against Monado are one unit
 together (but for the golden test, below): they share the chroot's numba cache, which the cold-start
-test, first, fills (run side by side on two workers, every one of them errored). That unit is the
+test, first, fills (in a first try that split them between two workers, all 21 errored). That unit is the
 longest (several minutes with cold caches), so it goes first.
 
 (pytest-xdist's own ``--dist loadgroup`` would do this with ``xdist_group`` marks, but with pytest 9 it

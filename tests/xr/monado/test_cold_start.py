@@ -5,8 +5,8 @@ cache home (the procedural character): pedvr compiles and draws before its
 first ``xrWaitFrame`` and says so; after that no frame is late by more than 1 s,
 in pedvr's own frame intervals and in Monado's log. (Before the fix a 10 s run
 took 211 s and Monado logged ``Frame late by 85266.18ms!``.) This module runs
-first (alphabetically) and leaves its numba cache to the other Monado tests, so
-CI compiles once.
+first (tests/conftest.py orders it so) and leaves its numba cache to the other
+Monado tests, so CI compiles once.
 """
 
 from __future__ import annotations
