@@ -31,7 +31,7 @@ def _unit(nodeid: str) -> str:
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
     from xdist.scheduler import LoadScopeScheduling
 
-    class FileScheduling(LoadScopeScheduling):  # type: ignore[misc]
+    class FileScheduling(LoadScopeScheduling):
         """A file per unit, the Monado tests but the golden one a unit, handed out in collection order."""
 
         def _split_scope(self, nodeid: str) -> str:

@@ -57,5 +57,5 @@ def _leave_the_kernels(chroot: Chroot, compiled: str) -> None:
     golden tests, on another pytest-xdist worker, from compiling into the folder as it is replaced."""
     shared = chroot.host(NUMBA_CACHE)
     if not any(shared.rglob("*.nbi")):
-        shutil.rmtree(shared, ignore_errors=True)
+        shutil.rmtree(shared)
         shutil.copytree(chroot.host(compiled), shared)
