@@ -135,23 +135,23 @@ def copy_pose(src_q, src_p, dst_q, dst_p):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
-def _phase_sin(style, d, t):  # type: ignore[no-untyped-def]
-    """DOF ``d``'s phase argument ``a t + b`` and its sine (for :func:`_dof_shared`)."""
-    x = style[d, Pa] * t + style[d, Pb]
+def _phase_sin(dof, t):  # type: ignore[no-untyped-def]
+    """A DOF's phase argument ``a t + b`` and its sine (for :func:`_dof_shared`); ``dof`` its style row."""
+    x = dof[Pa] * t + dof[Pb]
     return x, sine(x)
 
 
 @njit(cache=True, fastmath=FASTMATH, inline="always")
-def _dof_shared(style, d, t, amp, xa, sa, xb, sb, xc, sc):  # type: ignore[no-untyped-def]
-    """Ashida's DOF ``d``, ``A amp sin(a t + b)^p + B`` (:mod:`pedvr.body.style`), for less than a
-    sine each: a DOF whose phase argument equals one already taken
+def _dof_shared(dof, t, amp, xa, sa, xb, sb, xc, sc):  # type: ignore[no-untyped-def]
+    """Ashida's DOF whose style row is ``dof``, ``A amp sin(a t + b)^p + B``
+    (:mod:`pedvr.body.style`), for less than a sine each: a DOF whose phase argument equals one already taken
     (``xa``, ``xb``, ``xc`` with sines ``sa``, ``sb``, ``sc``) reuses that sine (Ashida's arm DOFs
     share the arm swing's phase, the spine's the gait's), and a still DOF (``A = 0``) with a
     non-zero posture ``B`` is ``B`` (``±0 + B``) without a sine (issue 27: 16 sines a body were
     a tenth of the pose graph)."""
-    if style[d, PA] == 0.0 and style[d, PB] != 0.0:
-        return style[d, PB]
-    x = style[d, Pa] * t + style[d, Pb]
+    if dof[PA] == 0.0 and dof[PB] != 0.0:
+        return dof[PB]
+    x = dof[Pa] * t + dof[Pb]
     if x == xa:
         s = sa
     elif x == xb:
@@ -160,7 +160,7 @@ def _dof_shared(style, d, t, amp, xa, sa, xb, sb, xc, sc):  # type: ignore[no-un
         s = sc
     else:
         s = sine(x)
-    return style[d, PA] * amp * spow(s, style[d, Pp]) + style[d, PB]
+    return dof[PA] * amp * spow(s, dof[Pp]) + dof[PB]
 
 
 @njit(cache=True, fastmath=FASTMATH)
@@ -188,9 +188,19 @@ def _rot_xz(pitch, roll):  # type: ignore[no-untyped-def]
 
 # -- generators -----------------------------------------------------------------------------------
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def loco_row(t, a, style, sc, pelvis_rest, out_q, out_p):  # type: ignore[no-untyped-def]
-    """One body's locomotion shadow (see :func:`loco_shadow_kernel`); ``style (11, 5)``."""
+    """One body's locomotion shadow (see :func:`loco_shadow_kernel`); ``style (11, 5)``.
+
+    A function of its own, called, not inlined into numba's IR (nor is :func:`leg_ik_row`, nor
+    :func:`pedvr.body.quat.fk_row`; issue 27 goal 2): inlined twice into
+    :func:`pedvr.body.graph._pose_span` (it poses straight into the pose or into scratch), with the
+    nineteen DOF helpers inlined into it, the pose graph's one kernel took 216 s of a 313 s cold
+    compile on this 2-core VM, most of it numba's SSA pass over that one function; now 81 s of 183 s,
+    with the same bytes. Called costs about 4 % of the pose graph's time (about 0.06 ms a step at
+    1000 bodies, seven pairs of runs). The DOF helpers stay inlined here: called as well, the kernel
+    compiled in 55 s but ran about 13 % slower (three pairs; and with ``style`` and an index for
+    arguments numba compiled them once per index, typed as a literal: they take the DOF's row)."""
     rest_pose(out_q)
     st, ct = sincos(t)
     py = -PELVIS_YAW * ct * a
@@ -203,31 +213,31 @@ def loco_row(t, a, style, sc, pelvis_rest, out_q, out_p):  # type: ignore[no-unt
     out_p[1] = pelvis_rest - KNEE_BEND * sc - bob
     out_p[2] = 0.0
     # lower spine: counter-rotate the pelvis (spread over Spine1, Spine2) + style
-    x8, s8 = _phase_sin(style, 8, t)
-    x9, s9 = _phase_sin(style, 9, t)
-    x10, s10 = _phase_sin(style, 10, t)
-    lf = _dof_shared(style, 8, t, a, x8, s8, x8, s8, x8, s8)
-    lb = _dof_shared(style, 9, t, a, x9, s9, x9, s9, x9, s9)
-    lt = _dof_shared(style, 10, t, a, x10, s10, x10, s10, x10, s10)
+    x8, s8 = _phase_sin(style[8], t)
+    x9, s9 = _phase_sin(style[9], t)
+    x10, s10 = _phase_sin(style[10], t)
+    lf = _dof_shared(style[8], t, a, x8, s8, x8, s8, x8, s8)
+    lb = _dof_shared(style[9], t, a, x9, s9, x9, s9, x9, s9)
+    lt = _dof_shared(style[10], t, a, x10, s10, x10, s10, x10, s10)
     q = euler_yxz4(0.5 * (lt - py), 0.5 * (lf - pt), 0.5 * (lb - pl))
     _put(out_q, sk.SPINE1, q)
     _put(out_q, sk.SPINE2, q)
-    uf = _dof_shared(style, 5, t, a, x8, s8, x9, s9, x10, s10)
-    ub = _dof_shared(style, 6, t, a, x8, s8, x9, s9, x10, s10)
-    ut = _dof_shared(style, 7, t, a, x8, s8, x9, s9, x10, s10)
+    uf = _dof_shared(style[5], t, a, x8, s8, x9, s9, x10, s10)
+    ub = _dof_shared(style[6], t, a, x8, s8, x9, s9, x10, s10)
+    ut = _dof_shared(style[7], t, a, x8, s8, x9, s9, x10, s10)
     q = euler_yxz4(0.5 * ut, 0.5 * uf, 0.5 * ub)
     _put(out_q, sk.SPINE3, q)
     _put(out_q, sk.NECK, q)
     for side in range(2):
         ts = t + math.pi * side  # right side: same curve shifted by π
         sgn = 1.0 if side == 0 else -1.0
-        x0, s0 = _phase_sin(style, 0, ts)  # DOFs 0..MIRRORED-1 are the mirrored arm DOFs
-        x3, s3 = _phase_sin(style, 3, ts)
-        elbow = _dof_shared(style, 0, ts, a, x0, s0, x0, s0, x0, s0)
-        sflex = _dof_shared(style, 1, ts, a, x0, s0, x3, s3, x3, s3)
-        sabd = _dof_shared(style, 2, ts, a, x0, s0, x3, s3, x3, s3)
-        celev = _dof_shared(style, 3, ts, a, x3, s3, x3, s3, x3, s3)
-        cprot = _dof_shared(style, 4, ts, a, x0, s0, x3, s3, x3, s3)
+        x0, s0 = _phase_sin(style[0], ts)  # DOFs 0..MIRRORED-1 are the mirrored arm DOFs
+        x3, s3 = _phase_sin(style[3], ts)
+        elbow = _dof_shared(style[0], ts, a, x0, s0, x0, s0, x0, s0)
+        sflex = _dof_shared(style[1], ts, a, x0, s0, x3, s3, x3, s3)
+        sabd = _dof_shared(style[2], ts, a, x0, s0, x3, s3, x3, s3)
+        celev = _dof_shared(style[3], ts, a, x3, s3, x3, s3, x3, s3)
+        cprot = _dof_shared(style[4], ts, a, x0, s0, x3, s3, x3, s3)
         c = sk.L_COLLAR if side == 0 else sk.R_COLLAR
         _put(out_q, c, _rot_yz(-sgn * cprot, sgn * celev))
         _put(out_q, c + 1, _rot_xz(-sflex, sgn * sabd))
@@ -565,7 +575,7 @@ def toe_rise(df, du, dp, rf, ru, R, pitch):  # type: ignore[no-untyped-def]
     return min(max(best, pitch), PITCH_MAX)
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+@row_njit(fastmath=FASTMATH)
 def leg_ik_row(dt, rx, rz, ry, off, foot_ref, foot_yaw, foot_pitch, foot_lift, planted, stepping, s, swing,
                h_prev, pose_q, pose_p, miss, q1, q2, anks, hips, trig, reach):  # type: ignore[no-untyped-def]
     """One body's final node (see :func:`leg_ik_kernel`); returns the new pelvis height.

@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-from pedvr.kernels import sincos
+from pedvr.kernels import row_njit, sincos
 
 # LLVM fast-math flags for every body kernel: fast, but without "reassoc" and "contract", which
 # let the compiler reorder sums and fuse multiply-adds differently wherever a function is inlined;
@@ -159,7 +159,7 @@ def yaw_from_heading(theta):  # type: ignore[no-untyped-def]
     return 0.5 * math.pi - theta
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@row_njit(fastmath=_FM)
 def fk_row(parents, offsets, local_q, rx, ry, rz, root_yaw, pelvis_pos, world_pos, world_q, upto):  # type: ignore[no-untyped-def]
     """Forward kinematics of one body for nodes ``0 .. upto - 1`` (see :func:`fk_kernel`).
 
