@@ -14,6 +14,12 @@ between two workers. Hence a scheduler of our own, through xdist's hook.)
 
 from __future__ import annotations
 
+import fcntl
+import os
+import subprocess
+import sys
+import warnings
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -25,6 +31,51 @@ GOLDEN = MONADO + "test_golden.py"
 def _unit(nodeid: str) -> str:
     path = nodeid.split("::", 1)[0]
     return path if path == GOLDEN or not path.startswith(MONADO) else "monado"
+
+
+# The host's kernels, compiled once for every worker. With cold caches each worker's first host test
+# compiled the kernels of a step, and the two workers compiled the same ones at the same time: the
+# second worker's first host file (tests/behavior/test_guide.py, 306 s) needs nothing the first
+# one's (tests/behavior/test_bench.py, 689 s) did not compile: 4 s after it, measured alone.
+PREPARED = ("antipodal_circle", "door_double")  # what test_bench and test_guide compile, and more
+_prepared = False
+
+
+def _prepare_host_kernels() -> None:
+    """Before a worker's first host test: ``pedvr prepare`` the scenes in :data:`PREPARED` under a lock
+    in numba's cache folder, when the cache is cold (:func:`pedvr.warmup.cold`). The first worker there
+    compiles, in two processes (``pedvr prepare`` compiles the body's kernels in a second one); a worker
+    that comes while it does waits, then finds the cache warm and goes on, where it compiled the same
+    kernels again. The compile runs at a lower priority (nice 10), so that a test measuring frame times
+    beside it (the cold-start test, in the chroot) keeps the CPU it needs. A prepare that fails is said
+    once as a warning, and the tests compile what they need themselves, as without this."""
+    global _prepared
+    if _prepared:
+        return
+    _prepared = True
+    from pedvr import warmup
+
+    cache = os.environ.get("NUMBA_CACHE_DIR")  # set by `import pedvr` (pedvr.numba_cache_dir)
+    if not cache or not warmup.cold():
+        return
+    Path(cache).mkdir(parents=True, exist_ok=True)
+    with open(Path(cache) / "tests-prepare.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if not warmup.cold():
+            return  # another worker prepared while this one waited
+        done = subprocess.run(["nice", "-n", "10", sys.executable, "-m", "pedvr", "prepare", *PREPARED],
+                              capture_output=True, text=True, stdin=subprocess.DEVNULL)
+        if done.returncode != 0:
+            warnings.warn(f"pedvr prepare {' '.join(PREPARED)} failed (rc {done.returncode}); the tests compile "
+                          f"their kernels themselves: {done.stderr.strip()[-500:]}", stacklevel=1)
+
+
+@pytest.fixture(autouse=True)
+def _host_kernels(request: pytest.FixtureRequest) -> None:
+    """:func:`_prepare_host_kernels` before the first test on the host (the Monado tests but the
+    golden one run pedvr inside the chroot, with its own cache)."""
+    if _unit(request.node.nodeid) != "monado":
+        _prepare_host_kernels()
 
 
 @pytest.hookimpl(optionalhook=True)
