@@ -268,17 +268,19 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _prepare(args: argparse.Namespace) -> int:
-    """``pedvr prepare``: the first steps of each scene on a simulation thrown away after, the body's
-    kernels compiling beside them in a second process when numba's cache is cold (issue 27)."""
+    """``pedvr prepare``: the first steps of each scene on a simulation thrown away after, the first
+    scene's kernels compiling beside its set-up in a second process when numba's cache is cold
+    (:mod:`pedvr.warmup`, issue 27)."""
     from pedvr import warmup
     from pedvr.prepare import PREPARE_STEPS, first_step, set_up, stderr_say, twin_steps
     from pedvr.scene.loader import load_any
     from pedvr.sim import Simulation
 
-    scenes = [load_any(resolve_scene(name), seed=None) for name in args.scenes or [DEFAULT_SCENE]]
+    paths = [resolve_scene(name) for name in args.scenes or [DEFAULT_SCENE]]
+    scenes = [load_any(path, seed=None) for path in paths]
     t0 = time.perf_counter()
     compiled = 0
-    warmup.start_if_cold()
+    warmup.start_if_cold(str(paths[0]), args.condition)  # the first scene's kernels; the rest add few
     for scene in scenes:
         stderr_say(f"preparing {scene.name} ({args.condition}) ...")
         sim, n = set_up(functools.partial(Simulation, scene, condition=args.condition), say=stderr_say)
@@ -329,7 +331,7 @@ def _run(args: argparse.Namespace) -> int:
     from pedvr import warmup
     from pedvr.xr.run import ViewOptions
 
-    warmup.start_if_cold()  # a cold numba cache: the body's kernels compile beside the set-up (issue 27)
+    warmup.start_if_cold(str(path), args.condition)  # a cold cache: the step's kernels compile meanwhile
 
     while True:
         desk = backend == "desktop"

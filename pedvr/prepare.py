@@ -180,20 +180,17 @@ def first_step(sim: Simulation, *, say: Say | None = stderr_say,
     from pedvr import warmup
 
     watch = _CompileWatch(sim, say, clock=clock, intro=intro)
-    warmer = warmup.take()  # the body's kernels compiling in a second process (a cold cache)
-    restore: Callable[[], None] | None = None
-    if warmer is not None:
-        if say is not None:
-            say("preparing: the body layer's kernels compile in a second process meanwhile")
-        restore = _wait_before_posing(sim, warmer, say)
+    warmer = warmup.take()  # the scene's kernels compiling in a second process (a cold cache)
     t0 = clock()
+    if warmer is not None:
+        if say is not None and warmer.proc is not None and warmer.proc.poll() is None:
+            say("preparing: waiting for the step's kernels (compiling in a second process) ...")
+        warmer.wait()  # then the step loads them from numba's cache, not compiling them a second time
     try:
         with numba_event.install_listener("numba:compile", watch):
             sim.step()
     finally:
         if warmer is not None:
-            assert restore is not None
-            restore()
             warmer.stop()
     out = Prepared(step_s=clock() - t0, kernels_compiled=watch.compiled, compile_s=watch.compile_s,
                    phase_s={k: v / 1e3 for k, v in sim.metrics.phase_ms.items()})
@@ -201,31 +198,6 @@ def first_step(sim: Simulation, *, say: Say | None = stderr_say,
         say(f"preparing: {watch.compiled} kernels compiled in {watch.compile_s:.0f} s; "
             "the next run loads them from numba's cache")
     return out
-
-
-def _wait_before_posing(sim: Simulation, warmer: Any, say: Say | None) -> Callable[[], None]:
-    """The first step waits for the second process (:mod:`pedvr.warmup`) before it first poses the
-    bodies, so their kernels are loaded from numba's cache, not compiled a second time here.
-    Returns what puts ``compose`` back as it was (done by the first call, or after the step)."""
-    body = sim.body
-    own = vars(body).get("compose")  # an instance attribute already there, else the method is used
-    compose = body.compose
-
-    def restore() -> None:
-        if own is None:
-            vars(body).pop("compose", None)
-        else:
-            body.compose = own  # type: ignore[method-assign]
-
-    def first_compose(*args: Any, **kwargs: Any) -> None:
-        restore()
-        if say is not None and warmer.proc is not None and warmer.proc.poll() is None:
-            say("preparing: waiting for the body layer's kernels (compiling in a second process) ...")
-        warmer.wait()
-        compose(*args, **kwargs)
-
-    body.compose = first_compose  # type: ignore[method-assign]
-    return restore
 
 
 def twin_steps(sim: Simulation, *, say: Say | None = stderr_say,
@@ -304,8 +276,9 @@ def prepare(
     scene as the run) and one ``draw`` of it; one line when done (more while compiling)."""
     if say is not None:
         say(f"preparing {what}: the first step{' and the first frame' if draw else ''} ...")
-    sim = make_sim()
-    out = first_step(sim, say=say, clock=clock)
+    sim, compiled = set_up(make_sim, say=say, clock=clock)  # says what building the scene compiles
+    out = first_step(sim, say=say, clock=clock, intro=not compiled)
+    out.kernels_compiled += compiled
     t0 = clock()
     n, seconds = twin_steps(sim, say=say, clock=clock)
     out.step_s += clock() - t0

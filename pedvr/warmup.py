@@ -1,17 +1,23 @@
-"""The body layer's kernels compiled in a second process while a first run sets up (issue 27 goal 2).
+"""The scene's kernels compiled in a second process while a first run sets up (issue 27 goal 2).
 
-On a fresh install numba compiles every kernel a step uses the first time it runs. About half of
-that time is the body layer's (the pose graph, the gait, the subconscious actions: 52 of 95 s of
-compiling for the default scene, load average 4), and none of it depends on the scene: so while
-this process builds the scene (compiling the world's kernels) and steps the crowd (the
-steering's), a second Python process drives a small crowd of full bodies through the calls a
-step makes (:func:`body_kernels`) and numba writes what it compiles to its cache, where this
-process's first step finds it. The first step waits for the second process before the body is
-first posed (:func:`pedvr.prepare.first_step`), so nothing is compiled twice; if that process
-fails, this one compiles as before.
+On a fresh install numba compiles every kernel a step uses the first time it runs: minutes on a
+small machine. Building a simulation already compiles the largest one, the pose graph's
+(:meth:`pedvr.body.model.FullBody.pose_at_rest` poses every body before the first step; 81 of 183 s
+of compiling the default scene on this 2-core VM, one process), and the world's. So while this
+process builds the scene, a second Python process (``python -m pedvr.warmup SCENE CONDITION``)
+builds the same scene and steps it as ``pedvr prepare`` does (:func:`scene_kernels`), with the pose
+graph left out, and numba writes what it compiles to its cache: the steering's, the contact pass's,
+the doors', the body's other kernels, with the very types this process's step will use. This
+process's first step waits for the second before it starts (:func:`pedvr.prepare.first_step`), so
+nothing but the world's few kernels is compiled twice; if that process fails, this one compiles as
+before.
+
+Until stop 50 the second process posed a small crowd of bodies instead. It compiled the pose graph
+too, at the same time as this process's set-up did: each compiled it, and a cold ``pedvr prepare``
+took as long as one process would (555 CPU-s against 320).
 
 Only a cold cache starts it (:func:`cold`: the pose graph's and the gait's kernels are not in
-numba's cache); a warm run starts nothing. ``python -m pedvr.warmup`` is the second process.
+numba's cache); a warm run starts nothing.
 """
 
 from __future__ import annotations
@@ -20,55 +26,40 @@ import atexit
 import subprocess
 import sys
 import time
-
-import numpy as np
-
-DT = 1.0 / 90.0
-STEPS = 4  # the third crosses the 30 Hz subconscious-action tick
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 
-def body_kernels() -> int:
-    """Step a user and three agents' full bodies through what :meth:`pedvr.sim.Simulation.step`
-    asks of the body (gaze rule, limits, root motion, gait, actions, pose graph, skate meter, the
-    sync phase's commit of the roots) and the renderer's bone matrices, with the simulation's array
-    types, so numba compiles (or loads) each body kernel a step uses. Returns the number of kernel
-    calls' steps made."""
-    from pedvr.body import FullBody
-    from pedvr.body.simple import sync_kernel
-    from pedvr.crowd.state import N_LIMITS, CrowdState
+@contextmanager
+def _without_pose_graph() -> Iterator[None]:
+    """Bodies are not posed inside the block (the pose graph's kernel is not called, so not compiled):
+    the other process compiles it as it builds its simulation. Nothing a step steers by reads the
+    pose (a coupled body's root comes from its gait, before the pose)."""
+    from pedvr.body import model
 
-    rng = np.random.default_rng(0)
-    body = FullBody(rng=rng)
-    crowd = CrowdState.empty()
-    limits = np.asarray([1.5, 3.0, 6.0, 3.0, 0.6, 0.6], np.float64)
-    for k, (x, y, user) in enumerate(((0.0, 0.0, True), (40.0, 0.0, False), (41.0, 1.0, False),
-                                      (40.0, 2.0, False))):
-        rows = CrowdState(
-            ids=np.asarray([k], np.int64), pos=np.asarray([[x, y]], np.float64), vel=np.zeros((1, 2)),
-            pref_vel=np.zeros((1, 2)), heading=np.zeros(1), pref_heading=np.zeros(1), radius=np.full(1, 0.25),
-            pref_speed=np.full(1, 1.3), max_speed=np.full(1, 1.6), responsibility=np.full(1, 1.0),
-            is_user=np.full(1, user), limits=np.tile(np.zeros(N_LIMITS) if user else limits, (1, 1)))
-        rows.pref_speed *= body.append(1, ids=rows.ids, pos=rows.pos, heading=rows.heading, is_user=user,
-                                       limits=rows.limits)
-        crowd.append(rows)
-    names = np.asarray(("walk", "walk", "walk", "walk"))
-    vel = np.asarray([[1.2, 0.0], [1.0, 0.2], [0.0, 0.0], [-1.3, 0.1]])
-    for step in range(STEPS):
-        t = step * DT
-        # far from the user: the gaze rule's kernel runs, the visibility query (the world's) does not
-        body.gaze_rule(crowd, t=t, visibility=None, d1=4.0, d2=3.0, enabled=True)
-        body.fill_limits(crowd, crowd.limits)
-        root, heading = body.animate(crowd, vel.copy(), DT, coupled=True)
-        body.state.shoulder_turn[:] = np.where(crowd.is_user, 0.0, 0.0 * heading)
-        body.compose(crowd, root, heading, dt=DT, t=t + DT, coupled=True, state_names=names)
-        pos, new_vel = np.empty((len(crowd), 2)), np.empty((len(crowd), 2))  # the sync phase's commit
-        sync_kernel(np.ascontiguousarray(root, np.float64), crowd.pos, crowd.vel, crowd.max_speed,
-                    crowd.is_user, DT, pos, new_vel)
-        crowd.pos = np.where(crowd.is_user[:, None], crowd.pos, root)
-        crowd.vel = vel.copy()
-        crowd.heading = heading
-    body.joint_matrices()
-    return STEPS
+    kernel = model.pose_graph_kernel
+    model.pose_graph_kernel = lambda *args, **kwargs: None  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        model.pose_graph_kernel = kernel
+
+
+def scene_kernels(scene: str, condition: str = "pedvr+g") -> int:
+    """Build ``scene`` (a name or a path) and step it as ``pedvr prepare`` does, the pose graph left
+    out (:func:`_without_pose_graph`), so that numba compiles (or loads) each kernel but that one with
+    the types a run of the scene uses. Returns the steps made."""
+    from pedvr.prepare import PREPARE_STEPS, twin_steps
+    from pedvr.scene.loader import load_any
+    from pedvr.scenes import resolve_scene
+    from pedvr.sim import Simulation
+
+    with _without_pose_graph():
+        sim = Simulation(load_any(resolve_scene(scene), seed=None), condition=condition)
+        for _ in range(PREPARE_STEPS):
+            sim.step()
+        twin_steps(sim, say=None, twins=False)  # the turned footprints' and line of sight's kernels
+    return PREPARE_STEPS + 1
 
 
 def _body_dispatchers() -> list[object]:
@@ -91,13 +82,13 @@ def cold() -> bool:
 
 
 class Warmer:
-    """``python -m pedvr.warmup`` running beside this process (see the module doc)."""
+    """``python -m pedvr.warmup SCENE CONDITION`` running beside this process (see the module doc)."""
 
-    def __init__(self) -> None:
+    def __init__(self, scene: str, condition: str) -> None:
         self.started = time.perf_counter()
         self.proc: subprocess.Popen[bytes] | None = subprocess.Popen(
-            [sys.executable, "-m", "pedvr.warmup"], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL)
+            [sys.executable, "-m", "pedvr.warmup", scene, condition], stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         self.ok: bool | None = None
         self.waited_s = 0.0
         atexit.register(self.stop)  # a run that fails before its first step leaves no process behind
@@ -122,11 +113,12 @@ class Warmer:
 started: Warmer | None = None
 
 
-def start_if_cold() -> Warmer | None:
-    """Start the second process when the cache is cold (once per process); the one started."""
+def start_if_cold(scene: str, condition: str) -> Warmer | None:
+    """Start the second process for ``scene`` (a name or a path) stepped in ``condition`` when the
+    cache is cold (once per process); the one started."""
     global started
     if started is None and cold():
-        started = Warmer()
+        started = Warmer(scene, condition)
     return started
 
 
@@ -138,4 +130,4 @@ def take() -> Warmer | None:
 
 
 if __name__ == "__main__":
-    body_kernels()
+    scene_kernels(*sys.argv[1:3])

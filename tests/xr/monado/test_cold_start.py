@@ -38,9 +38,10 @@ def test_cold_caches_compile_before_the_first_frame_and_no_frame_is_late_by_a_se
         svc.stop()
     assert run.proc.returncode == 0, run.proc.stderr
     err = run.proc.stderr
-    # It said what it was preparing, and that numba compiled (the cache was empty).
+    # It said what it was preparing, and that numba compiled (the cache was empty): building the scene
+    # (the pose graph), while a second process compiles the step's kernels (pedvr.warmup).
     assert "preparing antipodal_circle (xr): the first step and the first frame" in err
-    assert "preparing: numba is compiling pedvr's kernels" in err and "step phase '" in err
+    assert "preparing: numba is compiling pedvr's kernels" in err and "preparing: scene set-up: " in err
     m = run.metrics
     assert m["prepare"]["kernels_compiled"] > 10, m["prepare"]
     # The session ran and drew; after the first drawn frame no interval between frames reached 1 s.
