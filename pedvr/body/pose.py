@@ -195,7 +195,7 @@ def loco_row(t, a, style, sc, pelvis_rest, out_q, out_p):  # type: ignore[no-unt
     A function of its own, called, not inlined into numba's IR (nor is :func:`leg_ik_row`, nor
     :func:`pedvr.body.quat.fk_row`; issue 27 goal 2): inlined twice into
     :func:`pedvr.body.graph._pose_span` (it poses straight into the pose or into scratch), with the
-    nineteen DOF helpers inlined into it, the pose graph's one kernel took 216 s of a 313 s cold
+    sixteen DOF helpers inlined into it, the pose graph's one kernel took 216 s of a 313 s cold
     compile on this 2-core VM, most of it numba's SSA pass over that one function; now 81 s of 183 s,
     with the same bytes. Called costs about 4 % of the pose graph's time (about 0.06 ms a step at
     1000 bodies, seven pairs of runs). The DOF helpers stay inlined here: called as well, the kernel
