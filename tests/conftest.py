@@ -44,11 +44,12 @@ _prepared = False
 def _prepare_host_kernels() -> None:
     """Before a worker's first host test: ``pedvr prepare`` the scenes in :data:`PREPARED` under a lock
     in numba's cache folder, when the cache is cold (:func:`pedvr.warmup.cold`). The first worker there
-    compiles, in two processes (``pedvr prepare`` compiles the body's kernels in a second one); a worker
-    that comes while it does waits, then finds the cache warm and goes on, where it compiled the same
-    kernels again. The compile runs at a lower priority (nice 10), so that a test measuring frame times
-    beside it (the cold-start test, in the chroot) keeps the CPU it needs. A prepare that fails is said
-    once as a warning, and the tests compile what they need themselves, as without this."""
+    compiles, in two processes (``pedvr prepare`` steps the first scene in a second one,
+    :mod:`pedvr.warmup`); a worker that comes while it does waits, then finds the cache warm and goes
+    on (before, it compiled the same kernels again, beside the first). The compile runs at a lower
+    priority (nice 10), so that a test measuring frame times beside it (the cold-start test, in the
+    chroot) keeps the CPU it needs. A prepare that fails is said once as a warning, and the tests
+    compile what they need themselves, as without this."""
     global _prepared
     if _prepared:
         return
