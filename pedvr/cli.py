@@ -284,7 +284,7 @@ def _prepare(args: argparse.Namespace) -> int:
     for scene in scenes:
         stderr_say(f"preparing {scene.name} ({args.condition}) ...")
         sim, n = set_up(functools.partial(Simulation, scene, condition=args.condition), say=stderr_say)
-        compiled += n + first_step(sim, say=stderr_say, intro=not n).kernels_compiled
+        compiled += n + first_step(sim, say=stderr_say, intro=not n, warmer=warmup.take()).kernels_compiled
         for _ in range(PREPARE_STEPS - 1):  # past the 30 Hz decisions and subconscious actions
             sim.step()
         # a headless run reaches the turned footprints' kernels too (someone squeezing past): always

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
+from pedvr import warmup
 from pedvr.outputs import interrupted_by, save_recording, signals_interrupt, write_outputs
 from pedvr.prepare import first_step, set_up, stderr_say
 from pedvr.scene.config import SceneConfig
@@ -109,7 +110,7 @@ def simulate(
         lambda: Simulation(scene, seed=seed, condition=condition, responsibility=responsibility,
                            record=record, personal_space=personal_space, user_walk=user_walk), say=say)
     first = time.perf_counter()
-    first_step(sim, say=say, intro=not compiled)
+    first_step(sim, say=say, intro=not compiled, warmer=warmup.take())  # started by pedvr run, if cold
     first_step_s = time.perf_counter() - first
     steps = max(0, math.ceil(duration / sim.dt - 1e-9) - 1)
     bar = tqdm(

@@ -40,7 +40,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import numba.core.event as numba_event
 import numpy as np
@@ -49,6 +49,7 @@ if TYPE_CHECKING:
     from pedvr.sim import Simulation
 
 Say = Callable[[str], None]
+_T = TypeVar("_T")  # what set_up builds: a simulation, or a run's simulation and presenter
 
 PROGRESS_EVERY_S = 5.0  # at most one progress line this often while kernels compile
 TWIN_STEPS = 4  # steps with each twin pinned: a decision step is among them (30 Hz decisions at 90 Hz)
@@ -157,8 +158,8 @@ def _kernel_name(event: Any) -> str:
     return f"{func.__module__}.{func.__qualname__}"
 
 
-def set_up(make_sim: Callable[[], Simulation], *, say: Say | None = stderr_say,
-           clock: Callable[[], float] = time.perf_counter) -> tuple[Simulation, int]:
+def set_up(make_sim: Callable[[], _T], *, say: Say | None = stderr_say,
+           clock: Callable[[], float] = time.perf_counter) -> tuple[_T, int]:
     """``make_sim()``, saying what numba compiles while it runs (issue 27 goal 2: building the
     default scene compiles the world's kernels, the navigation mesh's and the visibility's, 22 s
     of a cold run at load 5, and said nothing). Returns the simulation and the kernels compiled;
@@ -171,16 +172,26 @@ def set_up(make_sim: Callable[[], Simulation], *, say: Say | None = stderr_say,
     return sim, watch.compiled
 
 
+class Waitable(Protocol):
+    """A second process compiling the step's kernels (:class:`pedvr.warmup.Warmer`)."""
+
+    proc: Any
+
+    def wait(self) -> bool: ...
+
+    def stop(self) -> None: ...
+
+
 def first_step(sim: Simulation, *, say: Say | None = stderr_say,
-               clock: Callable[[], float] = time.perf_counter, intro: bool = True) -> Prepared:
+               clock: Callable[[], float] = time.perf_counter, intro: bool = True,
+               warmer: Waitable | None = None) -> Prepared:
     """Run ``sim``'s first step, saying what is compiled while it runs (module docstring).
 
     ``sim`` must not have stepped yet (the phase shown is read from its per-phase times).
-    ``intro=False``: the run already said that numba is compiling (:func:`set_up`)."""
-    from pedvr import warmup
-
+    ``intro=False``: the run already said that numba is compiling (:func:`set_up`). ``warmer``: a
+    second process compiling the step's kernels (:func:`pedvr.warmup.take`); the step waits for it,
+    then loads them from numba's cache, and it is stopped after."""
     watch = _CompileWatch(sim, say, clock=clock, intro=intro)
-    warmer = warmup.take()  # the scene's kernels compiling in a second process (a cold cache)
     t0 = clock()
     if warmer is not None:
         if say is not None and warmer.proc is not None and warmer.proc.poll() is None:
@@ -271,13 +282,14 @@ def prepare(
     draw: Callable[[Simulation], object] | None = None,
     say: Say | None = stderr_say,
     clock: Callable[[], float] = time.perf_counter,
+    warmer: Waitable | None = None,
 ) -> Prepared:
     """Prepare a frame loop: the first step of a simulation of its own (``make_sim()``: the same
     scene as the run) and one ``draw`` of it; one line when done (more while compiling)."""
     if say is not None:
         say(f"preparing {what}: the first step{' and the first frame' if draw else ''} ...")
     sim, compiled = set_up(make_sim, say=say, clock=clock)  # says what building the scene compiles
-    out = first_step(sim, say=say, clock=clock, intro=not compiled)
+    out = first_step(sim, say=say, clock=clock, intro=not compiled, warmer=warmer)
     out.kernels_compiled += compiled
     t0 = clock()
     n, seconds = twin_steps(sim, say=say, clock=clock)

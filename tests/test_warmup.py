@@ -89,7 +89,7 @@ def test_first_step_waits_for_the_second_process_before_it_steps(monkeypatch: py
 
     monkeypatch.setattr(sim, "step", logged)
     monkeypatch.setattr(warmup, "started", _FakeWarmer(log))
-    prepare.first_step(sim, say=None)
+    prepare.first_step(sim, say=None, warmer=warmup.take())
     assert log == ["wait", "step", "stop"]
     assert warmup.started is None  # handed over once
     sim.step()  # later steps do not wait

@@ -22,9 +22,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from pedvr import warmup
 from pedvr.errors import BackendUnavailableError
 from pedvr.outputs import interrupted_by, signals_interrupt, write_outputs
-from pedvr.prepare import CompileLog, Prepared, prepare, stderr_say
+from pedvr.prepare import CompileLog, Prepared, prepare, set_up, stderr_say
 from pedvr.render.math3d import EyeView, first_person_eye
 from pedvr.render.snapshot import Snapshot
 from pedvr.scene.config import SceneConfig
@@ -207,10 +208,13 @@ def run_with_view(
     the outputs and the telemetry so far (``interrupted`` names the signal)."""
     duration = scene.duration if duration is None else duration
     t0 = time.perf_counter()
-    built = build(
+    say = stderr_say if progress else None
+    # building the run's simulation compiles the world's kernels and the pose graph on a cold cache
+    # (pedvr.warmup: the step's compile meanwhile in a second process): said as it happens
+    built, compiled = set_up(lambda: build(
         scene, backend=backend, opts=opts, seed=seed, condition=condition, responsibility=responsibility,
         personal_space=personal_space, user_walk=user_walk,
-    )
+    ), say=say)
     sim, presenter = built.sim, built.presenter
     interrupted: bool | str = False
     tel = Telemetry(backend=presenter.name)
@@ -220,8 +224,9 @@ def run_with_view(
     restart = calls_restart if backend == "xr" else nullcontext
     try:
         with signals_interrupt(), restart():
-            prepared = prepare(built.make_sim, what=f"{scene.name} ({backend})", draw=built.draw,
-                               say=stderr_say if progress else None)
+            prepared = prepare(built.make_sim, what=f"{scene.name} ({backend})", draw=built.draw, say=say,
+                               warmer=warmup.take())
+            prepared.kernels_compiled += compiled  # building the run's own simulation compiled these
             with CompileLog() as later:
                 try:
                     run_frames(sim, presenter, duration=duration, telemetry=tel,
