@@ -14,7 +14,7 @@ before.
 
 Until stop 50 the second process posed a small crowd of bodies instead. It compiled the pose graph
 too, at the same time as this process's set-up did: each compiled it, and a cold ``pedvr prepare``
-took as long as one process would (555 CPU-s against 320).
+took as long as one process would (326 s and 566 CPU-s, against 313 s in one process).
 
 Only a cold cache starts it (:func:`cold`: the pose graph's and the gait's kernels are not in
 numba's cache); a warm run starts nothing.
