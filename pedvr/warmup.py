@@ -25,7 +25,6 @@ from __future__ import annotations
 import atexit
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -85,20 +84,16 @@ class Warmer:
     """``python -m pedvr.warmup SCENE CONDITION`` running beside this process (see the module doc)."""
 
     def __init__(self, scene: str, condition: str) -> None:
-        self.started = time.perf_counter()
         self.proc: subprocess.Popen[bytes] | None = subprocess.Popen(
             [sys.executable, "-m", "pedvr.warmup", scene, condition], stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         self.ok: bool | None = None
-        self.waited_s = 0.0
         atexit.register(self.stop)  # a run that fails before its first step leaves no process behind
 
     def wait(self) -> bool:
         """Block until the second process is done; True when it compiled everything it meant to."""
         if self.proc is not None:
-            t0 = time.perf_counter()
             self.ok = self.proc.wait() == 0
-            self.waited_s = time.perf_counter() - t0
             self.proc = None
         return bool(self.ok)
 
