@@ -65,10 +65,15 @@ def test_the_warm_up_compiles_every_kernel_a_step_uses_but_the_pose_graph_with_t
     assert json.loads(res.stdout.strip().splitlines()[-1]) == ["pedvr.body.graph._pose_rows"]
 
 
+class _Running:
+    def poll(self) -> None:
+        return None  # still compiling
+
+
 class _FakeWarmer:
     def __init__(self, log: list[str]) -> None:
         self.log = log
-        self.proc = None
+        self.proc = _Running()
 
     def wait(self) -> bool:
         self.log.append("wait")
@@ -89,8 +94,10 @@ def test_first_step_waits_for_the_second_process_before_it_steps(monkeypatch: py
 
     monkeypatch.setattr(sim, "step", logged)
     monkeypatch.setattr(warmup, "started", _FakeWarmer(log))
-    prepare.first_step(sim, say=None, warmer=warmup.take())
+    said: list[str] = []
+    prepare.first_step(sim, say=said.append, warmer=warmup.take())
     assert log == ["wait", "step", "stop"]
+    assert any("second process" in line for line in said)
     assert warmup.started is None  # handed over once
     sim.step()  # later steps do not wait
     assert log == ["wait", "step", "stop", "step"]
