@@ -155,6 +155,7 @@ POCKET_CLEAR = 0.15  # m beyond a leaf's swing a pram's front backs out to, from
 BACK_TURN_ROOM = 0.3  # m: a pram turns round only this much farther from the door's line than it reaches
 HAND_ON_AHEAD = 0.2  # m nearer the door than the follower that the one it hands on to stands, at least
 PASS_ON_AFTER = 2.0  # s a PF walker stands blocked before it lets the one in its way pass (_pass_on)
+HOF_LANE_WAIT = 2.5  # s a pram's pusher waits at most for HOF's holder to clear its lane (_hof_lane_clear)
 # A body beyond a pulled leaf's free edge goes round it (off_the_tip) from up to TIP_BEHIND behind
 # the leaf about its hinge to TIP_CLEAR in front of it, whence it walks on into the doorway clear of it
 TIP_CLEAR = math.radians(15.0)
@@ -1293,10 +1294,15 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
                 h.follower = NONE
             return
         et.set_state(w, FOLLOWER_DEC)
+        age = 0.0
     if w.state == FOLLOWER_DEC:
         if h.action == "HOF" or (carrier and h.action == "HOL"):
             if _oncoming(et, w, crowd):
                 et.stand(w, _toward(p, fr.lane(0.0)))  # one coming through the other way first
+                return
+            if h.action == "HOF" and _front_reach(crowd, r) > 0.0 and age < HOF_LANE_WAIT \
+                    and not _hof_lane_clear(et, h, crowd, radius):
+                et.stand(w, _toward(p, fr.lane(0.0)))  # a pram waits for the holder to clear its lane
                 return
             _pass_first(et, w, h, crowd, fr, side_local)
             return
@@ -1342,6 +1348,25 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
             _demote(w)
             h.follower = NONE
         return
+
+
+def _hof_lane_clear(et: EtiquetteCore, h: Walker, crowd: CrowdState, reach: float) -> bool:
+    """Whether HOF's holder is out of the lane its follower passes along: its disc clear of a body
+    ``reach`` m to each side of the lane (:meth:`LeafFrame.lane`).
+
+    Issue 26, "no carrier left behind": a pram's pusher set off as the holder decided HOF, while
+    the holder was still stepping round from the handle to its place beyond the leaf's edge,
+    across the lane. The pram's front, a metre ahead of its pusher, met the holder; steering took
+    the pusher round it on the hinge side and into the pocket behind the held leaf, where it stood
+    until the passing state gave up (door_double with the pram, seed 18, 23-35 s: never through in
+    90 s). A walker steps round the holder, as App. B.3's PF has it; a pram waits for the lane."""
+    fr = h.frame
+    assert fr is not None
+    if h.is_user or h.id not in et._row:
+        return True
+    lx, _ = fr.local(et.pos(crowd, h.id))
+    lane_x, _ = fr.local(fr.lane(0.0))
+    return abs(lx - lane_x) >= float(crowd.radius[et._row[h.id]]) + reach
 
 
 def _ahead_of(et: EtiquetteCore, o: Walker, w: Walker, crowd: CrowdState) -> bool:

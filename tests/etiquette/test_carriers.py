@@ -101,6 +101,45 @@ def test_the_pram_of_seed_17_gets_through() -> None:
     assert overlaps == 0
 
 
+@pytest.mark.parametrize("seed", [16, 18])
+def test_a_pram_waits_for_the_holder_to_clear_its_lane(seed: int) -> None:
+    """HOF at a double door: the holder steps round from the handle to its place beyond the leaf's
+    edge, across the lane its follower passes along. A pram's pusher that set off at once met the
+    holder with the pram's front; steering took it round the holder on the hinge side into the
+    pocket behind the held leaf, where it stood until its passing state gave up (seed 18, 23-35 s;
+    seeds 16 and 18 never through in 90 s). It now waits, at most ``HOF_LANE_WAIT``, until the
+    holder is clear of its lane (``interaction._hof_lane_clear``): measured through at 27.9 and
+    29.1 s."""
+    through_at, overlaps = _through_at(seed)
+    assert through_at is not None and through_at < 45.0, through_at
+    assert overlaps == 0
+
+
+def test_the_lane_is_clear_once_the_holder_stands_beyond_the_leafs_edge() -> None:
+    """``_hof_lane_clear`` on door_double's pull side: a holder standing on the lane, or beside it
+    closer than its radius plus the pram's half-width, is in the way; one at HOF's place beyond the
+    held leaf's edge (``LeafFrame.hold_beyond_tip``) is not."""
+    from pedvr.etiquette.core import Walker
+    from pedvr.etiquette.interaction import HOLD_ANGLE, _hof_lane_clear
+    from pedvr.etiquette.vocab import HOLD_DOOR, HOLDER
+
+    sim = Simulation(_door_double_with_pram(), seed=1)  # type: ignore[arg-type]
+    et, crowd = sim.etiquette, sim.crowd
+    row = int(np.nonzero(~crowd.is_user & ~et.carrying.astype(bool))[0][0])
+    leaf = et.dstate[0].leaves[0]
+    fr = et.frame(leaf, 1)
+    h = Walker(id=int(crowd.ids[row]), door=0, side=1, leaf=leaf, role=HOLDER, state=HOLD_DOOR, action="HOF",
+               frame=fr)
+    radius = float(crowd.radius[row])
+    pram_half = 0.4
+    place = fr.hold_beyond_tip(HOLD_ANGLE, radius)[0]
+    lane_x = fr.local(fr.lane(0.0))[0]
+    for where, clear in [(fr.lane(1.0), False), (fr.world(lane_x - (radius + pram_half) + 0.05, 1.0), False),
+                         (fr.world(lane_x - (radius + pram_half) - 0.05, 1.0), True), (place, True)]:
+        crowd.pos[row] = where
+        assert _hof_lane_clear(et, h, crowd, pram_half) is clear, (where, clear)
+
+
 def _lone_pram(scene: str, start: tuple[float, float]) -> object:
     """``scene`` with nobody but a pram pusher, from ``start`` on the door's pull side (x < 0)."""
     s = load_any(resolve_scene(scene), seed=None)
