@@ -243,7 +243,8 @@ def pram(seeds: list[int], seconds: float = 90.0) -> dict[str, Any]:
             passes.append(len(t))
             first.append(t[0] if t else float("inf"))
         out[case] = {"pram_passages": _med_worst(passes, "min"), "first_pass_s": _med_worst(first, "max"),
-                     "per_seed_passages": passes}
+                     "per_seed_passages": passes,
+                     "per_seed_first_pass_s": [round(t, 2) if t != float("inf") else None for t in first]}
     return out
 
 

@@ -516,11 +516,14 @@ def _doorway_behavior(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], cr
             et.approach(w)
             return
     if carrier and pull and w.freed_hand and not w.backing and float(crowd.length[r]) > 0.0 \
-            and et.leaf_open(leaf, fr) < BACK_CLOSED and _alone(et, w):
-        # A pusher alone at a closed pull door turns round where it waits, so that its pram
-        # trails (_backing_through); it sets off once its back is to where it opens the door from.
-        # (With others at the door it waits for one of them to open it, or opens it as others do:
-        # door_double with the pram, seeds 6 and 17: backing among them, it was left behind.)
+            and et.leaf_open(leaf, fr) < BACK_CLOSED:
+        # A pusher at a closed pull door, with nobody to lead it or hold the leaf, turns round
+        # where it waits, so that its pram trails (_backing_through); it sets off once its back is
+        # to where it opens the door from. Until stop 51 only a pusher alone did (stop 42: backing
+        # among others left door_double's pram behind in seeds 6 and 17); with others about it
+        # opened the door as a walker does, from a place on the far side of its own pram, and gave
+        # up every 10 s ("could not reach the door": seeds 2 and 11 of test_carriers.py, through
+        # at 49.9 and 52.9 s after two give-ups each; backing, at 29.3 and 30.0 s, and 20 of 20).
         away = _toward(bop, p)
         if abs(wrap_pi(float(crowd.heading[r]) - away)) > BACK_TURNED:
             h = float(crowd.heading[r])
