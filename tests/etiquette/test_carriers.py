@@ -60,7 +60,8 @@ def test_a_pram_at_a_double_door_gets_through() -> None:
     Over seeds 0-19: 19 of 20 on stop 37's code (seed 9: a pusher alone at the pull side frees a
     hand and opens a leaf itself, and its pram stands in the leaf's swing), 19 of 20 after issue
     26's change 15 (seed 9 through; seed 17 left), 20 of 20 since a holder holds on for a carrier
-    until it is through (change 17; the last through at 66.6 s, seed 11)
+    until it is through (change 17; the last through at 66.6 s, seed 11); 18 of 20 on stop 50's
+    code (seeds 16 and 18 left), 20 of 20 after change 24, the last through at 49.4 s (seed 6)
     (bench/door_observations.py ``--only pram`` measures it)."""
     results = {seed: _through_at(seed) for seed in range(10)}
     stuck = [s for s, (t, _) in results.items() if t is None]
