@@ -1297,14 +1297,13 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
                 h.follower = NONE
             return
         et.set_state(w, FOLLOWER_DEC)
-        age = 0.0
     if w.state == FOLLOWER_DEC:
         if h.action == "HOF" or (carrier and h.action == "HOL"):
             if _oncoming(et, w, crowd):
                 et.stand(w, _toward(p, fr.lane(0.0)))  # one coming through the other way first
                 return
-            if h.action == "HOF" and _front_reach(crowd, r) > 0.0 and age < HOF_LANE_WAIT \
-                    and not _hof_lane_clear(et, h, crowd, radius):
+            if h.action == "HOF" and _front_reach(crowd, r) > 0.0 and et.t - w.since < HOF_LANE_WAIT \
+                    and not _hof_lane_clear(et, h, crowd, radius):  # (w.since: when it entered FollowerDec)
                 et.stand(w, _toward(p, fr.lane(0.0)))  # a pram waits for the holder to clear its lane
                 return
             _pass_first(et, w, h, crowd, fr, side_local)
@@ -1353,9 +1352,10 @@ def _follower(et: EtiquetteCore, w: Walker, by_id: dict[int, Walker], crowd: Cro
         return
 
 
-def _hof_lane_clear(et: EtiquetteCore, h: Walker, crowd: CrowdState, reach: float) -> bool:
+def _hof_lane_clear(et: EtiquetteCore, h: Walker, crowd: CrowdState, half_width: float) -> bool:
     """Whether HOF's holder is out of the lane its follower passes along: its disc clear of a body
-    ``reach`` m to each side of the lane (:meth:`LeafFrame.lane`).
+    ``half_width`` m to each side of the lane (:meth:`LeafFrame.lane`; a pram is as wide as its
+    pusher's disc, :mod:`pedvr.crowd.footprint`).
 
     Issue 26, "no carrier left behind": a pram's pusher set off as the holder decided HOF, while
     the holder was still stepping round from the handle to its place beyond the leaf's edge,
@@ -1369,7 +1369,7 @@ def _hof_lane_clear(et: EtiquetteCore, h: Walker, crowd: CrowdState, reach: floa
         return True
     lx, _ = fr.local(et.pos(crowd, h.id))
     lane_x, _ = fr.local(fr.lane(0.0))
-    return abs(lx - lane_x) >= float(crowd.radius[et._row[h.id]]) + reach
+    return abs(lx - lane_x) >= float(crowd.radius[et._row[h.id]]) + half_width
 
 
 def _ahead_of(et: EtiquetteCore, o: Walker, w: Walker, crowd: CrowdState) -> bool:
